@@ -1,0 +1,20 @@
+"""footstep_gym: Gymnasium environments for humanoid footstep planning with the walking period.
+
+``import footstep_gym`` registers ``FootstepDoor-v0``, ``FootstepCrossing-v0`` and
+``FootstepCrowd-v0``; ``gymnasium.make("footstep_gym:FootstepDoor-v0")`` does it without a
+prior import.
+"""
+
+from gymnasium.envs.registration import register, registry
+
+from footstep_gym.errors import ActionError, ConfigError, FootstepGymError
+
+__version__ = "0.1.0"
+
+ENV_IDS = {"door": "FootstepDoor-v0", "crossing": "FootstepCrossing-v0", "crowd": "FootstepCrowd-v0"}
+
+for _scenario, _env_id in ENV_IDS.items():
+    if _env_id not in registry:
+        register(id=_env_id, entry_point="footstep_gym.env:FootstepEnv", kwargs={"scenario": _scenario})
+
+__all__ = ["ENV_IDS", "ActionError", "ConfigError", "FootstepGymError", "__version__"]

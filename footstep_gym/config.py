@@ -1,0 +1,197 @@
+"""Configuration: YAML files under ``configs/`` loaded into validated dataclasses.
+
+Every number the simulation uses comes from a YAML file; keyword arguments of
+``gymnasium.make`` override single keys. Unknown keys, wrong types and values outside
+their allowed range raise :class:`ConfigError` naming the key and the value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import os
+from pathlib import Path
+from typing import Any, Mapping, TypeVar
+
+import yaml
+
+from footstep_gym.errors import ConfigError
+
+_CONFIG_ENV_VAR = "FOOTSTEP_GYM_CONFIG_DIR"
+
+T = TypeVar("T")
+
+
+def config_dir() -> Path:
+    """The folder holding the YAML files (``$FOOTSTEP_GYM_CONFIG_DIR`` or the repo's ``configs/``)."""
+    env = os.environ.get(_CONFIG_ENV_VAR)
+    path = Path(env) if env else Path(__file__).resolve().parent.parent / "configs"
+    if not path.is_dir():
+        raise ConfigError(f"config folder {str(path)!r} not found (set ${_CONFIG_ENV_VAR})")
+    return path
+
+
+def read_yaml(relative: str) -> dict[str, Any]:
+    """Read ``configs/<relative>`` into a dict."""
+    path = config_dir() / relative
+    with open(path, encoding="utf-8") as fh:
+        data = yaml.safe_load(fh) or {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping at top level, got {type(data).__name__}")
+    return data
+
+
+# ---------------------------------------------------------------- field constraints
+def positive(**kw: Any) -> Any:
+    """A float field that must be > 0."""
+    return dataclasses.field(metadata={"check": "positive", **kw})
+
+
+def nonnegative(**kw: Any) -> Any:
+    """A float field that must be >= 0."""
+    return dataclasses.field(metadata={"check": "nonnegative", **kw})
+
+
+def fraction(**kw: Any) -> Any:
+    """A float field in (0, 1]."""
+    return dataclasses.field(metadata={"check": "fraction", **kw})
+
+
+def interval(**kw: Any) -> Any:
+    """A pair ``[lo, hi]`` with lo <= hi."""
+    return dataclasses.field(metadata={"check": "interval", **kw})
+
+
+def pair(**kw: Any) -> Any:
+    """A point ``[x, y]`` of two finite numbers."""
+    return dataclasses.field(metadata={"check": "pair", **kw})
+
+
+def plain(**kw: Any) -> Any:
+    """A field with no constraint beyond its type."""
+    return dataclasses.field(metadata={"check": None, **kw})
+
+
+def _unknown_keys_message(where: str, unknown: list[str], known: list[str]) -> str:
+    parts = []
+    for key in unknown:
+        close = difflib.get_close_matches(key, known, n=1)
+        parts.append(f"{key!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+    return f"{where}: unknown key(s) {', '.join(parts)}; known keys: {', '.join(sorted(known))}"
+
+
+def _coerce(where: str, name: str, value: Any, typ: Any, check: str | None) -> Any:
+    label = f"{where}.{name}"
+    if check in ("interval", "pair"):
+        if not isinstance(value, (list, tuple)) or len(value) != 2:
+            raise ConfigError(f"{label} must be a pair [{'lo, hi' if check == 'interval' else 'x, y'}], got {value!r}")
+        lo, hi = (_number(label, v) for v in value)
+        if check == "interval" and lo > hi:
+            raise ConfigError(f"{label} must have lo <= hi, got {value!r}")
+        return (lo, hi)
+    if typ in ("int",):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
+            raise ConfigError(f"{label} must be an integer, got {value!r}")
+        value = int(value)
+        if check == "positive" and value <= 0:
+            raise ConfigError(f"{label} must be > 0, got {value!r}")
+        if check == "nonnegative" and value < 0:
+            raise ConfigError(f"{label} must be >= 0, got {value!r}")
+        return value
+    if typ in ("bool",):
+        if not isinstance(value, bool):
+            raise ConfigError(f"{label} must be true or false, got {value!r}")
+        return value
+    if typ in ("str",):
+        if not isinstance(value, str):
+            raise ConfigError(f"{label} must be a string, got {value!r}")
+        return value
+    if typ in ("float",):
+        value = _number(label, value)
+        if check == "positive" and not value > 0:
+            raise ConfigError(f"{label} must be > 0, got {value!r}")
+        if check == "nonnegative" and not value >= 0:
+            raise ConfigError(f"{label} must be >= 0, got {value!r}")
+        if check == "fraction" and not 0 < value <= 1:
+            raise ConfigError(f"{label} must be in (0, 1], got {value!r}")
+        return value
+    if typ.startswith("dict"):
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"{label} must be a mapping, got {value!r}")
+        return dict(value)
+    return value
+
+
+def _number(label: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{label} must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(f"{label} must be finite, got {value!r}")
+    return value
+
+
+def build(cls: type[T], data: Mapping[str, Any], where: str) -> T:
+    """Make dataclass ``cls`` from ``data``: every field present, nothing unknown, all valid."""
+    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    unknown = [k for k in data if k not in fields]
+    if unknown:
+        raise ConfigError(_unknown_keys_message(where, unknown, list(fields)))
+    missing = [k for k in fields if k not in data]
+    if missing:
+        raise ConfigError(f"{where}: missing key(s) {', '.join(missing)}")
+    values = {
+        name: _coerce(where, name, data[name], str(f.type), f.metadata.get("check"))
+        for name, f in fields.items()
+    }
+    obj = cls(**values)
+    validate = getattr(obj, "validate", None)
+    if validate is not None:
+        validate()
+    return obj
+
+
+def split_overrides(
+    overrides: Mapping[str, Any], *groups: tuple[str, type]
+) -> tuple[dict[str, dict[str, Any]], dict[str, Any]]:
+    """Sort flat keyword overrides into the dataclass ``groups`` they belong to.
+
+    Returns ``({group: {key: value}}, leftover)``. A key may be given as ``group={...}``
+    too (e.g. ``robot={"com_height": 0.25}``).
+    """
+    out: dict[str, dict[str, Any]] = {name: {} for name, _ in groups}
+    leftover: dict[str, Any] = {}
+    field_owner: dict[str, str] = {}
+    for name, cls in groups:
+        for f in dataclasses.fields(cls):  # type: ignore[arg-type]
+            field_owner.setdefault(f.name, name)
+    for key, value in overrides.items():
+        if key in out:
+            if not isinstance(value, Mapping):
+                raise ConfigError(f"{key} must be a mapping of overrides, got {value!r}")
+            out[key].update(value)
+        elif key in field_owner:
+            out[field_owner[key]][key] = value
+        else:
+            leftover[key] = value
+    return out, leftover
+
+
+def load(cls: type[T], relative: str, overrides: Mapping[str, Any] | None = None) -> T:
+    """Load ``configs/<relative>`` into ``cls`` with ``overrides`` applied on top."""
+    data = read_yaml(relative)
+    if overrides:
+        fields = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+        unknown = [k for k in overrides if k not in fields]
+        if unknown:
+            raise ConfigError(_unknown_keys_message(relative, unknown, list(fields)))
+        data.update(overrides)
+    return build(cls, data, relative)
+
+
+def replace(obj: T, **changes: Any) -> T:
+    """A validated copy of config ``obj`` with ``changes``."""
+    data = dataclasses.asdict(obj)  # type: ignore[call-overload]
+    data.update(changes)
+    return build(type(obj), data, type(obj).__name__)

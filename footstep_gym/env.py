@@ -1,0 +1,410 @@
+"""``FootstepEnv``: one Gymnasium environment class, three scenarios (door, crossing, crowd)."""
+
+from __future__ import annotations
+
+import cmath
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from footstep_gym import config, footstep, lipm
+from footstep_gym.config import plain, positive
+from footstep_gym.errors import ActionError, ConfigError
+from footstep_gym.footstep import LEFT, RIGHT, SIDE_NAMES
+from footstep_gym.robot import COMMAND_FIELDS, Robot
+from footstep_gym.scenarios import SCENARIOS, Scenario
+from footstep_gym.sensing import Snapshot
+from footstep_gym.world import World
+
+TERMINATIONS = ("goal", "collision", "fall")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Settings shared by the three envs (``configs/env.yaml``)."""
+
+    n_obstacles_observed: int = positive()
+    sensing_range: float = positive()  # [m]
+    observation_position_scale: float = positive()  # [m]
+    observation_velocity_scale: float = positive()  # [m/s]
+    observation_com_scale: float = positive()  # [m]
+    collision_slop: float = positive()  # [m]
+    max_check_interval: float = positive()  # [s]
+    collision_motion_fraction: float = positive()
+    reward_progress: float = plain()  # per m
+    reward_time: float = plain()  # per s
+    reward_step: float = plain()  # per footstep
+    reward_goal: float = plain()
+    reward_collision: float = plain()
+    reward_fall: float = plain()
+    render_pixels_per_metre: float = positive()
+    render_size: tuple[float, float] = config.pair()  # [px] width, height
+
+
+def _world_to_local(origin: tuple[float, float, float], z: complex) -> complex:
+    """Point ``z`` (complex, world) in the frame of pose ``origin``."""
+    return (z - complex(origin[0], origin[1])) * cmath.exp(-1j * origin[2])
+
+
+def _pair(z: complex) -> tuple[float, float]:
+    return (z.real, z.imag)
+
+
+class FootstepEnv(gym.Env):
+    r"""Humanoid footstep planning among moving obstacles, with the walking period in the action.
+
+    ## Description
+    A DARwIn-OP-sized humanoid walks to a goal on a 2D floor simulated with pymunk, among
+    obstacles that move on their own (Lee et al., "footstep planning considering the
+    walking period"). Each ``step`` is one footstep: the swing foot is placed by the
+    command and a whole walking period ``T = T_SS + T_DS`` is simulated. The centre of mass
+    (CoM) follows the linear inverted pendulum (LIPM) and its state is carried from step to
+    step, so an abrupt change of period or stride can be infeasible because of the CoM's
+    momentum. The robot's body is a circle that follows the CoM through single and double
+    support; touching an obstacle at any instant of the step is a collision.
+
+    Three scenarios are registered: ``FootstepDoor-v0`` (a revolving door, paper §3.1),
+    ``FootstepCrossing-v0`` (an obstacle crossing the path, §3.2) and ``FootstepCrowd-v0``
+    (an encircling crowd, §3.3). Their numbers are in ``configs/scenarios/*.yaml``.
+
+    ## Action Space
+    ``Box(5,)`` float32, the footstep command in SI units (paper eq. 5), bounds from
+    ``configs/robot.yaml``:
+
+    | index | field | meaning | unit | default range |
+    |---|---|---|---|---|
+    | 0 | S | forward stride of the new foot in the support foot's frame | m | [-0.04, 0.10] |
+    | 1 | L | side stride, outward from the support foot (> 0 for either foot) | m | [0.07, 0.12] |
+    | 2 | θ | new foot's yaw relative to the support foot (counter-clockwise > 0) | rad | [-0.4, 0.4] |
+    | 3 | T_SS | single-support time | s | [0.1, 0.6] |
+    | 4 | T_DS | double-support time | s | [0.1, 0.3] |
+
+    θ's limits depend on the swinging foot: turning away from the support foot is allowed
+    up to ``turn_outer`` (0.4), towards it up to ``turn_inner`` (0.2). A finite command
+    outside the box is clipped (``info["clipped"]``); NaN/inf or a wrong shape raises
+    ``ValueError``. A command outside the turn limits, with overlapping feet, or whose ZMP
+    leaves the stable region ends the episode as a fall.
+
+    ## Observation Space
+    ``Box(12 + 5K,)`` float32 (K = ``n_obstacles_observed``, default 6: 42 values), the
+    same layout for the three envs. "Local" means in the support foot's frame (x forward,
+    y left).
+
+    | index | meaning | unit / scaling |
+    |---|---|---|
+    | 0-1 | goal position, local, relative to the support foot | m / ``observation_position_scale`` (2 m) |
+    | 2 | support side: +1 left foot, -1 right foot | - |
+    | 3-4 | CoM position relative to the support foot, local | m / ``observation_com_scale`` (0.1 m) |
+    | 5-6 | CoM velocity, local | m/s / ``observation_velocity_scale`` (0.5 m/s) |
+    | 7-11 | previous command, mapped from the action box to [-1, 1] | - |
+    | 12 + 5k + 0..1 | closest point of the k-th nearest obstacle shape, local, relative to the CoM | m / 2 m |
+    | 12 + 5k + 2..3 | velocity of that point, local | m/s / 0.5 m/s |
+    | 12 + 5k + 4 | 1 if this slot holds a shape, 0 if padding (then the slot is all zeros) | - |
+
+    Shapes (walls included) are sorted nearest first and limited to ``sensing_range``.
+
+    ## Rewards
+    Each term is reported in ``info["rewards"]``; the reward is their sum. Weights are
+    keys of ``configs/env.yaml``:
+
+    * ``progress``: ``reward_progress`` (10) × metres the robot centre (midpoint of the
+      feet) got closer to the goal;
+    * ``time``: ``reward_time`` (-0.1) × seconds simulated in the step;
+    * ``step``: ``reward_step`` (-0.05) per footstep;
+    * ``goal`` / ``collision`` / ``fall``: ``reward_goal`` (+10), ``reward_collision`` (-10),
+      ``reward_fall`` (-10) on those terminations.
+
+    ## Starting State
+    The robot stands at the scenario's ``start`` (jittered by ``start_jitter``) facing
+    ``start_yaw``, on its right foot, its CoM in the steady gait of stepping in place at the
+    nominal period (so the nominal step is feasible). Obstacles are placed by the scenario
+    with the per-episode draws of ``reset(seed=...)``'s generator.
+
+    ## Episode End
+    Terminated on ``"goal"`` (robot centre within ``goal_tolerance``), ``"collision"`` (the
+    body circle touches an obstacle at any time of a step) or ``"fall"`` (infeasible step).
+    Truncated after ``max_steps`` footsteps or ``time_limit`` simulated seconds.
+
+    ## Info
+    Every step: ``is_success``, ``termination`` (one of ``"goal"``, ``"collision"``,
+    ``"fall"`` or ``None``), ``feasible``, ``collision``, ``clipped``, ``time`` (s),
+    ``period`` (s), ``support_foot`` (``"left"``/``"right"`` after the step),
+    ``foot_pose`` (x, y, yaw of the foot just placed), ``zmp`` (world x, y of the
+    single-support ZMP), ``com``/``com_vel`` (world, end of the step), ``rewards``,
+    ``command`` (the command applied, after clipping), ``zmp_offset`` (local, m),
+    ``obstacle`` (name of the shape hit, or ``None``), ``steps``.
+    ``reset`` returns ``com``, ``com_vel``, ``support_foot``, ``foot_pose`` and ``time``.
+
+    ## Arguments
+    ``gymnasium.make("FootstepDoor-v0", render_mode=None, **overrides)``: any key of the
+    scenario's YAML (e.g. ``door_speed=14.0``, ``obstacle_speed``, ``crowd_size``,
+    ``crowd_speed``, ``goal``, ``randomize={"door_speed": [8, 17]}``), any key of
+    ``configs/env.yaml`` (e.g. ``reward_time=-0.2``), and ``robot={...}`` for keys of
+    ``configs/robot.yaml``. Unknown keys raise ``ValueError`` naming them.
+    ``render_mode``: ``"rgb_array"`` (an ``(H, W, 3)`` uint8 frame) or ``"human"``.
+
+    A planner reads :meth:`sensing`: a read-only snapshot of what a robot could sense now.
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+
+    def __init__(self, scenario: str = "door", render_mode: str | None = None, **overrides: Any) -> None:
+        if scenario not in SCENARIOS:
+            raise ConfigError(f"unknown scenario {scenario!r}; choose one of {sorted(SCENARIOS)}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ConfigError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.scenario_name = scenario
+        self._scenario_cls: type[Scenario] = SCENARIOS[scenario]
+        groups, leftover = config.split_overrides(
+            overrides, ("robot", Robot), ("scenario", self._scenario_cls.Config), ("env", EnvConfig)
+        )
+        if leftover:
+            known = [f for _, cls in (("s", self._scenario_cls.Config), ("e", EnvConfig))
+                     for f in cls.__dataclass_fields__] + ["robot"]
+            raise ConfigError(config._unknown_keys_message(f"FootstepEnv({scenario})", list(leftover), known))
+        self.robot: Robot = config.load(Robot, "robot.yaml", groups["robot"])
+        self.scenario_config = self._scenario_cls.load_config(groups["scenario"])
+        self.config: EnvConfig = config.load(EnvConfig, "env.yaml", groups["env"])
+        self.render_mode = render_mode
+
+        self.action_space = spaces.Box(
+            self.robot.command_low.astype(np.float32), self.robot.command_high.astype(np.float32), dtype=np.float32
+        )
+        self._low64 = self.action_space.low.astype(np.float64)
+        self._high64 = self.action_space.high.astype(np.float64)
+        n_obs = 12 + 5 * self.config.n_obstacles_observed
+        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
+
+        self.world: World | None = None
+        self.scenario: Scenario | None = None
+        self.episode_config = self.scenario_config
+        self._renderer = None
+        self._reset_state()
+
+    # ------------------------------------------------------------------ state
+    def _reset_state(self) -> None:
+        self.time = 0.0
+        self.steps = 0
+        self.support_side = RIGHT
+        self.feet: dict[int, tuple[float, float, float]] = {}
+        self.com = 0j
+        self.com_vel = 0j
+        self.previous_command = self.robot.nominal_command.copy()
+        self.terminated = False
+        self.history: dict[str, list] = {"footprints": [], "com": [], "zmp": []}
+
+    def _local_com(self) -> tuple[complex, complex]:
+        support = self.feet[self.support_side]
+        rot = cmath.exp(-1j * support[2])
+        return _world_to_local(support, self.com), self.com_vel * rot
+
+    def _centre(self) -> complex:
+        a, b = self.feet[LEFT], self.feet[RIGHT]
+        return complex(0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))
+
+    def _goal_distance(self) -> float:
+        return abs(self._centre() - complex(*self.episode_config.goal))
+
+    # ------------------------------------------------------------------ API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        rng = self.np_random
+        cfg = self.scenario_config.draw(rng)
+        self.episode_config = cfg
+        self._reset_state()
+        env_cfg = self.config
+        self.world = World(self.robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
+                           env_cfg.collision_motion_fraction)
+        self.scenario = self._scenario_cls(cfg, rng)
+        self.scenario.build(self.world)
+
+        jitter = cfg.start_jitter * rng.uniform(-1.0, 1.0, 2)
+        centre = (cfg.start[0] + jitter[0], cfg.start[1] + jitter[1])
+        half = 0.5 * self.robot.nominal_side_stride
+        for side in (LEFT, RIGHT):
+            self.feet[side] = tuple(float(v) for v in footstep.foot_from_node(centre, cfg.start_yaw, side, half))
+        self.support_side = RIGHT
+        com_local, vel_local = lipm.steady_state(self.robot, self.robot.nominal_command, self.support_side)
+        support = self.feet[self.support_side]
+        rot = cmath.exp(1j * support[2])
+        self.com = complex(support[0], support[1]) + com_local * rot
+        self.com_vel = vel_local * rot
+        self.world.robot_body.position = _pair(self.com)
+        for side in (RIGHT, LEFT):
+            self.history["footprints"].append((self.feet[side], side))
+        self.history["com"].append(_pair(self.com))
+
+        info = {
+            "com": _pair(self.com), "com_vel": _pair(self.com_vel), "time": 0.0,
+            "support_foot": SIDE_NAMES[self.support_side], "foot_pose": self.feet[self.support_side],
+        }
+        if self.render_mode == "human":
+            self.render()
+        return self._observation(), info
+
+    def _validate_action(self, action: Any) -> tuple[np.ndarray, bool]:
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ActionError(f"action must be 5 numbers [S, L, theta, T_SS, T_DS], got {action!r}") from exc
+        if a.shape != (5,):
+            raise ActionError(f"action shape={a.shape} but expected (5,) = [S, L, theta, T_SS, T_DS]")
+        bad = [f"{name}={v}" for name, v in zip(COMMAND_FIELDS, a) if not math.isfinite(v)]
+        if bad:
+            raise ActionError(f"action has non-finite field(s): {', '.join(bad)}")
+        clipped = np.clip(a, self._low64, self._high64)
+        return clipped, bool(np.any(clipped != a))
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self.world is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        command, clipped = self._validate_action(action)
+        robot, env_cfg, cfg = self.robot, self.config, self.episode_config
+        S, L, theta, t_ss, t_ds = (float(v) for v in command)
+        period = t_ss + t_ds
+        support = self.feet[self.support_side]
+        com_local, vel_local = self._local_com()
+        kin_ok, zmp_ok, p, end_com, end_vel = lipm.check_step(robot, com_local, vel_local,
+                                                              (S, L, theta, t_ss, t_ds), self.support_side)
+        rot = cmath.exp(1j * support[2])
+        origin = complex(support[0], support[1])
+        zmp_world = origin + p * rot
+        new_foot = tuple(float(v) for v in footstep.place_foot(support, self.support_side, S, L, theta))
+        d_before = self._goal_distance()
+        rewards = {"progress": 0.0, "time": 0.0, "step": env_cfg.reward_step,
+                   "goal": 0.0, "collision": 0.0, "fall": 0.0}
+        termination = None
+        collided, hit = False, None
+        feasible = kin_ok and zmp_ok
+        if not feasible:
+            termination = "fall"
+            rewards["fall"] = env_cfg.reward_fall
+            elapsed = 0.0
+        else:
+            self.scenario.before_step(self.world, self.time, period)
+            swing = -self.support_side
+            q = complex(S, swing * L)
+            traj = lipm.StepTrajectory(robot.omega, com_local, vel_local, p, q, t_ss, t_ds)
+
+            def path(t: float) -> tuple[float, float]:
+                return _pair(origin + traj.state(t)[0] * rot)
+
+            result = self.world.sweep(path, period, traj.speed_bound())
+            elapsed = result.time
+            self.history["zmp"].append(_pair(zmp_world))
+            if result.collided:
+                collided, hit = True, result.obstacle
+                termination = "collision"
+                rewards["collision"] = env_cfg.reward_collision
+                c, v = traj.state(elapsed)
+                self.com, self.com_vel = origin + c * rot, v * rot
+            else:
+                new_rot = cmath.exp(1j * new_foot[2])
+                self.feet[swing] = new_foot
+                self.support_side = swing
+                self.com = complex(new_foot[0], new_foot[1]) + end_com * new_rot
+                self.com_vel = end_vel * new_rot
+                self.history["footprints"].append((new_foot, swing))
+            self.history["com"].append(_pair(self.com))
+        self.time += elapsed
+        self.steps += 1
+        self.previous_command = command
+        rewards["time"] = env_cfg.reward_time * elapsed
+        rewards["progress"] = env_cfg.reward_progress * (d_before - self._goal_distance())
+        if termination is None and self._goal_distance() <= cfg.goal_tolerance:
+            termination = "goal"
+            rewards["goal"] = env_cfg.reward_goal
+        terminated = termination is not None
+        truncated = not terminated and (self.steps >= cfg.max_steps or self.time >= cfg.time_limit)
+        self.terminated = terminated
+        info = {
+            "is_success": termination == "goal",
+            "termination": termination,
+            "feasible": feasible,
+            "collision": collided,
+            "obstacle": hit,
+            "clipped": clipped,
+            "command": tuple(float(v) for v in command),
+            "time": self.time,
+            "period": period,
+            "steps": self.steps,
+            "support_foot": SIDE_NAMES[self.support_side],
+            "foot_pose": new_foot,
+            "zmp": _pair(zmp_world),
+            "zmp_offset": _pair(p),
+            "com": _pair(self.com),
+            "com_vel": _pair(self.com_vel),
+            "rewards": rewards,
+        }
+        if self.render_mode == "human":
+            self.render()
+        return self._observation(), float(sum(rewards.values())), terminated, truncated, info
+
+    # ------------------------------------------------------------------ observation
+    def _observation(self) -> np.ndarray:
+        cfg = self.config
+        ps, vs = cfg.observation_position_scale, cfg.observation_velocity_scale
+        support = self.feet[self.support_side]
+        rot = cmath.exp(-1j * support[2])
+        com_local, vel_local = self._local_com()
+        goal = _world_to_local(support, complex(*self.episode_config.goal)) / ps
+        prev = 2.0 * (self.previous_command - self._low64) / (self._high64 - self._low64) - 1.0
+        obs = [goal.real, goal.imag, float(self.support_side),
+               com_local.real / cfg.observation_com_scale, com_local.imag / cfg.observation_com_scale,
+               vel_local.real / vs, vel_local.imag / vs, *prev]
+        k = cfg.n_obstacles_observed
+        near = self.world.nearest(_pair(self.com), k, cfg.sensing_range)
+        for _, point, vel, _ in near:
+            rel = (complex(*point) - self.com) * rot / ps
+            v = complex(*vel) * rot / vs
+            obs.extend((rel.real, rel.imag, v.real, v.imag, 1.0))
+        obs.extend([0.0] * (5 * (k - len(near))))
+        return np.asarray(obs, dtype=np.float32)
+
+    def sensing(self) -> Snapshot:
+        """What a robot could sense now (read-only): feet, CoM, goal, obstacles' shapes and velocities."""
+        if self.world is None:
+            raise gym.error.ResetNeeded("call reset() before sensing()")
+        com_local, vel_local = self._local_com()
+        cfg = self.episode_config
+        return Snapshot(
+            time=self.time,
+            robot=self.robot,
+            support_side=self.support_side,
+            support_foot=self.feet[self.support_side],
+            swing_foot=self.feet[-self.support_side],
+            com=_pair(self.com),
+            com_vel=_pair(self.com_vel),
+            com_local=_pair(com_local),
+            vel_local=_pair(vel_local),
+            goal=(float(cfg.goal[0]), float(cfg.goal[1])),
+            goal_tolerance=cfg.goal_tolerance,
+            previous_command=tuple(float(v) for v in self.previous_command),
+            obstacles=self.world.views(),
+        )
+
+    # ------------------------------------------------------------------ rendering
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self.world is None:
+            raise gym.error.ResetNeeded("call reset() before render()")
+        if self._renderer is None:
+            from footstep_gym.render import Renderer
+
+            self._renderer = Renderer(self, self.render_mode)
+        return self._renderer.draw()
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

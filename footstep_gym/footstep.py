@@ -1,0 +1,129 @@
+"""The footstep convention: command ``(S, L, theta)`` <-> foot poses (paper eq. 2-3, Fig. 5).
+
+Poses are ``(x, y, yaw)`` in the world [m, m, rad]; a side is ``+1`` for the left foot
+and ``-1`` for the right foot. The swing foot is always on the side opposite the
+support foot, ``swing = -support``.
+
+A command places the new (swing) foot relative to the support foot ``F``, in ``F``'s
+frame (x forward, y to the left)::
+
+        new foot (left swing)            y ^
+           +---+  yaw = theta              |
+           | o |                            +--> x
+           +---+                      S: along F's x
+             ^ L (outward, > 0)       L: along F's y, towards the swing side
+           +---+                      theta: new yaw - F's yaw (counter-clockwise > 0)
+           | o |  F (right support)
+           +---+
+
+so the new foot's centre is ``F + R(yaw_F) (S, swing * L)`` and its yaw ``yaw_F + theta``.
+L > 0 always means "away from the support foot", whichever foot swings; theta is not
+mirrored, so its limits depend on the side: turning the new foot away from the
+support foot (``swing * theta > 0``) is the outer angle (up to ``turn_outer``),
+turning it towards it the inner angle (down to ``-turn_inner``), paper Fig. 4.
+
+:func:`command_between` is the exact inverse of :func:`place_foot` (eq. 2-3).
+Functions accept scalars or numpy arrays (broadcast over a batch).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from footstep_gym.robot import Robot
+
+LEFT = 1
+RIGHT = -1
+SIDE_NAMES = {LEFT: "left", RIGHT: "right"}
+
+
+def wrap_angle(a: Any) -> Any:
+    """Angle(s) wrapped to ``[-pi, pi)`` [rad]."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def place_foot(support_pose: Any, support_side: Any, S: Any, L: Any, theta: Any) -> tuple[Any, Any, Any]:
+    """World pose ``(x, y, yaw)`` of the foot that command ``(S, L, theta)`` places.
+
+    ``support_pose`` is ``(x, y, yaw)`` (each scalar or array), ``support_side`` +1/-1.
+    """
+    x, y, yaw = support_pose
+    swing = -support_side
+    lat = swing * L
+    c, s = np.cos(yaw), np.sin(yaw)
+    return (x + c * S - s * lat, y + s * S + c * lat, wrap_angle(yaw + theta))
+
+
+def command_between(support_pose: Any, support_side: Any, new_pose: Any) -> tuple[Any, Any, Any]:
+    """``(S, L, theta)`` that moves the swing foot from ``support_pose`` to ``new_pose`` (eq. 2-3)."""
+    x, y, yaw = support_pose
+    nx, ny, nyaw = new_pose
+    dx, dy = nx - x, ny - y
+    c, s = np.cos(yaw), np.sin(yaw)
+    S = c * dx + s * dy
+    lat = -s * dx + c * dy
+    return (S, -support_side * lat, wrap_angle(nyaw - yaw))
+
+
+def turn_bounds(support_side: Any, robot: Robot) -> tuple[Any, Any]:
+    """``(theta_min, theta_max)`` [rad] for the foot that swings opposite ``support_side``."""
+    swing = -np.asarray(support_side)
+    lo = np.where(swing > 0, -robot.turn_inner, -robot.turn_outer)
+    hi = np.where(swing > 0, robot.turn_outer, robot.turn_inner)
+    if lo.ndim == 0:
+        return float(lo), float(hi)
+    return lo, hi
+
+
+def feet_overlap(S: Any, L: Any, theta: Any, support_side: Any, robot: Robot) -> Any:
+    """True where the two foot rectangles (plus ``foot_clearance``) would overlap.
+
+    Separating-axis test between the support foot (at the origin, yaw 0) and the new
+    foot at ``(S, swing*L)`` with yaw ``theta``. Mirroring y maps a swing side of -1 to
+    +1 with ``theta -> -theta``, so only ``swing * theta`` matters.
+    """
+    hx = 0.5 * (robot.foot_length + robot.foot_clearance)
+    hy = 0.5 * (robot.foot_width + robot.foot_clearance)
+    t = -support_side * theta
+    c, s = np.cos(t), np.sin(t)
+    ac, as_ = np.abs(c), np.abs(s)
+    dx, dy = S, L
+    # Axes of the support foot (x, y), then of the new foot (c, s), (-s, c).
+    sep_x = np.abs(dx) > hx + hx * ac + hy * as_
+    sep_y = np.abs(dy) > hy + hx * as_ + hy * ac
+    sep_u = np.abs(c * dx + s * dy) > hx * ac + hy * as_ + hx
+    sep_v = np.abs(-s * dx + c * dy) > hx * as_ + hy * ac + hy
+    return ~(sep_x | sep_y | sep_u | sep_v)
+
+
+def kinematically_feasible(commands: np.ndarray, support_side: Any, robot: Robot) -> np.ndarray:
+    """Batch verdict of the kinematic limits for commands ``(N, 5)`` ``[S, L, theta, T_SS, T_DS]``.
+
+    Inside the action box, inside the side-dependent turn limits, and no foot overlap.
+    """
+    cmd = np.asarray(commands, dtype=float)
+    low, high = robot.command_low, robot.command_high
+    eps = 1e-9
+    ok = np.all((cmd >= low - eps) & (cmd <= high + eps), axis=-1)
+    lo, hi = turn_bounds(support_side, robot)
+    theta = cmd[..., 2]
+    ok &= (theta >= lo - eps) & (theta <= hi + eps)
+    ok &= ~feet_overlap(cmd[..., 0], cmd[..., 1], theta, support_side, robot)
+    return ok
+
+
+def robot_centre(foot_a: Any, foot_b: Any) -> tuple[float, float]:
+    """Midpoint ``(x, y)`` of two foot poses [m]: the robot centre the planner's nodes stand for."""
+    return (0.5 * (foot_a[0] + foot_b[0]), 0.5 * (foot_a[1] + foot_b[1]))
+
+
+def foot_from_node(node_xy: Any, heading: Any, side: Any, half_width: float) -> tuple[Any, Any, Any]:
+    """Pose of the ``side`` foot for robot centre ``node_xy`` facing ``heading`` (paper Fig. 5).
+
+    The foot centre lies ``half_width`` [m] from the node, perpendicular to the heading.
+    """
+    x, y = node_xy
+    return (x - side * half_width * np.sin(heading), y + side * half_width * np.cos(heading), wrap_angle(heading))

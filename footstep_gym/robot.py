@@ -1,0 +1,98 @@
+"""The robot's parameters (``configs/robot.yaml``) and the quantities derived from them."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+from footstep_gym import config
+from footstep_gym.config import fraction, interval, nonnegative, positive
+from footstep_gym.errors import ConfigError
+
+#: Order of the footstep command's fields (paper eq. 5).
+COMMAND_FIELDS = ("S", "L", "theta", "t_ss", "t_ds")
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A DARwIn-OP-sized humanoid; every length in m, time in s, angle in rad."""
+
+    gravity: float = positive()  # [m/s^2]
+    com_height: float = positive()  # [m]
+    foot_length: float = positive()  # [m]
+    foot_width: float = positive()  # [m]
+    zmp_region_scale: float = fraction()  # stable region / foot
+    foot_clearance: float = nonnegative()  # [m]
+    body_radius: float = positive()  # [m]
+    stride_front: tuple[float, float] = interval()  # S [m]
+    stride_side: tuple[float, float] = interval()  # L [m]
+    turn_inner: float = nonnegative()  # [rad]
+    turn_outer: float = nonnegative()  # [rad]
+    t_ss: tuple[float, float] = interval()  # [s]
+    t_ds: tuple[float, float] = interval()  # [s]
+    nominal_t_ss: float = positive()  # [s]
+    nominal_t_ds: float = positive()  # [s]
+    nominal_side_stride: float = positive()  # [m]
+    generator_weight_position: float = positive()
+    generator_weight_velocity: float = positive()
+
+    def validate(self) -> None:
+        if self.stride_side[0] <= 0:
+            raise ConfigError(f"robot.stride_side must be > 0 (feet never cross), got {self.stride_side}")
+        if self.t_ss[0] <= 0 or self.t_ds[0] <= 0:
+            raise ConfigError(f"robot.t_ss and robot.t_ds must be > 0, got {self.t_ss}, {self.t_ds}")
+        for name, lo_hi, value in (
+            ("nominal_t_ss", self.t_ss, self.nominal_t_ss),
+            ("nominal_t_ds", self.t_ds, self.nominal_t_ds),
+            ("nominal_side_stride", self.stride_side, self.nominal_side_stride),
+        ):
+            if not lo_hi[0] <= value <= lo_hi[1]:
+                raise ConfigError(f"robot.{name}={value} lies outside its range {lo_hi}")
+
+    @property
+    def omega(self) -> float:
+        """LIPM natural frequency sqrt(g / z_c) [1/s]."""
+        return math.sqrt(self.gravity / self.com_height)
+
+    @property
+    def nominal_period(self) -> float:
+        """T_n = nominal T_SS + T_DS [s]."""
+        return self.nominal_t_ss + self.nominal_t_ds
+
+    @property
+    def zmp_half_extent(self) -> tuple[float, float]:
+        """Half sizes (x, y) of the stable ZMP rectangle around the foot centre [m]."""
+        s = 0.5 * self.zmp_region_scale
+        return (s * self.foot_length, s * self.foot_width)
+
+    @property
+    def turn_limit(self) -> float:
+        """Largest |theta| either foot may turn [rad] (the action box's bound)."""
+        return max(self.turn_inner, self.turn_outer)
+
+    @property
+    def command_low(self) -> np.ndarray:
+        """Lower bounds of ``[S, L, theta, T_SS, T_DS]`` (the action box)."""
+        return np.array(
+            [self.stride_front[0], self.stride_side[0], -self.turn_limit, self.t_ss[0], self.t_ds[0]]
+        )
+
+    @property
+    def command_high(self) -> np.ndarray:
+        """Upper bounds of ``[S, L, theta, T_SS, T_DS]`` (the action box)."""
+        return np.array(
+            [self.stride_front[1], self.stride_side[1], self.turn_limit, self.t_ss[1], self.t_ds[1]]
+        )
+
+    @property
+    def nominal_command(self) -> np.ndarray:
+        """Stepping in place at the nominal period."""
+        return np.array([0.0, self.nominal_side_stride, 0.0, self.nominal_t_ss, self.nominal_t_ds])
+
+
+def load_robot(overrides: Mapping[str, Any] | None = None) -> Robot:
+    """The robot of ``configs/robot.yaml`` with ``overrides`` applied."""
+    return config.load(Robot, "robot.yaml", overrides)

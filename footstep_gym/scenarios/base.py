@@ -1,0 +1,73 @@
+"""What every scenario shares: start, goal, limits, per-episode randomisation; the hooks it fills."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from footstep_gym import config
+from footstep_gym.config import nonnegative, pair, plain, positive
+from footstep_gym.errors import ConfigError
+from footstep_gym.world import World
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """Keys every scenario's YAML has (SI units)."""
+
+    start: tuple[float, float] = pair()  # [m] robot centre at reset
+    start_yaw: float = plain()  # [rad] heading at reset
+    start_jitter: float = nonnegative()  # [m] uniform +- jitter of the start, per episode
+    goal: tuple[float, float] = pair()  # [m]
+    goal_tolerance: float = positive()  # [m]
+    time_limit: float = positive()  # [s] simulated, then truncated
+    max_steps: int = positive()  # footsteps, then truncated
+    randomize: dict = plain()  # {key: [lo, hi]}: drawn uniformly per episode from reset(seed=...)
+
+    def validate(self) -> None:
+        fields = {f.name: str(f.type) for f in dataclasses.fields(self)}
+        for key, bounds in self.randomize.items():
+            if key not in fields or fields[key] != "float":
+                numeric = sorted(k for k, t in fields.items() if t == "float")
+                raise ConfigError(f"randomize: {key!r} is not a numeric key of this scenario; use one of {numeric}")
+            if not (isinstance(bounds, (list, tuple)) and len(bounds) == 2):
+                raise ConfigError(f"randomize.{key} must be [lo, hi], got {bounds!r}")
+            lo, hi = (config._number(f"randomize.{key}", b) for b in bounds)
+            if lo > hi:
+                raise ConfigError(f"randomize.{key} must have lo <= hi, got {bounds!r}")
+
+    def draw(self, rng: np.random.Generator) -> "ScenarioConfig":
+        """This config with every ``randomize`` key drawn from its range (validated again)."""
+        if not self.randomize:
+            return self
+        return config.replace(self, **{k: float(rng.uniform(*v)) for k, v in self.randomize.items()})
+
+
+class Scenario:
+    """A scene: builds its obstacles into a :class:`World` and moves them each footstep.
+
+    Subclasses set ``config_file`` / ``Config`` and fill :meth:`build` (and
+    :meth:`before_step` when obstacles change velocity over time). One instance serves one
+    episode; it may keep per-episode random draws from ``rng``.
+    """
+
+    config_file: ClassVar[str]
+    Config: ClassVar[type[ScenarioConfig]]
+
+    def __init__(self, cfg: Any, rng: np.random.Generator) -> None:
+        self.cfg = cfg
+        self.rng = rng
+
+    @classmethod
+    def load_config(cls, overrides: dict[str, Any] | None = None) -> Any:
+        return config.load(cls.Config, cls.config_file, overrides)
+
+    def build(self, world: World) -> None:
+        """Add walls and obstacles at time 0."""
+        raise NotImplementedError
+
+    def before_step(self, world: World, t: float, duration: float) -> None:
+        """Set the obstacles' velocities for the footstep from ``t`` to ``t + duration`` [s]."""

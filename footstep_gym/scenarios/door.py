@@ -1,0 +1,60 @@
+"""Revolving door (paper §3.1, Fig. 7-8, Table 2).
+
+A rod through the door's centre (two wings of ``door_radius``) turns clockwise at
+``door_speed`` deg/s, starting from the vertical. A corridor leads the robot across the
+disc's lower half, where the wings sweep *against* its direction of travel: the upper
+wall stops at the disc on both sides and the lower wall runs past the rod's tip. A
+straight crossing at the nominal period's top speed (12.5 cm/s) finds a gap at 8 deg/s
+but not at 14 or 17; quicker steps find one (DESIGN.md §4).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from footstep_gym.config import interval, nonnegative, pair, plain, positive
+from footstep_gym.errors import ConfigError
+from footstep_gym.scenarios.base import Scenario, ScenarioConfig
+from footstep_gym.world import World
+
+
+@dataclass(frozen=True)
+class DoorConfig(ScenarioConfig):
+    door_speed: float = nonnegative()  # [deg/s] clockwise
+    door_radius: float = positive()  # [m] wing length
+    door_thickness: float = positive()  # [m] of the rod
+    door_centre: tuple[float, float] = pair()  # [m]
+    door_start_angle: float = plain()  # [deg] of the rod from +x, counter-clockwise (90 = vertical)
+    door_angle_jitter: float = nonnegative()  # [deg] uniform +- per episode
+    corridor_y: tuple[float, float] = interval()  # [m] lower and upper wall, relative to the door centre
+    corridor_x: tuple[float, float] = interval()  # [m] extent of the walls, relative to the door centre
+    wall_thickness: float = positive()  # [m]
+    wall_gap: float = nonnegative()  # [m] between the rod's tip circle and the upper wall's ends
+
+    def validate(self) -> None:
+        super().validate()
+        if self.corridor_y[0] > -self.door_radius - 0.5 * self.door_thickness:
+            raise ConfigError(
+                f"door: corridor_y[0]={self.corridor_y[0]} must lie below the rod's tip "
+                f"(-door_radius - door_thickness/2 = {-self.door_radius - 0.5 * self.door_thickness})"
+            )
+
+
+class Door(Scenario):
+    config_file = "scenarios/door.yaml"
+    Config = DoorConfig
+
+    def build(self, world: World) -> None:
+        c = self.cfg
+        cx, cy = c.door_centre
+        angle = math.radians(c.door_start_angle + self.rng.uniform(-1.0, 1.0) * c.door_angle_jitter)
+        r = c.door_radius
+        world.add_rod("door", (cx, cy), (-r, 0.0), (r, 0.0), c.door_thickness, angle=angle,
+                      angular_velocity=-math.radians(c.door_speed))
+        x0, x1 = c.corridor_x
+        bottom, top = c.corridor_y
+        edge = r + 0.5 * c.door_thickness + c.wall_gap + 0.5 * c.wall_thickness
+        world.add_wall("wall_bottom", (cx + x0, cy + bottom), (cx + x1, cy + bottom), c.wall_thickness)
+        world.add_wall("wall_top_left", (cx + x0, cy + top), (cx - edge, cy + top), c.wall_thickness)
+        world.add_wall("wall_top_right", (cx + edge, cy + top), (cx + x1, cy + top), c.wall_thickness)

@@ -1,0 +1,204 @@
+"""The 2D pymunk world: static walls, kinematic obstacles, the robot's body circle.
+
+Units are metres and seconds, so ``Space.collision_slop`` is set from the config (pymunk's
+default of 0.1 is sized for pixels and would hide 10 cm of overlap).
+
+Collisions over a footstep are found by :meth:`World.sweep`, which moves the robot's
+circle along the CoM path ``c(t)`` and the obstacles on their own velocities, and asks
+pymunk for the nearest obstacle surface at each check (``Space.point_query_nearest``).
+Checks are spaced by *conservative advancement*: with clearance ``d`` and every point of
+robot and obstacles moving no faster than ``V`` between checks, nothing can touch for
+``d / V`` seconds, so the next check is that far ahead; where contact is possible the
+checks are never further apart than ``max_check_interval`` nor than the time in which
+anything moves ``collision_motion_fraction`` of the robot radius.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import pymunk
+
+from footstep_gym.sensing import ObstacleView
+
+_ROBOT = 0b01
+_OBSTACLE = 0b10
+_OBSTACLE_FILTER = pymunk.ShapeFilter(mask=_OBSTACLE)
+
+
+@dataclass
+class Obstacle:
+    """One obstacle shape and the name it is reported under."""
+
+    name: str
+    kind: str  # "circle" | "segment"
+    shape: pymunk.Shape
+    local_a: tuple[float, float]
+    local_b: tuple[float, float]
+    radius: float
+
+    @property
+    def body(self) -> pymunk.Body:
+        return self.shape.body
+
+    @property
+    def static(self) -> bool:
+        return self.shape.body.body_type == pymunk.Body.STATIC
+
+    def reach(self) -> float:
+        """Farthest distance of the shape's surface from its body's origin [m]."""
+        return max(math.hypot(*self.local_a), math.hypot(*self.local_b)) + self.radius
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """Outcome of one footstep's sweep: ``collided``, its time [s] from the step start, the shape's name."""
+
+    collided: bool
+    time: float
+    obstacle: str | None
+    checks: int
+
+
+class World:
+    """A pymunk space holding the obstacles and the robot's body circle."""
+
+    def __init__(self, robot_radius: float, collision_slop: float, max_check_interval: float,
+                 motion_fraction: float) -> None:
+        self.space = pymunk.Space()
+        self.space.collision_slop = collision_slop
+        self.robot_radius = robot_radius
+        self.max_check_interval = max_check_interval
+        self.motion_fraction = motion_fraction
+        self.obstacles: list[Obstacle] = []
+        self._by_shape: dict[pymunk.Shape, Obstacle] = {}
+        self._moving: list[Obstacle] = []
+        self.time = 0.0
+        self.robot_body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self.robot_shape = pymunk.Circle(self.robot_body, robot_radius)
+        self.robot_shape.filter = pymunk.ShapeFilter(categories=_ROBOT, mask=0)
+        self.space.add(self.robot_body, self.robot_shape)
+
+    # ------------------------------------------------------------ building
+    def _add(self, name: str, kind: str, body: pymunk.Body, shape: pymunk.Shape,
+             a: tuple[float, float], b: tuple[float, float], radius: float) -> Obstacle:
+        shape.filter = pymunk.ShapeFilter(categories=_OBSTACLE)
+        if body.body_type == pymunk.Body.STATIC:
+            self.space.add(shape)
+        else:
+            self.space.add(body, shape)
+        obstacle = Obstacle(name, kind, shape, a, b, radius)
+        self.obstacles.append(obstacle)
+        self._by_shape[shape] = obstacle
+        if body.body_type != pymunk.Body.STATIC:
+            self._moving.append(obstacle)
+        return obstacle
+
+    def add_wall(self, name: str, a: tuple[float, float], b: tuple[float, float], thickness: float) -> Obstacle:
+        """A static wall from ``a`` to ``b`` [m] of total ``thickness`` [m]."""
+        shape = pymunk.Segment(self.space.static_body, a, b, 0.5 * thickness)
+        return self._add(name, "segment", self.space.static_body, shape, a, b, 0.5 * thickness)
+
+    def add_circle(self, name: str, position: tuple[float, float], radius: float,
+                   velocity: tuple[float, float] = (0.0, 0.0)) -> Obstacle:
+        """A kinematic cylinder of ``radius`` [m] at ``position`` moving at ``velocity`` [m/s]."""
+        body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        body.position = position
+        body.velocity = velocity
+        shape = pymunk.Circle(body, radius)
+        return self._add(name, "circle", body, shape, (0.0, 0.0), (0.0, 0.0), radius)
+
+    def add_rod(self, name: str, position: tuple[float, float], a: tuple[float, float], b: tuple[float, float],
+                thickness: float, angle: float = 0.0, velocity: tuple[float, float] = (0.0, 0.0),
+                angular_velocity: float = 0.0) -> Obstacle:
+        """A kinematic thick segment ``a``-``b`` (body frame) [m], its body at ``position`` turned by ``angle`` [rad]."""
+        body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        body.position = position
+        body.angle = angle
+        body.velocity = velocity
+        body.angular_velocity = angular_velocity
+        shape = pymunk.Segment(body, a, b, 0.5 * thickness)
+        return self._add(name, "segment", body, shape, a, b, 0.5 * thickness)
+
+    # ------------------------------------------------------------ queries
+    def max_obstacle_speed(self) -> float:
+        """Largest speed [m/s] any point of any obstacle has now."""
+        best = 0.0
+        for o in self._moving:
+            v = o.body.velocity
+            best = max(best, math.hypot(v.x, v.y) + abs(o.body.angular_velocity) * o.reach())
+        return best
+
+    def clearance(self, point: tuple[float, float], horizon: float) -> tuple[float, Obstacle | None]:
+        """Distance [m] from ``point`` to the nearest obstacle surface, searched up to ``horizon``."""
+        info = self.space.point_query_nearest(point, horizon, _OBSTACLE_FILTER)
+        if info is None:
+            return horizon, None
+        return info.distance, self._by_shape[info.shape]
+
+    def nearest(self, point: tuple[float, float], k: int, max_distance: float
+                ) -> list[tuple[float, tuple[float, float], tuple[float, float], Obstacle]]:
+        """Up to ``k`` shapes nearest ``point`` within ``max_distance``, nearest first.
+
+        Each entry is ``(distance, closest_point, velocity_of_that_point, obstacle)``.
+        """
+        found = []
+        for info in self.space.point_query(point, max_distance, _OBSTACLE_FILTER):
+            body = info.shape.body
+            cp = info.point
+            v = body.velocity_at_world_point(cp) if body.body_type != pymunk.Body.STATIC else (0.0, 0.0)
+            found.append((info.distance, (cp.x, cp.y), (v[0], v[1]), self._by_shape[info.shape]))
+        found.sort(key=lambda e: e[0])
+        return found[:k]
+
+    def views(self) -> tuple[ObstacleView, ...]:
+        """Every obstacle as the sensing snapshot reports it (current state only)."""
+        out = []
+        for o in self.obstacles:
+            body = o.body
+            out.append(ObstacleView(
+                name=o.name, kind=o.kind, static=o.static,
+                position=(body.position.x, body.position.y), angle=body.angle,
+                velocity=(body.velocity.x, body.velocity.y), angular_velocity=body.angular_velocity,
+                radius=o.radius, a=o.local_a, b=o.local_b,
+            ))
+        return tuple(out)
+
+    # ------------------------------------------------------------ time
+    def advance(self, dt: float) -> None:
+        """Move every kinematic body on for ``dt`` [s]."""
+        if dt > 0:
+            self.space.step(dt)
+            self.time += dt
+
+    def sweep(self, path: Callable[[float], tuple[float, float]], duration: float,
+              robot_speed_bound: float) -> SweepResult:
+        """Advance the world by ``duration`` [s] while the robot's centre follows ``path(t)``.
+
+        Stops at the first contact (the world is then at that time). ``robot_speed_bound``
+        [m/s] must bound the robot's speed over the step.
+        """
+        radius = self.robot_radius
+        speed = robot_speed_bound + self.max_obstacle_speed()
+        fine = self.max_check_interval
+        if speed > 0:
+            fine = min(fine, self.motion_fraction * radius / speed)
+        t, checks = 0.0, 0
+        while True:
+            point = path(t)
+            horizon = radius + speed * (duration - t) + 1e-9
+            dist, hit = self.clearance(point, horizon)
+            checks += 1
+            if hit is not None and dist < radius:
+                self.robot_body.position = point
+                return SweepResult(True, t, hit.name, checks)
+            if t >= duration:
+                break
+            remaining = duration - t
+            dt = remaining if speed <= 0 else min(remaining, max(fine, (dist - radius) / speed))
+            self.advance(dt)
+            t = duration if dt >= remaining else t + dt
+        self.robot_body.position = path(duration)
+        return SweepResult(False, duration, None, checks)

@@ -180,6 +180,10 @@ def check_step(robot: Robot, com: complex, vel: complex, command: tuple[float, .
     the new foot in its frame.
     """
     S, L, theta, t_ss, t_ds = command
+    kin_ok = bool(footstep.kinematically_feasible(np.array(command, dtype=float), support_side, robot))
+    if not kin_ok and not (t_ss > 0 and t_ds > 0):
+        nan = complex(math.nan, math.nan)
+        return False, False, nan, nan, nan  # outside the box: no pattern to generate
     omega = robot.omega
     xi0, eta0 = to_dcm(com, vel, omega)
     p, xi_end, eta_end = _step_terms(
@@ -188,7 +192,6 @@ def check_step(robot: Robot, com: complex, vel: complex, command: tuple[float, .
     )
     hx, hy = robot.zmp_half_extent
     zmp_ok = abs(p.real) <= hx and abs(p.imag) <= hy
-    kin_ok = bool(footstep.kinematically_feasible(np.array(command), support_side, robot))
     c_end, v_end = from_dcm(xi_end, eta_end, omega)
     return kin_ok, zmp_ok, p, c_end, v_end
 

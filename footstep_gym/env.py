@@ -44,6 +44,10 @@ class EnvConfig:
     render_pixels_per_metre: float = positive()
     render_size: tuple[float, float] = config.pair()  # [px] width, height
 
+    def validate(self) -> None:
+        if not all(v >= 1 and float(v).is_integer() for v in self.render_size):
+            raise ConfigError(f"env.yaml.render_size must be two whole numbers of pixels >= 1, got {self.render_size}")
+
 
 def _world_to_local(origin: tuple[float, float, float], z: complex) -> complex:
     """Point ``z`` (complex, world) in the frame of pose ``origin``."""

@@ -1,0 +1,869 @@
+"""How fast footstep_gym is: env steps/s, LIPM checks/s, planning time per footstep, memory.
+
+    python baselines/benchmark.py            # quick (about 2-3 minutes on 2 cores)
+    python baselines/benchmark.py --full     # more repetitions, more episodes
+    python baselines/benchmark.py --out runs/benchmark --sections env,lipm
+
+Prints markdown tables and writes ``<out>/benchmark.json``. Every rate is the median and
+spread (IQR and min/max) over repetitions measured in this one run, after a warm-up,
+with ``time.perf_counter``. Measured:
+
+* **env steps/s**, one process, for ``FootstepDoor-v0``, ``FootstepCrossing-v0`` and
+  ``FootstepCrowd-v0`` with three kinds of commands: ``random`` (seeded
+  ``action_space`` samples; these fall often, so most steps are short), ``near_nominal``
+  (the nominal command walking forward at half the largest stride, plus small seeded
+  noise, clipped to the robot's limits: full footsteps with their collision sweeps) and
+  ``planner`` (the period-aware planner's commands, recorded once and replayed from the
+  same seeds, so the planner's time is excluded and measured separately). Episodes reset
+  when done and resets are inside the timed loop (the episode length is reported). The
+  same through ``gym.make_vec(id, num_envs=2, vectorization_mode="sync"/"async")``
+  (steps/s counts sub-env steps: 2 per vector step), and the same for ``CartPole-v1``,
+  ``Pendulum-v1`` and ``BipedalWalker-v3`` (random commands; skipped when not installed);
+* **LIPM feasibility checks/s**: ``lipm.check_step`` (one command, plain Python) and
+  ``lipm.check_steps`` with batches of 1, 32 and 1024 (commands/s);
+* **planning time per footstep** (``policy.act``; median, p95, p99) of ``period-aware``,
+  ``fixed-period`` and ``pso-only`` on each env, and their success rates on the same seeds;
+* **peak memory** of one env (``tracemalloc`` peak around make + reset + N steps, and the
+  RSS growth read from ``/proc/self/statm`` / ``getrusage``, each in a fresh subprocess)
+  and of the period-aware planner.
+
+Targets (PASS/MISS in the output; they live here, never in timed tests): FootstepDoor
+steps/s >= BipedalWalker's; batched LIPM >= 1e6 commands/s at batch 1024; period-aware
+planning median <= 1 % and p99 <= 5 % of the nominal period per footstep, and >= 10x
+faster than pso-only at no lower success rate.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+import tracemalloc
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import gymnasium as gym  # noqa: E402
+import numpy as np  # noqa: E402
+
+import footstep_gym  # noqa: E402
+from bench_utils import (  # noqa: E402
+    finite_json, fmt_bytes, fmt_num, fmt_stat, machine_info, markdown_table, max_rss_bytes, rss_bytes,
+    summary, tail_summary,
+)
+from footstep_gym import lipm  # noqa: E402
+from footstep_gym.robot import load_robot  # noqa: E402
+
+FOOTSTEP_ENVS = tuple(footstep_gym.ENV_IDS.values())
+REFERENCE_ENVS = ("CartPole-v1", "Pendulum-v1", "BipedalWalker-v3")
+PLANNERS = ("period-aware", "fixed-period", "pso-only")
+VEC_MODES = ("sync", "async")
+SECTIONS = ("env", "lipm", "planners", "memory")
+LIPM_BATCHES = (1, 32, 1024)
+STAGE_KEYS = ("time_period_search_ms", "time_rrt_ms", "time_pso_ms")  # policy.last_info, when present
+
+# Targets (reported, never asserted in tests).
+LIPM_TARGET_PER_S = 1_000_000
+PLAN_MEDIAN_FRACTION = 0.01  # of the nominal period
+PLAN_P99_FRACTION = 0.05
+PSO_SPEEDUP_TARGET = 10.0
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How much to measure; one instance per mode (quick / full / smoke)."""
+
+    name: str
+    repetitions: int  # timed repetitions per env cell and LIPM cell
+    rep_seconds: float  # target duration of one repetition (steps per rep calibrated from the warm-up)
+    warmup_seconds: float
+    min_steps: int  # at least this many steps per repetition
+    vec_repetitions: int
+    vec_rep_seconds: float
+    lipm_rep_seconds: float
+    planner_episodes: int  # seeds per env (the same seeds for every planner)
+    planner_max_steps: int | None  # cap on footsteps per planner episode (smoke only; None = the env's limit)
+    memory_steps: int
+
+
+MODES = {
+    "smoke": Settings("smoke", repetitions=2, rep_seconds=0.02, warmup_seconds=0.01, min_steps=5,
+                      vec_repetitions=2, vec_rep_seconds=0.02, lipm_rep_seconds=0.01,
+                      planner_episodes=1, planner_max_steps=4, memory_steps=20),
+    "quick": Settings("quick", repetitions=7, rep_seconds=0.25, warmup_seconds=0.2, min_steps=50,
+                      vec_repetitions=5, vec_rep_seconds=0.25, lipm_rep_seconds=0.1,
+                      planner_episodes=4, planner_max_steps=None, memory_steps=500),
+    "full": Settings("full", repetitions=21, rep_seconds=0.5, warmup_seconds=0.5, min_steps=200,
+                     vec_repetitions=11, vec_rep_seconds=0.5, lipm_rep_seconds=0.3,
+                     planner_episodes=12, planner_max_steps=None, memory_steps=2000),
+}
+
+
+def log(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------ commands
+def near_nominal_commands(robot: Any, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` commands: nominal period and side stride, half the largest forward stride, small noise.
+
+    Noise: 3 % of each field's range (s.d.); clipped to the robot's limits in float64 (the
+    commands stay feasible, apart from what the carried CoM state decides).
+    """
+    low, high = robot.command_low, robot.command_high
+    base = robot.nominal_command.copy()
+    base[0] = 0.5 * robot.stride_front[1]
+    noise = rng.normal(0.0, 1.0, (n, 5)) * (0.03 * (high - low))
+    return np.clip(base + noise, low, high)
+
+
+def random_commands(space: gym.Space, n: int, seed: int) -> list[np.ndarray]:
+    space.seed(seed)
+    return [space.sample() for _ in range(n)]
+
+
+# ------------------------------------------------------------------ timing loops
+def _run_single(env: gym.Env, actions: list, n: int, start: int = 0) -> tuple[float, int, int]:
+    """Step ``n`` times cycling through ``actions`` from ``start``; reset when done. Returns (seconds, steps, episodes)."""
+    m = len(actions)
+    episodes = 0
+    step, reset = env.step, env.reset
+    t0 = time.perf_counter()
+    for i in range(start, start + n):
+        _, _, terminated, truncated, _ = step(actions[i % m])
+        if terminated or truncated:
+            reset()
+            episodes += 1
+    return time.perf_counter() - t0, n, episodes
+
+
+def _calibrate(run_once: Callable[[int], tuple[float, int, int]], settings: Settings, rep_seconds: float) -> int:
+    """Warm up and return the steps per repetition that take about ``rep_seconds``."""
+    n, spent, steps = max(settings.min_steps // 5, 1), 0.0, 0
+    while spent < settings.warmup_seconds:
+        dt, k, _ = run_once(n)
+        spent, steps = spent + dt, steps + k
+        n *= 2
+    per_step = spent / max(steps, 1)
+    return max(settings.min_steps, int(rep_seconds / per_step))
+
+
+def _replay_episodes(env: gym.Env, episodes: list[tuple[int, np.ndarray]]) -> tuple[float, int, int, list]:
+    """Reset to each recorded seed and step its actions. Returns (seconds, steps, episodes, terminations)."""
+    steps, out = 0, []
+    step, reset = env.step, env.reset
+    t0 = time.perf_counter()
+    for seed, actions in episodes:
+        reset(seed=seed)
+        info: dict = {}
+        for a in actions:
+            _, _, terminated, truncated, info = step(a)
+        steps += len(actions)
+        out.append(info.get("termination"))
+    return time.perf_counter() - t0, steps, len(episodes), out
+
+
+class SingleCell:
+    """One env in this process with one kind of commands; :meth:`rep` times one repetition.
+
+    Cells are built (and warmed up) first, then their repetitions are interleaved, so that
+    background load hits every env alike and ratios between envs can be paired per round.
+    """
+
+    def __init__(self, env_id: str, commands: str, settings: Settings, seed: int,
+                 replay: list[tuple[int, np.ndarray]] | None = None) -> None:
+        self.env_id, self.commands = env_id, commands
+        self.env = env = gym.make(env_id)
+        self.rates: list[float] = []
+        self.steps = self.episodes = 0
+        self.skipped: str | None = None
+        if commands == "planner":
+            self.replay = [(s, a) for s, a, _ in (replay or []) if len(a)]
+            self.recorded_terminations = [t for _, a, t in (replay or []) if len(a)]
+            if not self.replay:
+                self.skipped = "no recorded planner episodes"
+                return
+            self._replay_check = _replay_episodes(env, self.replay)[3]  # warm-up; terminations
+            dt, k, _, _ = _replay_episodes(env, self.replay)
+            self.unit = k
+            self.loops = max(1, math.ceil(max(settings.rep_seconds / (dt / k), settings.min_steps) / k))
+            self.steps_per_rep = self.loops * k
+            return
+        env.reset(seed=seed)
+        pool = 4096
+        if commands == "random":
+            self.actions = random_commands(env.action_space, pool, seed)
+        else:
+            self.actions = list(near_nominal_commands(env.unwrapped.robot, pool, np.random.default_rng(seed)))
+        self.cursor = 0
+        self.steps_per_rep = _calibrate(self._run, settings, settings.rep_seconds)
+
+    def _run(self, n: int) -> tuple[float, int, int]:
+        out = _run_single(self.env, self.actions, n, self.cursor)
+        self.cursor += n
+        return out
+
+    def rep(self) -> float | None:
+        if self.skipped:
+            return None
+        if self.commands == "planner":
+            t, k, e = 0.0, 0, 0
+            for _ in range(self.loops):
+                dt, s, n_eps, _ = _replay_episodes(self.env, self.replay)
+                t, k, e = t + dt, k + s, e + n_eps
+        else:
+            t, k, e = self._run(self.steps_per_rep)
+        self.rates.append(k / t)
+        self.steps, self.episodes = self.steps + k, self.episodes + e
+        return self.rates[-1]
+
+    def result(self) -> dict[str, Any]:
+        if self.skipped:
+            return {"skipped": self.skipped}
+        out: dict[str, Any] = {"steps_per_s": summary(self.rates), "rates": self.rates,
+                               "steps_per_rep": self.steps_per_rep, "steps": self.steps,
+                               "episodes": self.episodes, "mean_episode_steps": self.steps / max(self.episodes, 1)}
+        if self.commands == "planner":
+            # The env is deterministic given the seed: replaying must end each episode as recorded.
+            out["replay_terminations"] = self._replay_check
+            out["replay_matches_recording"] = self._replay_check == self.recorded_terminations
+        return out
+
+    def close(self) -> None:
+        self.env.close()
+
+
+def measure_singles(cells_spec: list[tuple[str, str]], settings: Settings, seed: int,
+                    replays: dict[str, list]) -> dict[tuple[str, str], dict[str, Any]]:
+    """Build every single-process cell, then interleave their repetitions (round-robin)."""
+    cells: dict[tuple[str, str], SingleCell] = {}
+    out: dict[tuple[str, str], dict[str, Any]] = {}
+    try:
+        for env_id, commands in cells_spec:
+            log(f"  env {env_id:20s} {commands:12s} single (warm-up)")
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    cells[(env_id, commands)] = SingleCell(env_id, commands, settings, seed, replays.get(env_id))
+            except Exception as exc:  # noqa: BLE001 - one broken cell must not lose the rest
+                out[(env_id, commands)] = {"skipped": f"{type(exc).__name__}: {exc}"[:300]}
+        log(f"  {len(cells)} single-process cells x {settings.repetitions} interleaved repetitions")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for _ in range(settings.repetitions):
+                for cell in cells.values():
+                    cell.rep()
+        for key, cell in cells.items():
+            out[key] = cell.result()
+    finally:
+        for cell in cells.values():
+            cell.close()
+    return out
+
+
+def measure_vector(env_id: str, mode: str, commands: str, settings: Settings, seed: int,
+                   replay: list[tuple[int, np.ndarray]] | None = None, num_envs: int = 2) -> dict[str, Any]:
+    """Sub-env steps/s through ``gym.make_vec(id, num_envs, vectorization_mode=mode)``."""
+    vec = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode=mode)
+    try:
+        if commands == "planner":
+            return _measure_replay_vector(vec, replay or [], settings, num_envs)
+        vec.reset(seed=seed)
+        pool = 2048
+        if commands == "random":
+            actions = random_commands(vec.action_space, pool, seed)
+        else:
+            robot = load_robot()  # the envs are made with the default robot
+            rng = np.random.default_rng(seed)
+            actions = list(near_nominal_commands(robot, pool * num_envs, rng).reshape(pool, num_envs, 5))
+        cursor = [0]
+
+        def run_once(n: int) -> tuple[float, int, int]:
+            step = vec.step
+            m = len(actions)
+            episodes = 0
+            t0 = time.perf_counter()
+            for i in range(cursor[0], cursor[0] + n):
+                _, _, term, trunc, _ = step(actions[i % m])
+                episodes += int(np.count_nonzero(term | trunc))
+            dt = time.perf_counter() - t0
+            cursor[0] += n
+            return dt, n * num_envs, episodes
+
+        n_sub = _calibrate(run_once, settings, settings.vec_rep_seconds)
+        n = max(1, n_sub // num_envs)
+        rates, steps, episodes = [], 0, 0
+        for _ in range(settings.vec_repetitions):
+            dt, k, e = run_once(n)
+            rates.append(k / dt)
+            steps, episodes = steps + k, episodes + e
+        return {"steps_per_s": summary(rates), "steps_per_rep": n * num_envs, "steps": steps,
+                "episodes": episodes, "mean_episode_steps": steps / max(episodes, 1), "num_envs": num_envs}
+    finally:
+        vec.close()
+
+
+def _measure_replay_vector(vec: gym.vector.VectorEnv, episodes: list[tuple[int, np.ndarray]], settings: Settings,
+                           num_envs: int) -> dict[str, Any]:
+    """Replay recorded planner episodes seeds ``s, s+1`` side by side until the shorter one ends.
+
+    ``vec.reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, so pairs of consecutive seeds
+    reproduce the recorded episodes exactly.
+    """
+    by_seed = {s: a for s, a, _ in episodes}
+    groups = []
+    for s in by_seed:
+        members = [by_seed.get(s + i) for i in range(num_envs)]
+        if all(m is not None and len(m) for m in members):
+            n = min(len(m) for m in members)
+            groups.append((s, np.stack([m[:n] for m in members], axis=1)))
+    if not groups:
+        return {"skipped": f"no {num_envs} recorded planner episodes with consecutive seeds"}
+
+    def run_all() -> tuple[float, int]:
+        t, k = 0.0, 0
+        for s, acts in groups:
+            t0 = time.perf_counter()
+            vec.reset(seed=s)
+            for a in acts:
+                vec.step(a)
+            t += time.perf_counter() - t0
+            k += len(acts) * num_envs
+        return t, k
+
+    run_all()  # warm-up
+    dt, k = run_all()
+    loops = max(1, math.ceil(max(settings.vec_rep_seconds / (dt / k), settings.min_steps) / k))
+    rates, total = [], 0
+    for _ in range(settings.vec_repetitions):
+        t, s = 0.0, 0
+        for _ in range(loops):
+            dt, k = run_all()
+            t, s = t + dt, s + k
+        rates.append(s / t)
+        total += s
+    return {"steps_per_s": summary(rates), "steps_per_rep": loops * sum(len(a) * num_envs for _, a in groups),
+            "steps": total, "episodes": None, "mean_episode_steps": None, "num_envs": num_envs}
+
+
+def _available(env_id: str) -> str | None:
+    """``None`` when ``env_id`` can be made here, else the reason it cannot."""
+    try:
+        gym.make(env_id).close()
+        return None
+    except Exception as exc:  # noqa: BLE001 - missing optional dependencies come in many types
+        return f"{type(exc).__name__}: {exc}".splitlines()[0][:200]
+
+
+def bench_envs(settings: Settings, seed: int, replays: dict[str, list]) -> dict[str, Any]:
+    spec = [(e, c) for e in FOOTSTEP_ENVS for c in ("random", "near_nominal", "planner")]
+    spec += [(e, "random") for e in REFERENCE_ENVS]
+    reasons = {e: _available(e) for e in dict.fromkeys(e for e, _ in spec)}
+    singles = measure_singles([(e, c) for e, c in spec if reasons[e] is None], settings, seed, replays)
+    results: dict[str, Any] = {}
+    for env_id, commands in spec:
+        cell: dict[str, Any] = {}
+        for vec_mode in ("single", *VEC_MODES):
+            if reasons[env_id]:
+                cell[vec_mode] = {"skipped": reasons[env_id]}
+            elif vec_mode == "single":
+                cell[vec_mode] = singles[(env_id, commands)]
+            else:
+                log(f"  env {env_id:20s} {commands:12s} {vec_mode}")
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        cell[vec_mode] = measure_vector(env_id, vec_mode, commands, settings, seed,
+                                                        replays.get(env_id))
+                except Exception as exc:  # noqa: BLE001 - one broken cell must not lose the rest
+                    cell[vec_mode] = {"skipped": f"{type(exc).__name__}: {exc}"[:300]}
+        results.setdefault(env_id, {})[commands] = cell
+    return results
+
+
+# ------------------------------------------------------------------ LIPM
+def bench_lipm(settings: Settings, seed: int) -> dict[str, Any]:
+    robot = load_robot()
+    rng = np.random.default_rng(seed)
+    support = -1
+    com, vel = lipm.steady_state(robot, robot.nominal_command, support)
+    com2, vel2 = np.array([com.real, com.imag]), np.array([vel.real, vel.imag])
+    pool = rng.uniform(robot.command_low, robot.command_high, (4096, 5))
+    scalar_cmds = [tuple(float(v) for v in c) for c in pool]
+
+    def timed(fn: Callable[[], int]) -> list[float]:
+        # Warm-up and calibration: repeat fn until rep_seconds, then time repetitions of that many calls.
+        calls, t = 1, 0.0
+        while True:
+            t0 = time.perf_counter()
+            k = sum(fn() for _ in range(calls))
+            t = time.perf_counter() - t0
+            if t >= settings.lipm_rep_seconds / 4 or calls > 1 << 22:
+                break
+            calls *= 2
+        calls = max(1, int(calls * settings.lipm_rep_seconds / max(t, 1e-9)))
+        rates = []
+        for _ in range(settings.repetitions):
+            t0 = time.perf_counter()
+            k = 0
+            for _ in range(calls):
+                k += fn()
+            rates.append(k / (time.perf_counter() - t0))
+        return rates
+
+    it = [0]
+
+    def one_scalar() -> int:
+        i = it[0] = (it[0] + 1) % len(scalar_cmds)
+        lipm.check_step(robot, com, vel, scalar_cmds[i], support)
+        return 1
+
+    out: dict[str, Any] = {"check_step": {"commands_per_s": summary(timed(one_scalar)), "batch": 1}}
+    log("  lipm check_step")
+    out["check_steps"] = {}
+    for batch in LIPM_BATCHES:
+        log(f"  lipm check_steps batch {batch}")
+        chunks = [pool[i:i + batch] for i in range(0, len(pool) - batch + 1, batch)]
+        j = [0]
+
+        def one_batch(chunks: list = chunks, j: list = j, batch: int = batch) -> int:
+            j[0] = (j[0] + 1) % len(chunks)
+            lipm.check_steps(robot, com2, vel2, chunks[j[0]], support)
+            return batch
+
+        out["check_steps"][str(batch)] = {"commands_per_s": summary(timed(one_batch)), "batch": batch}
+    return out
+
+
+# ------------------------------------------------------------------ planners
+def _make_policy_fn() -> tuple[Callable | None, str | None]:
+    try:
+        from footstep_gym.planners import make_policy
+    except Exception as exc:  # noqa: BLE001
+        return None, f"footstep_gym.planners unavailable: {type(exc).__name__}: {exc}"
+    return make_policy, None
+
+
+def run_planner_episodes(make_policy: Callable, planner: str, env_id: str, seeds: list[int],
+                         max_steps: int | None, warmup_seed: int) -> dict[str, Any]:
+    """Run ``planner`` on ``env_id`` from each seed; time ``sensing()``, ``policy.act`` and ``env.step`` per footstep."""
+    env = gym.make(env_id)
+    robot = env.unwrapped.robot
+    policy = make_policy(planner, robot, seed=seeds[0])
+    plan_s, sense_s, step_s = [], [], []
+    stages: dict[str, list[float]] = {}
+    pso_ran = 0
+    episodes, recorded = [], []
+    try:
+        for k, seed in enumerate([warmup_seed, *seeds]):
+            warm = k == 0
+            obs, info = env.reset(seed=seed)
+            policy.reset(seed=seed)
+            actions, n, info = [], 0, {}
+            while True:
+                t0 = time.perf_counter()
+                snapshot = env.unwrapped.sensing()
+                t1 = time.perf_counter()
+                action = policy.act(obs, snapshot)
+                t2 = time.perf_counter()
+                obs, _, terminated, truncated, info = env.step(action)
+                t3 = time.perf_counter()
+                n += 1
+                actions.append(np.array(action, copy=True))
+                if not warm:
+                    sense_s.append(t1 - t0)
+                    plan_s.append(t2 - t1)
+                    step_s.append(t3 - t2)
+                    li = getattr(policy, "last_info", None) or {}
+                    for key in STAGE_KEYS:
+                        if isinstance(li.get(key), (int, float)):
+                            stages.setdefault(key, []).append(1e-3 * li[key])
+                    pso_ran += bool(li.get("pso_ran", False))
+                if terminated or truncated or (max_steps is not None and n >= max_steps) or (warm and n >= 3):
+                    break
+            if warm:
+                continue
+            episodes.append({"seed": seed, "steps": n, "termination": info.get("termination"),
+                             "success": bool(info.get("is_success", False)), "time": info.get("time"),
+                             "capped": not (terminated or truncated)})
+            recorded.append((seed, np.array(actions), info.get("termination")))
+    finally:
+        env.close()
+    successes = sum(e["success"] for e in episodes)
+    return {
+        "plan_time_s": tail_summary(plan_s),
+        "sensing_time_s": tail_summary(sense_s),
+        "env_step_time_s": tail_summary(step_s),
+        "stage_time_s": {k.removeprefix("time_").removesuffix("_ms"): tail_summary(v) for k, v in stages.items()},
+        "pso_ran_fraction": pso_ran / max(len(plan_s), 1),
+        "footsteps": len(plan_s),
+        "episodes": len(episodes),
+        "successes": successes,
+        "success_rate": successes / max(len(episodes), 1),
+        "seeds": list(seeds),
+        "per_episode": episodes,
+        "_recorded": recorded,
+    }
+
+
+def bench_planners(settings: Settings, seed: int) -> tuple[dict[str, Any], dict[str, list]]:
+    make_policy, reason = _make_policy_fn()
+    if make_policy is None:
+        return {"skipped": reason}, {}
+    seeds = [seed + i for i in range(max(settings.planner_episodes, 2))]  # >= 2: the vector replay pairs seeds
+    results: dict[str, Any] = {}
+    replays: dict[str, list] = {}
+    for env_id in FOOTSTEP_ENVS:
+        results[env_id] = {}
+        for planner in PLANNERS:
+            log(f"  planner {planner:13s} on {env_id}")
+            try:
+                r = run_planner_episodes(make_policy, planner, env_id, seeds, settings.planner_max_steps,
+                                         warmup_seed=seed + 10_000)
+            except Exception as exc:  # noqa: BLE001
+                results[env_id][planner] = {"skipped": f"{type(exc).__name__}: {exc}"[:300]}
+                continue
+            recorded = r.pop("_recorded")
+            if planner == "period-aware":
+                replays[env_id] = recorded
+            results[env_id][planner] = r
+    return results, replays
+
+
+# ------------------------------------------------------------------ memory (fresh subprocesses)
+def _memory_child(spec: dict[str, Any]) -> dict[str, Any]:
+    """Runs in a fresh interpreter: memory of make + reset + N steps (env) or of the period-aware planner.
+
+    Modules are imported before the baseline (code is not the env's memory); for the
+    planner, the env is made and stepped first so that only the planner's memory remains.
+    """
+    import gc
+
+    import footstep_gym.env  # noqa: F401 - pymunk, scenarios, world
+
+    env_id, n, what, use_tm = spec["env_id"], spec["steps"], spec["what"], spec["tracemalloc"]
+    rng = np.random.default_rng(0)
+    make_policy = None
+    env = None
+    if what == "planner":
+        make_policy, reason = _make_policy_fn()
+        if make_policy is None:
+            return {"skipped": reason}
+        env = gym.make(env_id)
+        env.reset(seed=0)
+        for _ in range(3):  # the env's own lazy allocations before the planner is measured
+            env.step(env.unwrapped.robot.nominal_command)
+        env.reset(seed=0)
+    actions = list(near_nominal_commands(load_robot(), n, rng)) if what == "env" else []
+    gc.collect()
+    rss0, max0 = rss_bytes(), max_rss_bytes()
+    if use_tm:
+        tracemalloc.start()
+    t0 = time.perf_counter()
+    peak_all, peak_act = 0, None
+    if what == "env":
+        env = gym.make(env_id)
+        env.reset(seed=0)
+        for a in actions:
+            _, _, term, trunc, _ = env.step(a)
+            if term or trunc:
+                env.reset()
+    else:
+        policy = make_policy("period-aware", env.unwrapped.robot, seed=0)
+        policy.reset(seed=0)
+        obs = env.unwrapped._observation()
+        peak_act, ep = 0, 0
+        for _ in range(n):
+            snap = env.unwrapped.sensing()
+            if use_tm:
+                cur, peak = tracemalloc.get_traced_memory()
+                peak_all = max(peak_all, peak)
+                tracemalloc.reset_peak()
+            action = policy.act(obs, snap)
+            if use_tm:
+                peak_act = max(peak_act, tracemalloc.get_traced_memory()[1] - cur)
+            obs, _, term, trunc, _ = env.step(action)
+            if term or trunc:
+                ep += 1
+                obs, _ = env.reset(seed=ep)
+                policy.reset(seed=ep)
+    elapsed = time.perf_counter() - t0
+    out: dict[str, Any] = {"steps": n, "seconds": elapsed}
+    if use_tm:
+        current, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        out.update(tracemalloc_peak_bytes=max(peak_all, peak), tracemalloc_current_bytes=current)
+        if peak_act is not None:
+            out["tracemalloc_peak_per_act_bytes"] = peak_act
+    else:
+        rss1, max1 = rss_bytes(), max_rss_bytes()
+        out.update(rss_before_bytes=rss0, rss_after_bytes=rss1,
+                   rss_delta_bytes=None if rss0 is None or rss1 is None else rss1 - rss0,
+                   max_rss_delta_bytes=max1 - max0, max_rss_bytes=max1)
+    return out
+
+
+def _spawn_memory(spec: dict[str, Any]) -> dict[str, Any]:
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--_memory-child", json.dumps(spec)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    if proc.returncode != 0:
+        return {"skipped": f"child failed: {proc.stderr.strip().splitlines()[-1:]}"}
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def bench_memory(settings: Settings) -> dict[str, Any]:
+    out: dict[str, Any] = {"env": {}, "planner": {}}
+    n = settings.memory_steps
+    for env_id in FOOTSTEP_ENVS:
+        log(f"  memory env {env_id}")
+        rss = _spawn_memory({"env_id": env_id, "steps": n, "what": "env", "tracemalloc": False})
+        tm = _spawn_memory({"env_id": env_id, "steps": n, "what": "env", "tracemalloc": True})
+        out["env"][env_id] = {"rss": rss, "tracemalloc": tm}
+    env_id = FOOTSTEP_ENVS[0]
+    log(f"  memory planner period-aware on {env_id}")
+    steps = max(5, n // 10)
+    rss = _spawn_memory({"env_id": env_id, "steps": steps, "what": "planner", "tracemalloc": False})
+    tm = _spawn_memory({"env_id": env_id, "steps": steps, "what": "planner", "tracemalloc": True})
+    out["planner"]["period-aware"] = {"env_id": env_id, "rss": rss, "tracemalloc": tm}
+    return out
+
+
+# ------------------------------------------------------------------ targets and report
+def _median(cell: dict | None, key: str = "steps_per_s") -> float | None:
+    if not cell or key not in cell:
+        return None
+    return cell[key]["median"]
+
+
+def evaluate_targets(res: dict[str, Any], nominal_period: float) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    targets: list[dict[str, Any]] = []
+    ratios: dict[str, Any] = {}
+
+    def add(name: str, threshold: str, shown: str, ok: bool | None, **extra: Any) -> None:
+        targets.append({"target": name, "threshold": threshold, "measured": shown,
+                        "status": "N/A" if ok is None else ("PASS" if ok else "MISS"), **extra})
+
+    envs = res.get("env_steps", {})
+    bw_cell = envs.get("BipedalWalker-v3", {}).get("random", {}).get("single", {})
+    door = envs.get("FootstepDoor-v0", {})
+    for commands in ("random", "near_nominal", "planner"):
+        d_cell = door.get(commands, {}).get("single", {})
+        key = f"FootstepDoor_{commands}/BipedalWalker"
+        if "rates" in d_cell and "rates" in bw_cell:
+            # Paired per interleaved round (the same background load on both), then the median.
+            r = summary([d / b for d, b in zip(d_cell["rates"], bw_cell["rates"])])
+            ratios[key] = r
+            add(f"FootstepDoor-v0 steps/s >= BipedalWalker-v3 (1 process, {commands.replace('_', '-')} commands)",
+                "paired ratio >= 1", f"{r['median']:.2f} (IQR {r['q1']:.2f}–{r['q3']:.2f})", r["median"] >= 1.0,
+                value=r["median"])
+        else:
+            ratios[key] = None
+            if envs:
+                why = d_cell.get("skipped") or bw_cell.get("skipped") or "not measured"
+                add(f"FootstepDoor-v0 steps/s >= BipedalWalker-v3 (1 process, {commands.replace('_', '-')} commands)",
+                    "paired ratio >= 1", f"n/a ({why})"[:120], None)
+
+    lipm_res = res.get("lipm", {})
+    if lipm_res:
+        v = lipm_res["check_steps"][str(1024)]["commands_per_s"]["median"]
+        add("LIPM check_steps, batch 1024", f">= {fmt_num(LIPM_TARGET_PER_S)} commands/s", f"{fmt_num(v)} /s",
+            v >= LIPM_TARGET_PER_S, value=v)
+
+    plans = res.get("planners", {})
+    if plans and "skipped" not in plans:
+        med_lim, p99_lim = PLAN_MEDIAN_FRACTION * nominal_period, PLAN_P99_FRACTION * nominal_period
+        for env_id, by_planner in plans.items():
+            pa, pso = by_planner.get("period-aware", {}), by_planner.get("pso-only", {})
+            if "plan_time_s" not in pa:
+                add(f"period-aware planning on {env_id}", "runs", pa.get("skipped", "n/a"), False)
+                continue
+            m, p99 = pa["plan_time_s"]["median"], pa["plan_time_s"]["p99"]
+            add(f"period-aware median plan time, {env_id}", f"<= {med_lim * 1e3:.0f} ms (1% of T_n)",
+                f"{m * 1e3:.2f} ms", m <= med_lim, value=m)
+            add(f"period-aware p99 plan time, {env_id}", f"<= {p99_lim * 1e3:.0f} ms (5% of T_n)",
+                f"{p99 * 1e3:.2f} ms", p99 <= p99_lim, value=p99)
+            if "plan_time_s" in pso:
+                speedup = pso["plan_time_s"]["median"] / m if m > 0 else math.inf
+                ratios[f"pso-only/period-aware median plan time, {env_id}"] = speedup
+                ok = speedup >= PSO_SPEEDUP_TARGET and pa["success_rate"] >= pso["success_rate"]
+                add(f"period-aware vs pso-only, {env_id}",
+                    f">= {PSO_SPEEDUP_TARGET:.0f}x faster, success >= pso-only's",
+                    f"{speedup:.1f}x, success {pa['successes']}/{pa['episodes']} vs "
+                    f"{pso['successes']}/{pso['episodes']}", ok, value=speedup)
+    return targets, ratios
+
+
+def _cell_str(cell: dict | None) -> str:
+    if not cell:
+        return "n/a"
+    if "skipped" in cell:
+        return "skipped"
+    return fmt_stat(cell["steps_per_s"])
+
+
+def _busy(meta: dict[str, Any]) -> bool:
+    """Whether the 1-minute load average suggests other work shared the CPUs during the run."""
+    loads = [x[0] for x in (meta.get("load_average_start"), meta.get("load_average_end")) if x]
+    return bool(loads) and max(loads) > 0.5 * (meta["machine"].get("cores_usable") or 1) + 1.0
+
+
+def report(res: dict[str, Any]) -> str:
+    m = res["meta"]
+    mc = m["machine"]
+    out = [f"# footstep_gym benchmark ({m['mode']} mode)", "",
+           f"Machine: {mc['cpu']}, {mc['cores_usable']} usable / {mc['cores_logical']} logical cores, "
+           f"{mc['os']}; Python {mc['python']}, numpy {mc['numpy']}, pymunk {mc['pymunk']}, "
+           f"gymnasium {mc['gymnasium']}, box2d {mc['box2d']}.", "",
+           f"Load average (1/5/15 min) at start {m.get('load_average_start')}, at end {m.get('load_average_end')}"
+           + (" — other processes were running: rates are lower and noisier than on an idle machine."
+              if _busy(m) else "."), "",
+           "All rates: median (IQR) over repetitions in this run; min/max are in benchmark.json.", ""]
+    envs = res.get("env_steps")
+    if envs:
+        out += ["## Env steps per second (resets included; vector rates count sub-env steps, 2 envs)", ""]
+        rows = []
+        for env_id, by_cmd in envs.items():
+            for commands, cell in by_cmd.items():
+                single = cell.get("single", {})
+                eplen = single.get("mean_episode_steps")
+                rows.append([env_id, commands, _cell_str(single), _cell_str(cell.get("sync")),
+                             _cell_str(cell.get("async")),
+                             f"{eplen:.1f}" if isinstance(eplen, (int, float)) else "n/a"])
+        out += [markdown_table(["env", "commands", "1 process", "sync ×2", "async ×2", "steps/episode"], rows), ""]
+        skipped = {f"{e}": c.get("single", {}).get("skipped") for e, bc in envs.items() for c in bc.values()
+                   if "skipped" in c.get("single", {})}
+        for e, why in skipped.items():
+            out.append(f"- {e}: skipped ({why})")
+        for env_id, by_cmd in envs.items():
+            if by_cmd.get("planner", {}).get("single", {}).get("replay_matches_recording") is False:
+                out.append(f"- {env_id}: replaying the planner's commands did NOT end the episodes as recorded "
+                           "(the env is not deterministic given the seed?)")
+        ratio_rows = [[k, f"{v['median']:.2f} ({v['q1']:.2f}–{v['q3']:.2f})" if v else "n/a"]
+                      for k, v in res["ratios"].items() if k.startswith("FootstepDoor")]
+        out += ["", markdown_table(["single-process steps/s ratio (paired per round)", "median (IQR)"], ratio_rows),
+                ""]
+    lp = res.get("lipm")
+    if lp:
+        rows = [["check_step (scalar)", 1, fmt_stat(lp["check_step"]["commands_per_s"]),
+                 f"{1e6 / lp['check_step']['commands_per_s']['median']:.1f}"]]
+        for b, cell in lp["check_steps"].items():
+            s = cell["commands_per_s"]
+            rows.append(["check_steps", b, fmt_stat(s), f"{1e6 * int(b) / s['median']:.1f}"])
+        out += ["## LIPM feasibility checks", "",
+                markdown_table(["function", "batch", "commands/s", "µs per call"], rows), ""]
+    pl = res.get("planners")
+    if pl:
+        out += ["## Planning time per footstep (policy.act; sensing and env.step timed apart)", ""]
+        if "skipped" in pl:
+            out += [f"skipped: {pl['skipped']}", ""]
+        else:
+            rows = []
+            for env_id, by_planner in pl.items():
+                for planner, r in by_planner.items():
+                    if "skipped" in r:
+                        rows.append([env_id, planner, "skipped", "", "", "", "", "", r["skipped"][:60]])
+                        continue
+                    p = r["plan_time_s"]
+                    rows.append([env_id, planner, f"{p['median'] * 1e3:.2f}", f"{p['p95'] * 1e3:.2f}",
+                                 f"{p['p99'] * 1e3:.2f}", f"{r['sensing_time_s']['median'] * 1e3:.3f}",
+                                 f"{100 * r['pso_ran_fraction']:.0f}%", f"{r['successes']}/{r['episodes']}",
+                                 r["footsteps"]])
+            out += [markdown_table(["env", "planner", "median ms", "p95 ms", "p99 ms", "sensing ms", "PSO ran",
+                                    "success", "footsteps"], rows), ""]
+    mem = res.get("memory")
+    if mem:
+        rows = []
+        for env_id, r in mem["env"].items():
+            rows.append([f"env {env_id} (make+reset+{r['rss'].get('steps', '?')} steps)",
+                         fmt_bytes(r["tracemalloc"].get("tracemalloc_peak_bytes")),
+                         fmt_bytes(r["rss"].get("rss_delta_bytes")), fmt_bytes(r["rss"].get("max_rss_bytes"))])
+        for name, r in mem["planner"].items():
+            rows.append([f"planner {name} on {r['env_id']} (make+reset+{r['rss'].get('steps', '?')} acts)",
+                         fmt_bytes(r["tracemalloc"].get("tracemalloc_peak_bytes"))
+                         + f" (one act: {fmt_bytes(r['tracemalloc'].get('tracemalloc_peak_per_act_bytes'))})",
+                         fmt_bytes(r["rss"].get("rss_delta_bytes")), fmt_bytes(r["rss"].get("max_rss_bytes"))])
+        out += ["## Memory (fresh subprocess each; modules imported before the baseline)", "",
+                markdown_table(["what", "tracemalloc peak", "RSS growth", "process peak RSS"], rows), ""]
+    if res.get("targets"):
+        out += ["## Targets", "", markdown_table(["target", "threshold", "measured", "status"],
+                                                 [[t["target"], t["threshold"], t["measured"], t["status"]]
+                                                  for t in res["targets"]]), ""]
+    out.append(f"Total benchmark time: {m['duration_s']:.0f} s.")
+    return "\n".join(out)
+
+
+# ------------------------------------------------------------------ main
+def _loadavg() -> list[float] | None:
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except (AttributeError, OSError):
+        return None
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--full", action="store_true", help="more repetitions and episodes (several minutes)")
+    g.add_argument("--smoke", action="store_true", help=argparse.SUPPRESS)  # tiny, for the tests
+    p.add_argument("--out", type=Path, default=Path("runs/benchmark"), help="directory for benchmark.json")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--sections", default=",".join(SECTIONS),
+                   help=f"comma-separated subset of {','.join(SECTIONS)}")
+    p.add_argument("--_memory-child", dest="memory_child", default=None, help=argparse.SUPPRESS)
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    args = parse_args(argv)
+    if args.memory_child:
+        print(json.dumps(finite_json(_memory_child(json.loads(args.memory_child)))))
+        return {}
+    settings = MODES["full" if args.full else "smoke" if args.smoke else "quick"]
+    sections = [s.strip() for s in args.sections.split(",") if s.strip()]
+    unknown = set(sections) - set(SECTIONS)
+    if unknown:
+        raise SystemExit(f"unknown section(s) {sorted(unknown)}; choose from {SECTIONS}")
+    robot = load_robot()
+    started = time.time()
+    t0 = time.perf_counter()
+    res: dict[str, Any] = {"meta": {"mode": settings.name, "settings": settings.__dict__, "seed": args.seed,
+                                    "sections": sections, "machine": machine_info(),
+                                    "started_unix": started, "nominal_period_s": robot.nominal_period}}
+    res["meta"]["load_average_start"] = _loadavg()
+    replays: dict[str, list] = {}
+    if "planners" in sections or "env" in sections:
+        log("planners ...")
+        planners, replays = bench_planners(settings, args.seed)
+        if "planners" in sections:
+            res["planners"] = planners
+    if "lipm" in sections:
+        log("lipm ...")
+        res["lipm"] = bench_lipm(settings, args.seed)
+    if "env" in sections:
+        log("env steps ...")
+        res["env_steps"] = bench_envs(settings, args.seed, replays)
+    if "memory" in sections:
+        log("memory ...")
+        res["memory"] = bench_memory(settings)
+    res["meta"]["duration_s"] = time.perf_counter() - t0
+    res["meta"]["load_average_end"] = _loadavg()
+    res["targets"], res["ratios"] = evaluate_targets(res, robot.nominal_period)
+    text = report(res)
+    print(text)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "benchmark.json").write_text(json.dumps(finite_json(res), indent=2) + "\n", encoding="utf-8")
+    (args.out / "benchmark.md").write_text(text + "\n", encoding="utf-8")
+    log(f"wrote {args.out / 'benchmark.json'}")
+    return res
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,191 @@
+"""Parameters of the reference planners (``configs/planner.yaml``), validated dataclasses.
+
+The YAML has one section per stage; each section is built with
+:func:`footstep_gym.config.build`, so unknown or missing keys and bad values raise
+:class:`~footstep_gym.errors.ConfigError` naming them. Overrides (keyword arguments of
+:func:`~footstep_gym.planners.make_policy`) are given per section, either as a mapping
+(``rrt={"iterations": 200}``) or flat as ``<section>_<key>`` (``rrt_iterations=200``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from footstep_gym import config
+from footstep_gym.config import interval, nonnegative, plain, positive
+from footstep_gym.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class PredictionParams:
+    """How far ahead obstacles are predicted and how much room the robot keeps."""
+
+    horizon_s: float = positive()  # [s] moving obstacles predicted this far; beyond, only static shapes
+    safety_margin_m: float = nonnegative()  # [m] added to robot.body_radius in every collision check
+    edge_samples: int = positive()  # points checked along each body-path segment (>= 2)
+
+    def validate(self) -> None:
+        if self.edge_samples < 2:
+            raise ConfigError(f"prediction.edge_samples must be >= 2, got {self.edge_samples}")
+
+
+@dataclass(frozen=True)
+class PeriodSearchParams:
+    """Stage 1, Algorithm 1 and its collision predicate (:class:`GoalRollouts`)."""
+
+    t0_s: float = positive()  # [s] shortest period T0 the search may return
+    iterations: int = positive()  # N: resolution (T_n - T0) / 2**N
+    floor_grid: int = positive()  # periods tried for the shortest period reachable in one step
+    stride_grid: int = positive()  # strides tried for the first step's feasible stride window
+    rollout_lane_offsets_m: list = plain()  # [m] rollout lanes beside the straight line to the goal
+    rollout_stride_fractions: list = plain()  # rollout strides as fractions of rrt.step_size_m
+    rollout_lookahead_m: float = positive()  # [m] pure-pursuit lookahead along a lane
+
+    def validate(self) -> None:
+        for name in ("rollout_lane_offsets_m", "rollout_stride_fractions"):
+            value = getattr(self, name)
+            if not value or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in value):
+                raise ConfigError(f"period_search.{name} must be a non-empty list of numbers, got {value!r}")
+        if not all(0 < f <= 1 for f in self.rollout_stride_fractions):
+            raise ConfigError(f"period_search.rollout_stride_fractions must lie in (0, 1], "
+                              f"got {self.rollout_stride_fractions}")
+        for name in ("floor_grid", "stride_grid"):
+            if getattr(self, name) < 2:
+                raise ConfigError(f"period_search.{name} must be >= 2, got {getattr(self, name)}")
+
+
+@dataclass(frozen=True)
+class RRTParams:
+    """Stage 2, Algorithm 2."""
+
+    iterations: int = positive()  # samples in all (Max_iteration)
+    batch_size: int = positive()  # samples extended per vectorised batch (1 = one by one)
+    step_size_m: float = positive()  # [m] Max_step_size between nodes (<= robot.stride_front max)
+    goal_sample_rate: float = nonnegative()  # probability that a sample is the goal
+    n_paths: int = positive()  # goal-reaching paths collected before the least-cost one is taken
+    sample_margin_m: float = nonnegative()  # [m] the sampling box extends this far beyond start and goal
+    step_cost_m: float = nonnegative()  # [m] added to the cost per step (0: pure cumulative length)
+    seed_paths: int = nonnegative()  # free rollouts of the period search inserted as first branches
+
+    def validate(self) -> None:
+        if not self.goal_sample_rate < 1:
+            raise ConfigError(f"rrt.goal_sample_rate must be < 1, got {self.goal_sample_rate}")
+
+
+@dataclass(frozen=True)
+class PSOParams:
+    """Stage 3: PSO over ΔFC (eq. 6-8), ranges of Table 1."""
+
+    particles: int = positive()
+    iterations: int = positive()
+    inertia: float = nonnegative()
+    c1: float = nonnegative()  # cognitive coefficient
+    c2: float = nonnegative()  # social coefficient
+    patience: int = positive()  # stop after this many iterations without improvement > tolerance
+    tolerance: float = nonnegative()  # improvement of the objective that counts
+    d_front_stride_m: tuple[float, float] = interval()  # ΔS [m]
+    d_side_stride_m: tuple[float, float] = interval()  # ΔL [m]
+    d_turn_deg: tuple[float, float] = interval()  # Δθ [deg]
+    d_t_ss_s: tuple[float, float] = interval()  # ΔT_SS [s]
+    d_t_ds_s: tuple[float, float] = interval()  # ΔT_DS [s]
+    deviation_weight: float = positive()  # the 100 of eq. (7)
+    infeasible_penalty: float = positive()  # P_0 of eq. (7); must beat any feasible deviation
+    violation_weight: float = nonnegative()  # per metre of ZMP outside the stable region
+
+    def delta_bounds(self, vary_period: bool = True) -> tuple[list[float], list[float]]:
+        """``(low, high)`` of ΔFC in SI units; with ``vary_period=False`` ΔT_SS = ΔT_DS = 0."""
+        t_ss = self.d_t_ss_s if vary_period else (0.0, 0.0)
+        t_ds = self.d_t_ds_s if vary_period else (0.0, 0.0)
+        lo = [self.d_front_stride_m[0], self.d_side_stride_m[0], math.radians(self.d_turn_deg[0]), t_ss[0], t_ds[0]]
+        hi = [self.d_front_stride_m[1], self.d_side_stride_m[1], math.radians(self.d_turn_deg[1]), t_ss[1], t_ds[1]]
+        return lo, hi
+
+    def validate(self) -> None:
+        lo, hi = self.delta_bounds()
+        worst = self.deviation_weight * math.sqrt(sum(max(abs(a), abs(b)) ** 2 for a, b in zip(lo, hi)))
+        if self.infeasible_penalty <= worst:
+            raise ConfigError(
+                f"pso.infeasible_penalty={self.infeasible_penalty} must exceed deviation_weight x the largest "
+                f"increment ({worst:.3g}), or an infeasible command could beat a feasible one")
+
+
+@dataclass(frozen=True)
+class PSOOnlyParams:
+    """The ``pso-only`` baseline: PSO over the full command box, no stages 1-2."""
+
+    particles: int = positive()
+    iterations: int = positive()
+    inertia: float = nonnegative()
+    c1: float = nonnegative()
+    c2: float = nonnegative()
+    patience: int = positive()
+    tolerance: float = nonnegative()
+    goal_weight: float = positive()  # per metre from the robot centre after the step to the goal
+    collision_penalty: float = positive()  # if any predicted body point is closer than the safe distance
+    intrusion_weight: float = nonnegative()  # per metre of the deepest intrusion into the safe distance
+    infeasible_penalty: float = positive()  # if the LIPM or the kinematic limits reject the command
+    violation_weight: float = nonnegative()  # per metre of ZMP outside the stable region
+    dwell_periods: int = nonnegative()  # after the step, the new centre is also checked this many T_n ahead
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """All sections of ``configs/planner.yaml``."""
+
+    prediction: PredictionParams
+    period_search: PeriodSearchParams
+    rrt: RRTParams
+    pso: PSOParams
+    pso_only: PSOOnlyParams
+
+
+_SECTION_TYPES = {
+    "prediction": PredictionParams,
+    "period_search": PeriodSearchParams,
+    "rrt": RRTParams,
+    "pso": PSOParams,
+    "pso_only": PSOOnlyParams,
+}
+
+
+def _nest_overrides(overrides: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    nested: dict[str, dict[str, Any]] = {name: {} for name in _SECTION_TYPES}
+    for key, value in overrides.items():
+        if key in nested:
+            if not isinstance(value, Mapping):
+                raise ConfigError(f"planner override {key!r} must be a mapping, got {value!r}")
+            nested[key].update(value)
+            continue
+        for name in sorted(_SECTION_TYPES, key=len, reverse=True):  # "pso_only_x" before "pso_x"
+            prefix = name + "_"
+            fields = {f.name for f in dataclasses.fields(_SECTION_TYPES[name])}
+            if key.startswith(prefix) and key[len(prefix):] in fields:
+                nested[name][key[len(prefix):]] = value
+                break
+        else:
+            known = [f"{n}_{f.name}" for n, cls in _SECTION_TYPES.items() for f in dataclasses.fields(cls)]
+            raise ConfigError(config._unknown_keys_message("planner overrides", [key], known + list(_SECTION_TYPES)))
+    return nested
+
+
+def load_planner_config(overrides: Mapping[str, Any] | None = None) -> PlannerConfig:
+    """``configs/planner.yaml`` with ``overrides`` applied (see module doc)."""
+    data = config.read_yaml("planner.yaml")
+    unknown = [k for k in data if k not in _SECTION_TYPES]
+    if unknown:
+        raise ConfigError(config._unknown_keys_message("planner.yaml", unknown, list(_SECTION_TYPES)))
+    missing = [k for k in _SECTION_TYPES if k not in data]
+    if missing:
+        raise ConfigError(f"planner.yaml: missing section(s) {', '.join(missing)}")
+    nested = _nest_overrides(overrides or {})
+    sections = {}
+    for name, cls in _SECTION_TYPES.items():
+        section = data[name]
+        if not isinstance(section, Mapping):
+            raise ConfigError(f"planner.yaml: section {name!r} must be a mapping, got {section!r}")
+        section = {**section, **nested[name]}
+        sections[name] = config.build(cls, section, f"planner.yaml:{name}")
+    return PlannerConfig(**sections)

@@ -1,0 +1,177 @@
+"""Time-aware obstacle prediction for the planners: clearance of points at their own times.
+
+:meth:`footstep_gym.sensing.Snapshot.shapes_at` freezes every obstacle at *one* instant.
+A planner that looks several steps ahead needs each point of a candidate body path
+checked against the obstacles *at the time the robot would be there* (a node at depth
+``d`` of the tree is reached about ``d * T`` after now). :class:`ObstaclePredictor` does
+that for a whole batch of ``(point, time)`` pairs in one numpy evaluation, with the same
+constant-velocity / constant-angular-velocity extrapolation as ``shapes_at`` (the tests
+check that the two agree), built only from what the
+:class:`~footstep_gym.sensing.Snapshot` exposes.
+
+Beyond ``horizon`` [s] the extrapolation is not trusted: moving obstacles are left out
+there and only obstacles that do not move (walls, posts) are checked. A greedy planner
+replans every step, so what it needs from the far future is only "is there a way
+around the static scene".
+
+Every shape is held as a thick segment (a circle is a segment of zero length) and 2D
+points as complex numbers ``x + iy``, so one vectorised expression serves all shapes.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from footstep_gym import footstep, lipm
+from footstep_gym.robot import Robot
+from footstep_gym.sensing import ObstacleView, Snapshot
+
+
+def _moves(view: ObstacleView) -> bool:
+    return (not view.static) and (any(float(c) != 0.0 for c in view.velocity) or view.angular_velocity != 0.0)
+
+
+class ObstaclePredictor:
+    """Clearance of body points at given times against the obstacles of a :class:`Snapshot`.
+
+    ``horizon`` [s]: moving obstacles are predicted up to this time and ignored beyond it
+    (``np.inf``: always predicted). ``moving_only``: leave obstacles that do not move out.
+    """
+
+    def __init__(self, snapshot: Snapshot, horizon: float = np.inf, moving_only: bool = False) -> None:
+        self.horizon = float(horizon)
+        views = [v for v in snapshot.obstacles if _moves(v) or not moving_only]
+        n = len(views)
+
+        def col(values: list) -> np.ndarray:
+            return np.array(values, dtype=float).reshape(n)
+
+        def cplx(pairs: list) -> np.ndarray:
+            arr = np.array(pairs, dtype=float).reshape(n, 2)
+            return arr[:, 0] + 1j * arr[:, 1]
+
+        self._position = cplx([v.position for v in views])
+        self._velocity = cplx([v.velocity for v in views])
+        self._angle = col([v.angle for v in views])
+        self._omega = col([v.angular_velocity for v in views])
+        self._a = cplx([v.a for v in views])  # body frame
+        self._ab = cplx([v.b if v.kind == "segment" else v.a for v in views]) - self._a  # 0 for a circle
+        self._ab2 = np.abs(self._ab) ** 2
+        self._radius = col([v.radius for v in views])
+        self._moving = np.array([_moves(v) for v in views], dtype=bool).reshape(n)
+
+    @property
+    def n_shapes(self) -> int:
+        return self._radius.size
+
+    def _distance2(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """Squared distances ``(N, S)`` from each point to each shape's centre line (``inf``: not checked)."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        p = pts[:, 0] + 1j * pts[:, 1]
+        tt = np.broadcast_to(np.asarray(times, dtype=float), p.shape)[:, None]
+        rot = np.exp(1j * (self._angle + self._omega * tt))
+        ap = p[:, None] - (self._position + self._velocity * tt + rot * self._a)
+        ab = rot * self._ab
+        u = (ap * ab.conj()).real / np.where(self._ab2 > 0, self._ab2, 1.0)
+        np.clip(u, 0.0, 1.0, out=u)
+        d = ap - u * ab
+        d2 = d.real ** 2 + d.imag ** 2
+        if np.isfinite(self.horizon):
+            d2[(tt > self.horizon) & self._moving] = np.inf
+        return d2
+
+    def distances(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """Signed distance [m] from point ``i`` at time ``times[i]`` to each shape's surface: ``(N, S)``.
+
+        Shapes that move are ``+inf`` for times beyond the horizon.
+        """
+        return np.sqrt(self._distance2(points, times)) - self._radius
+
+    def clearance(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """Distance [m] from each point (at its own time) to the nearest shape surface, ``(N,)``."""
+        d = self.distances(points, times)
+        if d.shape[1] == 0:
+            return np.full(d.shape[0], np.inf)
+        return d.min(axis=1)
+
+    def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
+        """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots)."""
+        return (self._distance2(points, times) >= (self._radius + safe_distance) ** 2).all(axis=1)
+
+
+_SAMPLES_CACHE: dict[int, np.ndarray] = {}
+
+
+def body_path_points(starts: np.ndarray, ends: np.ndarray, t_start: np.ndarray, t_end: np.ndarray,
+                     samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points and times along straight body-path segments, ``samples`` per segment, ends included.
+
+    ``starts``/``ends`` ``(N, 2)``, ``t_start``/``t_end`` ``(N,)``; returns ``(N * samples, 2)``
+    points and ``(N * samples,)`` times, segment by segment.
+    """
+    s = _SAMPLES_CACHE.get(samples)
+    if s is None:
+        s = _SAMPLES_CACHE.setdefault(samples, np.linspace(0.0, 1.0, samples))
+    pts = starts[:, None, :] + s[None, :, None] * (ends - starts)[:, None, :]
+    times = t_start[:, None] + s[None, :] * (t_end - t_start)[:, None]
+    return pts.reshape(-1, 2), times.reshape(-1)
+
+
+@functools.lru_cache(maxsize=4096)
+def sway_band(robot: Robot, period: float, samples: int = 24) -> tuple[float, float]:
+    """``(toward, away)`` [m]: how far the CoM strays from the feet's centre line during a step.
+
+    In the steady gait of stepping at ``period`` (``T_SS = period - nominal T_DS``, nominal
+    side stride) the CoM sways towards the support foot by up to ``toward`` and away from
+    it by up to ``away`` (about 3.4 / 1.7 cm at the nominal period, 1.2 / 1.0 cm at
+    ``T_SS = 0.1 s``), closed forms of :class:`footstep_gym.lipm.StepTrajectory`.
+    """
+    t_ds = robot.nominal_t_ds
+    t_ss = max(period - t_ds, robot.t_ss[0])
+    L = robot.nominal_side_stride
+    command = (0.0, L, 0.0, t_ss, t_ds)
+    com, vel = lipm.steady_state(robot, command, footstep.RIGHT)
+    _, _, p, _, _ = lipm.check_step(robot, com, vel, command, footstep.RIGHT)
+    traj = lipm.StepTrajectory(robot.omega, com, vel, p, complex(0.0, L), t_ss, t_ds)
+    lateral = [traj.state(t)[0].imag - 0.5 * L for t in np.linspace(0.0, t_ss + t_ds, samples)]
+    return max(-min(lateral), 0.0), max(max(lateral), 0.0)
+
+
+class BodyModel:
+    """The robot's body circle along a walk of nodes, checked against an :class:`ObstaclePredictor`.
+
+    The planners' walks are chains of *nodes* (robot centres, paper Fig. 5); the body
+    moves along the midpoints of consecutive nodes. The LIPM's lateral sway is folded in
+    per period: the circle is shifted towards the support foot by ``(toward - away) / 2``
+    and its radius grown by ``(toward + away) / 2`` (:func:`sway_band`), plus
+    ``margin`` [m] for everything else (prediction error, turning).
+    """
+
+    def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float) -> None:
+        self.predictor = predictor
+        self.robot = robot
+        self.margin = margin
+
+    def sway(self, period: float) -> tuple[float, float]:
+        """``(shift towards the support foot, radius growth)`` [m] at ``period`` (cached per 0.1 ms of period)."""
+        toward, away = sway_band(self.robot, round(period, 4))
+        return 0.5 * (toward - away), 0.5 * (toward + away)
+
+    def free(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray, period: float) -> np.ndarray:
+        """Whether the body centred near ``points`` at ``times`` clears every obstacle, ``(N,)`` bool.
+
+        ``support_normals (N, 2)``: unit vectors from the centre line towards the support
+        foot of the step each point belongs to (zero vectors: no sway shift).
+        """
+        shift, grow = self.sway(period)
+        pts = np.asarray(points, dtype=float).reshape(-1, 2) + shift * np.asarray(support_normals).reshape(-1, 2)
+        return self.predictor.free(pts, times, self.robot.body_radius + self.margin + grow)
+
+
+def support_normal(heading: np.ndarray, side: np.ndarray) -> np.ndarray:
+    """Unit vectors ``(N, 2)`` towards the support foot: ``side`` (+1 left) times the left normal of ``heading``."""
+    heading = np.asarray(heading, dtype=float)
+    side = np.asarray(side, dtype=float)
+    return np.stack([-side * np.sin(heading), side * np.cos(heading)], axis=-1)

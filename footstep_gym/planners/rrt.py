@@ -1,0 +1,308 @@
+"""Stage 2: the modified RRT (paper Algorithm 2, Fig. 3-5), time-aware.
+
+A tree of *nodes* (robot centres in the paper's footstep convention, Fig. 5) grows from
+the support foot's node towards the goal:
+
+1. :meth:`ModifiedRRT._sample_points` — random coordinates (the goal with probability
+   ``goal_sample_rate``) in the box around start and goal;
+2. :meth:`_nearest_nodes` — the closest tree node of each;
+3. :meth:`_restrict_to_angle_limits` — if the direction from that node lies outside the
+   hardware angle limits relative to the node's heading (the previous support foot's
+   direction; ``-θ_inner … θ_outer`` mirrored by the side that swings, paper Fig. 4),
+   a direction is re-drawn uniformly inside the limits (Algorithm 2, steps 6-8);
+4. :meth:`_steer` — the distance is clamped to ``step_size`` (steps 9-10);
+5. :meth:`_edges_free` — node and edge are checked against the obstacles (steps 11-12);
+6. :meth:`_insert` — the node joins the tree with cost = parent's cost + edge length
+   (step 13) + ``step_cost`` (see below); nodes within ``goal_radius`` of the goal are
+   remembered (steps 14-16);
+7. after ``n_paths`` goal nodes (or all iterations) the least-cost path is returned
+   (step 19). No shortcutting: the path's edges are the tree's edges.
+
+**Time.** A node at depth ``d`` is reached about ``d T`` after now when every step takes
+the period ``T``. The body (the robot centre between its feet) walks from
+``(grandparent + parent) / 2`` to ``(parent + node) / 2`` during ``[(d - 1) T, d T]``, and
+that segment is checked against the obstacles predicted *at those times* by a
+:class:`~footstep_gym.planners.prediction.BodyModel` (robot radius, safety margin and
+the CoM's sway towards the support foot). So a
+shorter period lets the tree slip through a gap before a door wing closes it, and
+short edges (small steps) let it wait for an obstacle to pass.
+
+**Extensions beyond Algorithm 2** (each switchable by its argument):
+
+* ``seeds``: walks already known to be collision-free (the period search's free
+  rollouts) are inserted as branches before sampling, so the tree never does worse
+  than the evidence that chose the period;
+* ``step_cost`` [m per step] is added to every edge's length in the cost (0: the
+  paper's pure cumulative length). In a time-aware tree a step is also time: of two
+  equally long paths the one with fewer, longer steps arrives earlier, so it is
+  preferred (the period search's rollouts at half and full stride trace the same line);
+* ``first_stride``: the first step's length is kept inside the strides the LIPM accepts
+  from the current CoM state (at a short period the robot cannot stop in one step);
+* :meth:`ModifiedRRT.best_partial_path`: when no path reaches the goal, the branch to
+  the node closest to the goal *where the robot could then keep stepping in place
+  until the prediction horizon*, so that the greedy planner advances as far as it
+  safely can and waits there instead of walking into a closing gap.
+
+**Vectorised.** Samples are drawn ``batch_size`` at a time, each extended from its
+nearest node in the tree as it was at the start of the batch, and all the batch's
+edges are collision-checked in one call (``batch_size=1`` is Algorithm 2 verbatim).
+Each batch extends the tree by at most one level, so ``iterations / batch_size`` bounds
+the depth of the tree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, Sequence
+
+import numpy as np
+
+from footstep_gym import footstep
+from footstep_gym.planners.period_search import WalkStart
+from footstep_gym.planners.prediction import body_path_points, support_normal
+from footstep_gym.robot import Robot
+
+class BodyCheck(Protocol):
+    """``free(points (N, 2), times (N,), support_normals (N, 2), period) -> (N,)`` bool (e.g. :class:`BodyModel`)."""
+
+    def free(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray,
+             period: float) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class RRTPath:
+    """A path of the tree from its root: ``nodes (n + 1, 2)`` [m] with the root first.
+
+    ``headings[i]`` [rad] is the heading of node ``i`` (its support foot's yaw: the
+    direction of the edge into it; the root's is the current support foot's yaw);
+    ``sides[i]`` the side of the foot placed at node ``i``; ``cost`` the cumulative
+    length [m] (plus the step costs); ``reached_goal`` whether the last node lies in the goal region.
+    """
+
+    nodes: np.ndarray
+    headings: np.ndarray
+    sides: np.ndarray
+    cost: float
+    reached_goal: bool
+
+    @property
+    def n_steps(self) -> int:
+        return len(self.nodes) - 1
+
+
+class Tree:
+    """The RRT's nodes in preallocated arrays (index 0 is the root)."""
+
+    def __init__(self, start: WalkStart, capacity: int) -> None:
+        self.capacity = capacity
+        self.xy = np.empty((capacity, 2))
+        self.heading = np.empty(capacity)
+        self.side = np.empty(capacity, dtype=int)
+        self.parent = np.empty(capacity, dtype=int)
+        self.cost = np.empty(capacity)
+        self.depth = np.empty(capacity, dtype=int)
+        self.body = np.empty((capacity, 2))  # body position when the node is reached
+        self.xy[0] = start.node
+        self.heading[0] = start.heading
+        self.side[0] = start.side
+        self.parent[0] = -1
+        self.cost[0] = 0.0
+        self.depth[0] = 0
+        self.body[0] = start.body
+        self.n = 1
+
+    def path_to(self, index: int, reached_goal: bool) -> RRTPath:
+        chain = []
+        while index >= 0:
+            chain.append(index)
+            index = int(self.parent[index])
+        chain.reverse()
+        idx = np.array(chain)
+        return RRTPath(self.xy[idx].copy(), self.heading[idx].copy(), self.side[idx].copy(),
+                       float(self.cost[idx[-1]]), reached_goal)
+
+
+class ModifiedRRT:
+    """Algorithm 2 with the parameters of ``configs/planner.yaml`` (section ``rrt``).
+
+    ``iterations``: samples in all; ``batch_size``: samples extended per vectorised batch;
+    ``step_size``: largest distance between nodes [m]; ``goal_sample_rate``: probability
+    a sample is the goal; ``n_paths``: goal nodes collected before stopping;
+    ``sample_margin``: the sampling box extends this far [m] beyond start and goal;
+    ``edge_samples``: points checked along each body segment; ``step_cost``: cost [m]
+    added per step.
+    """
+
+    def __init__(self, robot: Robot, *, iterations: int, batch_size: int, step_size: float,
+                 goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int,
+                 step_cost: float = 0.0) -> None:
+        self.robot = robot
+        self.iterations = iterations
+        self.batch_size = batch_size
+        self.step_size = step_size
+        self.goal_sample_rate = goal_sample_rate
+        self.n_paths = n_paths
+        self.sample_margin = sample_margin
+        self.edge_samples = edge_samples
+        self.step_cost = step_cost
+        self.tree: Tree | None = None
+        self.goal_nodes: list[int] = []
+
+    # ------------------------------------------------------------------ the loop
+    def plan(self, start: WalkStart, goal: Sequence[float], goal_radius: float, body: BodyCheck,
+             period: float, rng: np.random.Generator, *, seeds: Sequence[np.ndarray] = (),
+             first_stride: tuple[float, float] | None = None) -> RRTPath | None:
+        """The least-cost path to the goal region, or ``None`` if no node reached it.
+
+        ``period`` [s]: time per step (a node at depth ``d`` is checked at ``d * period``).
+        ``seeds``: collision-free walks ``(k + 1, 2)`` from the root node (row 0) inserted
+        first; ``first_stride``: ``(lo, hi)`` [m] for the length of the root's extensions.
+        After a ``None``, :meth:`best_partial_path` gives the branch that got closest.
+        """
+        goal = np.asarray(goal, dtype=float)
+        n_seeded = sum(max(len(sd) - 1, 0) for sd in seeds)
+        self.tree = tree = Tree(start, self.iterations + 1 + n_seeded)
+        self.goal_nodes = []
+        self._goal, self._goal_radius, self._period = goal, goal_radius, period
+        self._body = body
+        self._first_stride = first_stride
+        self._box = self._sampling_box(start.node, goal)
+        if np.linalg.norm(start.node - goal) <= goal_radius:
+            self.goal_nodes.append(0)
+        for seed in seeds:
+            self._insert_seed(np.asarray(seed, dtype=float))
+        done = 0
+        while done < self.iterations and len(self.goal_nodes) < self.n_paths:
+            batch = min(self.batch_size, self.iterations - done)
+            done += batch
+            samples = self._sample_points(batch, rng)
+            parents = self._nearest_nodes(samples)
+            delta = self._restrict_to_angle_limits(parents, samples, rng)
+            new_xy, new_heading, length = self._steer(parents, samples, delta)
+            free = self._edges_free(parents, new_xy)
+            self._insert(parents[free], new_xy[free], new_heading[free], length[free])
+        if not self.goal_nodes:
+            return None
+        best = min(self.goal_nodes, key=lambda i: tree.cost[i])
+        return tree.path_to(best, reached_goal=True)
+
+    def best_partial_path(self, stay_until: float | None = None) -> RRTPath:
+        """For when :meth:`plan` fails: the branch to the node closest to the goal (ties: least cost).
+
+        With ``stay_until`` [s], only nodes where the robot could keep stepping in place
+        until that time (body from its arrival point to the node, then on the node, all
+        free) are candidates, the root included; if there is none, every node is.
+        """
+        tree = self.tree
+        assert tree is not None, "plan() first"
+        n = tree.n
+        key = np.linalg.norm(tree.xy[:n] - self._goal, axis=1) + 1e-6 * tree.cost[:n]
+        if stay_until is not None:
+            ok = self._can_stay(np.arange(n), stay_until)
+            if ok.any():
+                key = np.where(ok, key, np.inf)
+        return tree.path_to(int(np.argmin(key)), reached_goal=False)
+
+    def _can_stay(self, nodes: np.ndarray, until: float) -> np.ndarray:
+        """Whether stepping in place at each node, from its arrival until ``until`` [s], stays free."""
+        tree, e = self.tree, self.edge_samples
+        t_arrive = tree.depth[nodes] * self._period
+        # the in-place step: body from where it arrived to the node itself
+        pts_a, times_a = body_path_points(tree.body[nodes], tree.xy[nodes], t_arrive, t_arrive + self._period, e)
+        # then standing there, checked at e more instants up to ``until``
+        t_end = np.maximum(until, t_arrive + self._period)
+        pts_b, times_b = body_path_points(tree.xy[nodes], tree.xy[nodes], t_arrive + self._period, t_end, e)
+        pts = np.concatenate([pts_a.reshape(-1, e, 2), pts_b.reshape(-1, e, 2)], axis=1).reshape(-1, 2)
+        times = np.concatenate([times_a.reshape(-1, e), times_b.reshape(-1, e)], axis=1).reshape(-1)
+        normals = np.zeros((len(nodes), 2 * e, 2))
+        normals[:, :e] = support_normal(tree.heading[nodes], tree.side[nodes])[:, None, :]
+        return self._body.free(pts, times, normals.reshape(-1, 2), self._period).reshape(len(nodes), 2 * e).all(axis=1)
+
+    # ------------------------------------------------------------------ the steps
+    def _sampling_box(self, start: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.minimum(start, goal) - self.sample_margin
+        hi = np.maximum(start, goal) + self.sample_margin
+        return lo, hi
+
+    def _sample_points(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """Step 4: ``n`` random points in the box; at most one goal sample per batch (duplicates add nothing)."""
+        lo, hi = self._box
+        pts = lo + (hi - lo) * rng.random((n, 2))
+        if rng.random() < 1.0 - (1.0 - self.goal_sample_rate) ** n:
+            pts[0] = self._goal
+        return pts
+
+    def _nearest_nodes(self, samples: np.ndarray) -> np.ndarray:
+        """Step 5: index of the nearest tree node of each sample."""
+        xy = self.tree.xy[: self.tree.n]
+        d2 = ((samples[:, None, :] - xy[None, :, :]) ** 2).sum(axis=-1)
+        return np.argmin(d2, axis=1)
+
+    def _restrict_to_angle_limits(self, parents: np.ndarray, samples: np.ndarray,
+                                  rng: np.random.Generator) -> np.ndarray:
+        """Steps 6-8: turn ``delta`` [rad] of each extension relative to the parent's heading.
+
+        The foot placed at the new node swings opposite the parent's foot, so the limits
+        are :func:`footstep.turn_bounds` of the parent's side. Outside them, a turn is
+        re-drawn uniformly inside them.
+        """
+        tree = self.tree
+        vec = samples - tree.xy[parents]
+        delta = footstep.wrap_angle(np.arctan2(vec[:, 1], vec[:, 0]) - tree.heading[parents])
+        lo, hi = footstep.turn_bounds(tree.side[parents], self.robot)
+        outside = (delta < lo) | (delta > hi)
+        redraw = lo + (hi - lo) * rng.random(len(parents))
+        return np.where(outside, redraw, delta)
+
+    def _steer(self, parents: np.ndarray, samples: np.ndarray,
+               delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Steps 9-10: new node at ``min(distance, step_size)`` along the (restricted) direction."""
+        tree = self.tree
+        base = tree.xy[parents]
+        length = np.minimum(np.linalg.norm(samples - base, axis=1), self.step_size)
+        if self._first_stride is not None:
+            root = parents == 0
+            length = np.where(root, np.clip(length, *self._first_stride), length)
+        heading = footstep.wrap_angle(tree.heading[parents] + delta)
+        new_xy = base + length[:, None] * np.stack([np.cos(heading), np.sin(heading)], axis=1)
+        return new_xy, heading, length
+
+    def _edges_free(self, parents: np.ndarray, new_xy: np.ndarray) -> np.ndarray:
+        """Step 11: the body segment of each extension clears every obstacle at its own time."""
+        tree = self.tree
+        starts = tree.body[parents]
+        ends = 0.5 * (tree.xy[parents] + new_xy)
+        t0 = tree.depth[parents] * self._period
+        pts, times = body_path_points(starts, ends, t0, t0 + self._period, self.edge_samples)
+        normals = np.repeat(support_normal(tree.heading[parents], tree.side[parents]), self.edge_samples, axis=0)
+        free = self._body.free(pts, times, normals, self._period)
+        return free.reshape(len(parents), self.edge_samples).all(axis=1)
+
+    def _insert_seed(self, nodes: np.ndarray) -> None:
+        """Insert a known-free walk (row 0 = the root) as a chain of nodes."""
+        parent = 0
+        for xy in nodes[1:]:
+            vec = xy - self.tree.xy[parent]
+            length = float(np.hypot(*vec))
+            if length <= 1e-9:
+                break
+            heading = np.array([np.arctan2(vec[1], vec[0])])
+            self._insert(np.array([parent]), xy[None], heading, np.array([length]))
+            parent = self.tree.n - 1
+
+    def _insert(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray,
+                length: np.ndarray) -> None:
+        """Steps 12-16: append the nodes, with cumulative length as cost; note goal nodes."""
+        tree = self.tree
+        k = len(parents)
+        sl = slice(tree.n, tree.n + k)
+        tree.xy[sl] = new_xy
+        tree.heading[sl] = heading
+        tree.side[sl] = -tree.side[parents]
+        tree.parent[sl] = parents
+        tree.cost[sl] = tree.cost[parents] + length + self.step_cost
+        tree.depth[sl] = tree.depth[parents] + 1
+        tree.body[sl] = 0.5 * (tree.xy[parents] + new_xy)
+        in_goal = np.linalg.norm(new_xy - self._goal, axis=1) <= self._goal_radius
+        self.goal_nodes.extend((tree.n + np.flatnonzero(in_goal)).tolist())
+        tree.n += k

@@ -1,0 +1,274 @@
+"""Configuration (footstep_gym/config.py) as a user meets it: YAML files and gymnasium.make overrides.
+
+The reference is the YAML read directly with PyYAML; every bad input must raise a
+``ValueError`` (``ConfigError``) whose message names the offending key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import shutil
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+import footstep_gym
+from footstep_gym import config
+from footstep_gym.config import config_dir
+from footstep_gym.errors import ConfigError
+from footstep_gym.robot import Robot, load_robot
+from footstep_gym.scenarios import DoorConfig
+
+NOMINAL = np.array([0.0, 0.08, 0.0, 0.6, 0.2])
+SCENARIO_FILES = {"FootstepDoor-v0": "door", "FootstepCrossing-v0": "crossing", "FootstepCrowd-v0": "crowd"}
+
+
+def read_yaml(name: str) -> dict:
+    with open(config_dir() / name, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+def as_plain(value):
+    """Tuples -> lists, so a dataclass field compares with the YAML value."""
+    if isinstance(value, tuple):
+        return [as_plain(v) for v in value]
+    return value
+
+
+def rod(env):
+    (view,) = [o for o in env.unwrapped.sensing().obstacles if not o.static]
+    return view
+
+
+# ------------------------------------------------------------------ the files reach the env
+@pytest.mark.parametrize("env_id, name", SCENARIO_FILES.items())
+def test_yaml_values_reach_the_env(env_id, name):
+    env = gym.make(env_id).unwrapped
+    for obj, data in ((env.robot, read_yaml("robot.yaml")), (env.config, read_yaml("env.yaml")),
+                      (env.scenario_config, read_yaml(f"scenarios/{name}.yaml"))):
+        fields = {f.name for f in dataclasses.fields(obj)}
+        assert fields == set(data), (type(obj).__name__, fields ^ set(data))  # no key unused, none missing
+        for key, value in data.items():
+            assert as_plain(getattr(obj, key)) == value, key
+
+
+def test_robot_box_matches_yaml():
+    data = read_yaml("robot.yaml")
+    env = gym.make("FootstepDoor-v0")
+    turn = max(data["turn_inner"], data["turn_outer"])
+    low = [data["stride_front"][0], data["stride_side"][0], -turn, data["t_ss"][0], data["t_ds"][0]]
+    high = [data["stride_front"][1], data["stride_side"][1], turn, data["t_ss"][1], data["t_ds"][1]]
+    assert env.action_space.low == pytest.approx(low)
+    assert env.action_space.high == pytest.approx(high)
+    assert env.action_space.dtype == np.float32
+    k = read_yaml("env.yaml")["n_obstacles_observed"]
+    assert env.observation_space.shape == (12 + 5 * k,)
+
+
+def test_configs_are_immutable():
+    env = gym.make("FootstepDoor-v0").unwrapped
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        env.robot.body_radius = 1.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        env.scenario_config.door_speed = 1.0
+
+
+# ------------------------------------------------------------------ overrides through gymnasium.make
+def test_scenario_override_changes_the_door():
+    env = gym.make("FootstepDoor-v0", door_speed=8.0)
+    env.reset(seed=0)
+    assert rod(env).angular_velocity == pytest.approx(-math.radians(8.0))
+    # Overrides do not leak into the next env.
+    default = gym.make("FootstepDoor-v0")
+    default.reset(seed=0)
+    assert rod(default).angular_velocity == pytest.approx(-math.radians(read_yaml("scenarios/door.yaml")["door_speed"]))
+
+
+def test_env_override_changes_the_reward():
+    env = gym.make("FootstepDoor-v0", reward_time=-0.5, reward_step=0.0)
+    env.reset(seed=0)
+    _, reward, _, _, info = env.step(NOMINAL)
+    assert info["rewards"]["time"] == pytest.approx(-0.5 * 0.8)
+    assert info["rewards"]["step"] == 0.0
+
+
+def test_robot_override_changes_the_body():
+    env = gym.make("FootstepDoor-v0", robot={"body_radius": 0.12, "turn_outer": 0.35})
+    env.reset(seed=0)
+    assert env.unwrapped.world.robot_radius == pytest.approx(0.12)
+    assert env.unwrapped.world.robot_shape.radius == pytest.approx(0.12)
+    assert env.action_space.high[2] == pytest.approx(0.35)
+
+
+def test_override_dir_by_environment_variable(tmp_path, monkeypatch):
+    shutil.copytree(config_dir(), tmp_path / "configs")
+    path = tmp_path / "configs" / "scenarios" / "door.yaml"
+    data = yaml.safe_load(path.read_text())
+    data["door_speed"] = 5.0
+    path.write_text(yaml.safe_dump(data))
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(tmp_path / "configs"))
+    env = gym.make("FootstepDoor-v0")
+    env.reset(seed=0)
+    assert rod(env).angular_velocity == pytest.approx(-math.radians(5.0))
+
+
+def test_missing_config_dir(tmp_path, monkeypatch):
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(tmp_path / "nowhere"))
+    with pytest.raises(ConfigError, match="nowhere"):
+        gym.make("FootstepDoor-v0")
+
+
+@pytest.mark.parametrize("edit, key", [
+    (lambda d: d.update(door_sped=3.0), "door_sped"),      # unknown key in the file
+    (lambda d: d.pop("door_radius"), "door_radius"),       # missing key
+])
+def test_bad_yaml_file_is_rejected_by_name(tmp_path, monkeypatch, edit, key):
+    shutil.copytree(config_dir(), tmp_path / "configs")
+    path = tmp_path / "configs" / "scenarios" / "door.yaml"
+    data = yaml.safe_load(path.read_text())
+    edit(data)
+    path.write_text(yaml.safe_dump(data))
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(tmp_path / "configs"))
+    with pytest.raises(ValueError, match=key):
+        gym.make("FootstepDoor-v0")
+
+
+def test_yaml_that_is_not_a_mapping(tmp_path, monkeypatch):
+    shutil.copytree(config_dir(), tmp_path / "configs")
+    (tmp_path / "configs" / "env.yaml").write_text("- 1\n- 2\n")
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(tmp_path / "configs"))
+    with pytest.raises(ConfigError, match="mapping"):
+        gym.make("FootstepDoor-v0")
+
+
+# ------------------------------------------------------------------ bad values, named
+def test_unknown_key_is_named_with_a_suggestion():
+    with pytest.raises(ValueError) as exc:
+        gym.make("FootstepDoor-v0", door_sped=3)
+    assert isinstance(exc.value, footstep_gym.ConfigError)
+    assert "'door_sped'" in str(exc.value) and "door_speed" in str(exc.value)
+
+
+def test_key_of_another_scenario_is_unknown():
+    with pytest.raises(ValueError, match="door_speed"):
+        gym.make("FootstepCrowd-v0", door_speed=8.0)
+    with pytest.raises(ValueError, match="crowd_size"):
+        gym.make("FootstepDoor-v0", crowd_size=4)
+
+
+@pytest.mark.parametrize("env_id, kwargs, key", [
+    ("FootstepDoor-v0", dict(door_radius=-0.5), "door_radius"),
+    ("FootstepDoor-v0", dict(robot={"body_radius": -0.1}), "body_radius"),
+    ("FootstepDoor-v0", dict(robot={"body_radus": 0.1}), "body_radus"),
+    ("FootstepDoor-v0", dict(robot={"nominal_t_ss": 0.7}), "nominal_t_ss"),  # outside t_ss
+    ("FootstepDoor-v0", dict(robot=0.1), "robot"),
+    ("FootstepDoor-v0", dict(door_speed=-8.0), "door_speed"),
+    ("FootstepDoor-v0", dict(door_speed="fast"), "door_speed"),
+    ("FootstepDoor-v0", dict(door_speed=float("nan")), "door_speed"),
+    ("FootstepDoor-v0", dict(goal=[1.0]), "goal"),
+    ("FootstepDoor-v0", dict(corridor_y=[0.0, -1.0]), "corridor_y"),
+    ("FootstepDoor-v0", dict(corridor_y=[-0.3, 0.0]), "corridor_y"),  # above the rod's tip
+    ("FootstepDoor-v0", dict(max_steps=2.5), "max_steps"),
+    ("FootstepDoor-v0", dict(max_steps=True), "max_steps"),
+    ("FootstepDoor-v0", dict(time_limit=0.0), "time_limit"),
+    ("FootstepDoor-v0", dict(n_obstacles_observed=0), "n_obstacles_observed"),
+    ("FootstepDoor-v0", dict(render_size=[0, 10]), "render_size"),
+    ("FootstepDoor-v0", dict(render_size=[-640, 480]), "render_size"),
+    ("FootstepDoor-v0", dict(render_size=[640.5, 480]), "render_size"),
+    ("FootstepCrowd-v0", dict(crowd_size=0), "crowd_size"),
+    ("FootstepCrowd-v0", dict(ring_radius=0.1), "ring_radius"),
+    ("FootstepCrowd-v0", dict(breathing_period=[0.0, 1.0]), "breathing_period"),
+    ("FootstepCrossing-v0", dict(obstacle_speed=0.0), "obstacle_speed"),
+    ("FootstepCrossing-v0", dict(timing_jitter=-1.0), "timing_jitter"),
+])
+def test_bad_value_is_rejected_by_name(env_id, kwargs, key):
+    with pytest.raises(ValueError) as exc:
+        gym.make(env_id, **kwargs)
+    assert isinstance(exc.value, ConfigError)
+    assert key in str(exc.value)
+
+
+@pytest.mark.parametrize("randomize, words", [
+    ({"door_sped": [8, 17]}, ["door_sped"]),
+    ({"door_speed": [17, 8]}, ["door_speed", "lo"]),
+    ({"door_speed": [8]}, ["door_speed"]),
+    ({"door_speed": ["slow", 17]}, ["door_speed"]),
+    ({"start": [0.0, 1.0]}, ["start"]),      # a pair, not a number
+    ({"max_steps": [10, 20]}, ["max_steps"]),  # an integer key
+    ([8, 17], ["randomize"]),
+])
+def test_bad_randomize_spec_is_rejected_by_name(randomize, words):
+    with pytest.raises(ConfigError) as exc:
+        gym.make("FootstepDoor-v0", randomize=randomize)
+    for word in words:
+        assert word in str(exc.value)
+
+
+@pytest.mark.filterwarnings("ignore:.*render_mode")  # gymnasium.make's own warning comes first
+@pytest.mark.parametrize("mode", ["rgb", "ansi"])
+def test_bad_render_mode(mode):
+    with pytest.raises(ValueError, match="render_mode"):
+        gym.make("FootstepDoor-v0", render_mode=mode)
+
+
+def test_bad_render_mode_type():
+    from footstep_gym.env import FootstepEnv
+
+    with pytest.raises(ValueError, match="render_mode"):
+        FootstepEnv(scenario="door", render_mode=3)
+
+
+def test_unknown_scenario():
+    from footstep_gym.env import FootstepEnv
+
+    with pytest.raises(ValueError, match="revolving"):
+        FootstepEnv(scenario="revolving")
+
+
+def test_randomize_with_equal_bounds_is_a_constant():
+    env = gym.make("FootstepDoor-v0", randomize={"door_speed": [11.0, 11.0]})
+    for seed in (0, 1):
+        env.reset(seed=seed)
+        assert rod(env).angular_velocity == pytest.approx(-math.radians(11.0))
+
+
+def test_randomized_values_are_validated():
+    """A draw that would break a constraint is caught (door_radius must stay > 0)."""
+    with pytest.raises(ConfigError, match="door_radius"):
+        env = gym.make("FootstepDoor-v0", randomize={"door_radius": [-0.5, -0.1]})
+        env.reset(seed=0)
+
+
+# ------------------------------------------------------------------ the module's own API
+def test_load_and_replace():
+    robot = load_robot({"com_height": 0.25})
+    assert robot.com_height == 0.25
+    assert robot.omega == pytest.approx(math.sqrt(read_yaml("robot.yaml")["gravity"] / 0.25))
+    with pytest.raises(ConfigError, match="com_height"):
+        config.replace(robot, com_height=-1.0)
+    door = config.load(DoorConfig, "scenarios/door.yaml")
+    faster = config.replace(door, door_speed=20.0)
+    assert faster.door_speed == 20.0 and door.door_speed == read_yaml("scenarios/door.yaml")["door_speed"]
+    assert isinstance(faster, DoorConfig)
+
+
+def test_build_reports_every_missing_and_unknown_key():
+    data = read_yaml("robot.yaml")
+    del data["gravity"], data["com_height"]
+    with pytest.raises(ConfigError) as exc:
+        config.build(Robot, data, "robot")
+    assert "gravity" in str(exc.value) and "com_height" in str(exc.value)
+    data = read_yaml("robot.yaml")
+    data.update(gravty=9.8, colour="red")
+    with pytest.raises(ConfigError) as exc:
+        config.build(Robot, data, "robot")
+    assert "gravty" in str(exc.value) and "colour" in str(exc.value) and "gravity" in str(exc.value)
+
+
+def test_integers_given_as_whole_floats_are_accepted():
+    env = gym.make("FootstepDoor-v0", max_steps=3.0)
+    assert env.unwrapped.scenario_config.max_steps == 3
+    assert type(env.unwrapped.scenario_config.max_steps) is int

@@ -1,0 +1,631 @@
+"""The three registered envs (footstep_gym/env.py, scenarios/, sensing.py) over the registry.
+
+Gymnasium's and SB3's checkers, vectorisation, pickling, seeded replay, the info
+contract, physics read off the env (DESIGN.md §3 figures), goal and truncation, bad
+actions, and the read-only sensing snapshot. References are the YAML files read
+directly, hand geometry and DESIGN's quoted numbers, never the code under test.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+import pickle
+import subprocess
+import sys
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+from gymnasium.utils.env_checker import check_env, data_equivalence
+
+import footstep_gym
+from footstep_gym import footstep
+from footstep_gym.config import config_dir
+
+ENV_IDS = ["FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0"]
+NOMINAL = np.array([0.0, 0.08, 0.0, 0.6, 0.2])
+LEFT, RIGHT = 1, -1
+#: Crossing env with the car 5 m ahead, arriving after 40 s: nothing near the robot.
+FREE = dict(crossing_x=5.0, timing_jitter=0.0)
+
+
+def read_yaml(name: str) -> dict:
+    with open(config_dir() / name, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+def strides(*values, t_ss=0.6, t_ds=0.2, side=0.08):
+    return [np.array([s, side, 0.0, t_ss, t_ds]) for s in values]
+
+
+def assert_identical(a, b, path="") -> None:
+    """Bit-identical nested data (NaN equal to NaN), types included."""
+    assert type(a) is type(b), (path, type(a), type(b))
+    if isinstance(a, dict):
+        assert list(a) == list(b), path
+        for k in a:
+            assert_identical(a[k], b[k], f"{path}.{k}")
+    elif isinstance(a, (list, tuple)):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b)):
+            assert_identical(x, y, f"{path}[{i}]")
+    elif isinstance(a, np.ndarray):
+        assert a.dtype == b.dtype and a.shape == b.shape, path
+        assert a.tobytes() == b.tobytes(), path
+    elif isinstance(a, float):
+        assert (math.isnan(a) and math.isnan(b)) or a == b, (path, a, b)
+    else:
+        assert a == b, (path, a, b)
+
+
+# ------------------------------------------------------------------ registry and checkers
+def test_registry_holds_the_three_ids():
+    assert sorted(footstep_gym.ENV_IDS.values()) == sorted(ENV_IDS)
+    for env_id in ENV_IDS:
+        assert env_id in gym.registry
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_gymnasium_check_env(env_id):
+    env = gym.make(env_id)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the SI action box and unbounded observation are by design
+        check_env(env.unwrapped)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_sb3_check_env(env_id):
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    env = gym.make(env_id)
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        # SB3 warns that the action box is not [-1, 1] (documented: SI units, RescaleAction
+        # in the baselines); anything that is an error must raise.
+        sb3_checker.check_env(env.unwrapped, warn=True)
+    env.close()
+
+
+def test_make_with_module_prefix_in_fresh_process(tmp_path):
+    code = (
+        "import sys, gymnasium as gym\n"
+        "assert 'footstep_gym' not in sys.modules\n"
+        "env = gym.make('footstep_gym:FootstepDoor-v0')\n"
+        "obs, info = env.reset(seed=0)\n"
+        "obs, r, term, trunc, info = env.step(env.action_space.sample())\n"
+        "print(obs.shape, type(env.unwrapped).__name__)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["(42,)", "FootstepEnv"]
+
+
+@pytest.mark.parametrize("mode", ["sync", "async"])
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_make_vec(env_id, mode):
+    envs = gym.make_vec(env_id, num_envs=4, vectorization_mode=mode)
+    try:
+        obs, info = envs.reset(seed=123)
+        assert obs.shape == (4, 42) and obs.dtype == np.float32
+        assert obs in envs.observation_space
+        assert len({o.tobytes() for o in obs}) == 4  # seeds 123..126 draw four different episodes
+        envs.action_space.seed(5)
+        for _ in range(4):
+            obs, reward, terminated, truncated, info = envs.step(envs.action_space.sample())
+            assert obs.shape == (4, 42) and reward.shape == (4,)
+            assert terminated.dtype == bool and truncated.dtype == bool
+            assert np.all(np.isfinite(obs)) and np.all(np.isfinite(reward))
+    finally:
+        envs.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("clone", [lambda e: pickle.loads(pickle.dumps(e)), copy.deepcopy], ids=["pickle", "deepcopy"])
+def test_pickle_and_deepcopy_after_reset(env_id, clone):
+    env = gym.make(env_id)
+    env.reset(seed=11)
+    env.step(NOMINAL)
+    twin = clone(env)
+    # Gymnasium's own shape: the clone continues exactly as the original.
+    assert data_equivalence(env.reset(), twin.reset())
+    for action in [NOMINAL, *strides(0.03, 0.05)]:
+        a, b = env.step(action), twin.step(action)
+        assert data_equivalence(a, b)
+    assert twin.unwrapped.world is not env.unwrapped.world
+    env.close()
+    twin.close()
+
+
+# ------------------------------------------------------------------ seeding by replay
+def rollout(env, seed, actions):
+    trace = [env.reset(seed=seed)]
+    for action in actions:
+        obs, reward, terminated, truncated, info = env.step(action)
+        trace.append((obs, reward, terminated, truncated, info))
+        if terminated or truncated:
+            trace.append(env.reset())  # no seed: the episode generator carries on
+    return trace
+
+
+def random_actions(space, n, seed):
+    space = copy.deepcopy(space)
+    space.seed(seed)
+    return [space.sample() for _ in range(n)]
+
+
+def near_nominal_actions(n, seed):
+    rng = np.random.default_rng(seed)
+    return [np.array([rng.uniform(0.0, 0.05), rng.uniform(0.075, 0.09), rng.uniform(-0.05, 0.05),
+                      rng.uniform(0.5, 0.6), rng.uniform(0.18, 0.22)]) for _ in range(n)]
+
+
+@pytest.mark.parametrize("kind", ["random", "near_nominal"])
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_same_seed_same_actions_replays_bit_identically(env_id, kind):
+    env_a, env_b = gym.make(env_id), gym.make(env_id)
+    actions = (random_actions(env_a.action_space, 40, seed=3) if kind == "random"
+               else near_nominal_actions(40, seed=4))
+    trace_a = rollout(env_a, 2024, actions)
+    trace_b = rollout(env_b, 2024, actions)
+    assert_identical(trace_a, trace_b)
+    # The same env, reset again with the same seed, replays too.
+    assert_identical(rollout(env_a, 2024, actions), trace_a)
+    # And a different seed gives a different trace.
+    trace_c = rollout(env_a, 2025, actions)
+    assert any(not np.array_equal(x[0], y[0]) for x, y in zip(trace_a, trace_c))
+
+
+def layout(env):
+    """Every obstacle's pose and velocity after reset, and the robot's CoM."""
+    snap = env.unwrapped.sensing()
+    return [(o.name, o.position, o.angle, o.velocity, o.angular_velocity) for o in snap.obstacles], snap.com
+
+
+def moving(env):
+    return [o for o in env.unwrapped.sensing().obstacles if not o.static]
+
+
+def test_door_angle_jitter_draws_differ_and_stay_in_range():
+    door = read_yaml("scenarios/door.yaml")
+    env = gym.make("FootstepDoor-v0")
+    angles = []
+    for seed in range(12):
+        env.reset(seed=seed)
+        (rod,) = moving(env)
+        angles.append(math.degrees(rod.angle))
+        assert rod.angular_velocity == pytest.approx(-math.radians(door["door_speed"]))  # clockwise
+    lo = door["door_start_angle"] - door["door_angle_jitter"]
+    hi = door["door_start_angle"] + door["door_angle_jitter"]
+    assert all(lo <= a <= hi for a in angles)
+    assert len(set(angles)) == len(angles)
+    assert max(angles) - min(angles) > door["door_angle_jitter"]  # spread over the range
+
+
+def test_crossing_timing_draws_differ_and_stay_in_range():
+    cfg = read_yaml("scenarios/crossing.yaml")
+    env = gym.make("FootstepCrossing-v0")
+    meets = []
+    for seed in range(12):
+        env.reset(seed=seed)
+        (car,) = moving(env)
+        assert car.velocity == pytest.approx((0.0, cfg["obstacle_speed"]))
+        assert car.position[0] == pytest.approx(cfg["start"][0] + cfg["crossing_x"])
+        meets.append((cfg["start"][1] - car.position[1]) / cfg["obstacle_speed"])  # when it reaches the path
+    nominal = cfg["crossing_x"] / cfg["arrival_speed"]
+    assert all(abs(m - nominal) <= cfg["timing_jitter"] + 1e-9 for m in meets)
+    assert len(set(meets)) == len(meets)
+
+
+def test_crowd_draws_differ_and_stay_on_the_ring():
+    cfg = read_yaml("scenarios/crowd.yaml")
+    env = gym.make("FootstepCrowd-v0")
+    layouts = []
+    for seed in range(6):
+        env.reset(seed=seed)
+        members = moving(env)
+        assert len(members) == cfg["crowd_size"]
+        centres = np.array([m.position for m in members])
+        radii = np.linalg.norm(centres - np.array(cfg["start"]), axis=1)
+        assert np.all(radii >= cfg["ring_radius"] - cfg["breathing_amplitude"] - 1e-9)
+        assert np.all(radii <= cfg["ring_radius"] + cfg["breathing_amplitude"] + 1e-9)
+        layouts.append(centres)
+    for i in range(len(layouts)):
+        for j in range(i):
+            assert not np.allclose(layouts[i], layouts[j])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_seeded_reset_repeats_and_unseeded_reset_moves_on(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=7)
+    first = layout(env)
+    env.reset()
+    second = layout(env)
+    env.reset(seed=7)
+    assert layout(env) == first
+    assert second != first
+    env.reset(seed=8)
+    assert layout(env) != first
+
+
+def test_start_jitter_moves_the_robot_within_bounds():
+    cfg = read_yaml("scenarios/door.yaml")
+    env = gym.make("FootstepDoor-v0")
+    centres = []
+    for seed in range(10):
+        env.reset(seed=seed)
+        centres.append(env.unwrapped.sensing().centre)
+    centres = np.array(centres)
+    assert np.all(np.abs(centres - np.array(cfg["start"])) <= cfg["start_jitter"] + 1e-12)
+    assert len({tuple(c) for c in centres}) == len(centres)
+
+
+def test_randomized_door_speed_is_drawn_within_range_per_seed():
+    env = gym.make("FootstepDoor-v0", randomize={"door_speed": [8, 17]})
+    speeds = []
+    for seed in range(20):
+        env.reset(seed=seed)
+        (rod,) = moving(env)
+        body = next(o.body for o in env.unwrapped.world.obstacles if o.name == rod.name)
+        assert body.angular_velocity == rod.angular_velocity
+        speeds.append(-math.degrees(rod.angular_velocity))
+        assert env.unwrapped.episode_config.door_speed == pytest.approx(speeds[-1])
+    assert all(8.0 <= s <= 17.0 for s in speeds)
+    assert len(set(speeds)) == len(speeds)
+    assert min(speeds) < 10.0 and max(speeds) > 15.0
+    # The drawn speed is what the door really does: it turns that fast over a step.
+    env.reset(seed=0)
+    before = moving(env)[0].angle
+    env.step(NOMINAL)
+    after = moving(env)[0].angle
+    assert math.degrees(before - after) / 0.8 == pytest.approx(speeds[0], rel=1e-9)
+
+
+# ------------------------------------------------------------------ the info contract
+INFO_TYPES = {
+    "is_success": bool, "feasible": bool, "collision": bool, "clipped": bool,
+    "time": float, "period": float, "rewards": dict,
+}
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_info_keys_on_every_step(env_id):
+    env = gym.make(env_id)
+    actions = near_nominal_actions(25, seed=1) + random_actions(env.action_space, 25, seed=2)
+    _, info = env.reset(seed=5)
+    assert len(info["com"]) == 2 and len(info["com_vel"]) == 2
+    last_time = 0.0
+    terminations = set()
+    for action in actions:
+        _, reward, terminated, truncated, info = env.step(action)
+        for key, typ in INFO_TYPES.items():
+            assert type(info[key]) is typ, (key, info[key])
+        assert info["termination"] in {"goal", "collision", "fall", None}
+        assert terminated == (info["termination"] is not None)
+        assert info["is_success"] == (info["termination"] == "goal")
+        assert info["collision"] == (info["termination"] == "collision")
+        assert info["feasible"] == (info["termination"] != "fall")
+        assert info["support_foot"] in {"left", "right"}
+        assert len(info["foot_pose"]) == 3 and all(math.isfinite(v) for v in info["foot_pose"])
+        for key in ("zmp", "com", "com_vel"):
+            assert len(info[key]) == 2 and all(math.isfinite(v) for v in info[key]), key
+        assert sum(info["rewards"].values()) == pytest.approx(reward, abs=1e-12)
+        cmd = info["command"]
+        assert info["period"] == pytest.approx(cmd[3] + cmd[4])
+        assert info["time"] >= last_time
+        assert info["time"] <= last_time + info["period"] + 1e-12
+        last_time = info["time"]
+        terminations.add(info["termination"])
+        if terminated or truncated:
+            _, info = env.reset()
+            assert len(info["com"]) == 2 and len(info["com_vel"]) == 2
+            last_time = 0.0
+    assert None in terminations and "fall" in terminations  # both kinds of step were seen
+
+
+# ------------------------------------------------------------------ physics through the env
+def test_stepping_in_place_needs_no_zmp_offset():
+    env = gym.make("FootstepDoor-v0")
+    _, info = env.reset(seed=0)
+    sides = [info["support_foot"]]
+    for _ in range(30):
+        _, _, terminated, truncated, info = env.step(NOMINAL)
+        assert not terminated and not truncated and info["feasible"]
+        assert np.hypot(*info["zmp_offset"]) < 1e-9
+        sides.append(info["support_foot"])
+    assert sides[:3] == ["right", "left", "right"]  # feet alternate, the right one supports first
+    assert all(a != b for a, b in zip(sides, sides[1:]))
+
+
+@pytest.mark.parametrize("t_ss, survives", [(0.2, True), (0.1, False)])
+def test_abrupt_period_cut_after_steady_steps(t_ss, survives):
+    """DESIGN §3: cutting T_SS 0.6 -> 0.2 s in one step at 5 cm strides is feasible, -> 0.1 s a fall."""
+    env = gym.make("FootstepCrossing-v0", **FREE)
+    env.reset(seed=0)
+    for action in strides(0.02, 0.035, 0.05, 0.05, 0.05):  # reach a steady 5 cm gait
+        _, _, terminated, _, info = env.step(action)
+        assert not terminated
+    time_before = info["time"]
+    _, reward, terminated, truncated, info = env.step(np.array([0.05, 0.08, 0.0, t_ss, 0.2]))
+    if survives:
+        assert not terminated and info["feasible"] and info["termination"] is None
+    else:
+        assert terminated and not truncated
+        assert info["termination"] == "fall" and not info["feasible"] and not info["is_success"]
+        assert info["rewards"]["fall"] < 0 and reward < 0
+        assert info["time"] == time_before  # a fall ends the episode at the start of the step
+
+
+@pytest.mark.parametrize("first_theta, second_theta, feasible", [
+    (0.3, None, True),     # right support, left swings: +0.3 turns away (outer, limit 0.4)
+    (-0.3, None, False),   # ... -0.3 turns towards the support foot (inner, limit 0.2)
+    (-0.15, None, True),   # ... inside the inner limit
+    (0.3, -0.3, True),     # then left support, right swings: -0.3 is outward for it
+    (0.3, 0.3, False),     # ... +0.3 is inward for the right foot
+])
+def test_turn_limits_depend_on_the_swinging_foot(first_theta, second_theta, feasible):
+    env = gym.make("FootstepCrossing-v0", **FREE)
+    env.reset(seed=0)
+    thetas = [first_theta] if second_theta is None else [first_theta, second_theta]
+    for theta in thetas:
+        _, _, terminated, _, info = env.step(np.array([0.0, 0.10, theta, 0.6, 0.2]))
+        if theta is not thetas[-1]:
+            assert info["feasible"]  # the first of two steps is a legal outward turn
+    assert info["feasible"] == feasible
+    assert (info["termination"] == "fall") == (not feasible)
+    assert terminated == (not feasible)
+
+
+@pytest.mark.parametrize("action", [
+    [0.2, 0.08, 0.0, 0.6, 0.2],     # S above its range
+    [0.0, 0.08, 0.0, 0.9, 0.2],     # T_SS above
+    [-0.3, 0.08, 0.0, 0.6, 0.05],   # S and T_DS below
+])
+def test_command_outside_the_box_is_clipped_and_applied_clipped(action):
+    action = np.array(action)
+    env = gym.make("FootstepCrossing-v0", **FREE)
+    twin = gym.make("FootstepCrossing-v0", **FREE)
+    env.reset(seed=0)
+    twin.reset(seed=0)
+    low, high = env.action_space.low, env.action_space.high
+    expected = np.minimum(np.maximum(action, low.astype(np.float64)), high.astype(np.float64))
+    obs, reward, terminated, _, info = env.step(action)
+    assert info["clipped"] is True
+    assert info["command"] == tuple(expected)
+    # It behaves exactly as the clipped command would.
+    obs2, reward2, terminated2, _, info2 = twin.step(expected)
+    assert info2["clipped"] is False
+    assert np.array_equal(obs, obs2) and reward == reward2 and terminated == terminated2
+    assert info["com"] == info2["com"] and info["foot_pose"] == info2["foot_pose"]
+
+
+def test_foot_pose_follows_the_footstep_convention():
+    """Each placed foot is the command applied to the previous support foot (DESIGN §2)."""
+    env = gym.make("FootstepCrossing-v0", **FREE)
+    _, info = env.reset(seed=3)
+    support, side = info["foot_pose"], RIGHT
+    commands = [(0.02, 0.08, 0.1), (0.04, 0.09, -0.1), (0.05, 0.10, 0.15), (0.06, 0.09, -0.12),
+                (0.05, 0.085, 0.0), (-0.02, 0.08, 0.05), (0.0, 0.08, -0.05)]
+    for S, L, theta in commands:
+        _, _, terminated, _, info = env.step(np.array([S, L, theta, 0.6, 0.2]))
+        assert not terminated
+        new = info["foot_pose"]
+        # By hand: the new foot sits S ahead and L outward (to the swing side) in the support frame.
+        x, y, yaw = support
+        lateral = -side * L
+        expected = (x + S * math.cos(yaw) - lateral * math.sin(yaw),
+                    y + S * math.sin(yaw) + lateral * math.cos(yaw), yaw + theta)
+        assert new == pytest.approx(expected, abs=1e-12)
+        assert new == pytest.approx(footstep.place_foot(support, side, S, L, theta), abs=1e-12)
+        assert footstep.command_between(support, side, new) == pytest.approx((S, L, theta), abs=1e-12)
+        side = -side
+        assert info["support_foot"] == {LEFT: "left", RIGHT: "right"}[side]
+        support = new
+
+
+# ------------------------------------------------------------------ episode end
+def walk_to_goal(env, max_steps=60):
+    infos = []
+    for action in strides(0.02, 0.04, 0.06, 0.08) + strides(*([0.10] * max_steps)):
+        _, reward, terminated, truncated, info = env.step(action)
+        infos.append(info)
+        if terminated or truncated:
+            return infos, reward, terminated, truncated
+    return infos, reward, terminated, truncated
+
+
+def test_walking_straight_reaches_the_goal():
+    cfg = read_yaml("scenarios/crossing.yaml")
+    env = gym.make("FootstepCrossing-v0", **FREE)
+    _, info0 = env.reset(seed=0)
+    infos, reward, terminated, truncated = walk_to_goal(env)
+    info = infos[-1]
+    assert terminated and not truncated
+    assert info["termination"] == "goal" and info["is_success"] is True
+    assert info["rewards"]["goal"] > 0
+    # The robot centre (midpoint of the last two feet) is within the tolerance of the goal...
+    centre = np.mean([infos[-1]["foot_pose"][:2], infos[-2]["foot_pose"][:2]], axis=0)
+    assert np.hypot(*(centre - cfg["goal"])) <= cfg["goal_tolerance"]
+    # ... and was not one step earlier.
+    before = np.mean([infos[-2]["foot_pose"][:2], infos[-3]["foot_pose"][:2]], axis=0)
+    assert np.hypot(*(before - cfg["goal"])) > cfg["goal_tolerance"]
+    # About 1.9 m at up to 10 cm per step (the paper: 20 steps).
+    assert 18 <= len(infos) <= 24
+    assert not any(i["is_success"] for i in infos[:-1])
+
+
+def test_goal_close_to_the_start():
+    cfg = read_yaml("scenarios/door.yaml")
+    goal = [cfg["start"][0] + 0.12, cfg["start"][1]]
+    env = gym.make("FootstepDoor-v0", goal=goal, start_jitter=0.0)
+    env.reset(seed=0)
+    infos, _, terminated, _ = walk_to_goal(env)
+    assert terminated and infos[-1]["termination"] == "goal" and infos[-1]["is_success"]
+    assert len(infos) <= 5
+
+
+def test_truncation_at_max_steps():
+    env = gym.make("FootstepCrossing-v0", max_steps=3, **FREE)
+    env.reset(seed=0)
+    flags = [env.step(NOMINAL)[2:4] for _ in range(3)]
+    assert flags == [(False, False), (False, False), (False, True)]
+
+
+def test_truncation_at_time_limit():
+    env = gym.make("FootstepCrossing-v0", time_limit=2.0, **FREE)
+    env.reset(seed=0)
+    flags = [env.step(NOMINAL)[2:4] for _ in range(3)]  # 0.8, 1.6, 2.4 s
+    assert flags == [(False, False), (False, False), (False, True)]
+
+
+def test_rewards_progress_term_measures_distance_gained():
+    env_cfg = read_yaml("env.yaml")
+    cfg = read_yaml("scenarios/crossing.yaml")
+    env = gym.make("FootstepCrossing-v0", start_jitter=0.0, **FREE)
+    env.reset(seed=0)
+    infos, _, _, _ = walk_to_goal(env)
+    total = sum(i["rewards"]["progress"] for i in infos)
+    centre = np.mean([infos[-1]["foot_pose"][:2], infos[-2]["foot_pose"][:2]], axis=0)
+    gained = math.dist(cfg["start"], cfg["goal"]) - math.dist(centre, cfg["goal"])
+    assert total == pytest.approx(env_cfg["reward_progress"] * gained, abs=1e-9)
+    assert sum(i["rewards"]["step"] for i in infos) == pytest.approx(env_cfg["reward_step"] * len(infos))
+    assert sum(i["rewards"]["time"] for i in infos) == pytest.approx(env_cfg["reward_time"] * infos[-1]["time"])
+
+
+# ------------------------------------------------------------------ bad actions
+@pytest.mark.parametrize("index, value, name", [
+    (3, float("nan"), "t_ss"), (0, float("inf"), "S"), (2, -float("inf"), "theta"), (4, float("nan"), "t_ds"),
+])
+def test_non_finite_action_names_the_field(index, value, name):
+    env = gym.make("FootstepDoor-v0")
+    env.reset(seed=0)
+    action = NOMINAL.copy()
+    action[index] = value
+    with pytest.raises(ValueError) as exc:
+        env.step(action)
+    assert isinstance(exc.value, footstep_gym.ActionError)
+    message = str(exc.value)
+    assert f"{name}=" in message
+    other = [f for f in ("S=", "L=", "theta=", "t_ss=", "t_ds=") if f != f"{name}="]
+    assert not any(o in message for o in other)  # only the bad field is blamed
+
+
+@pytest.mark.parametrize("action", [np.zeros(4), np.zeros(6), np.zeros((1, 5)), np.zeros((5, 1)), 0.3, "fast"])
+def test_wrong_shape_action_raises(action):
+    env = gym.make("FootstepDoor-v0")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"shape|5 numbers"):
+        env.unwrapped.step(action)
+
+
+def test_plain_list_action_is_accepted():
+    env = gym.make("FootstepDoor-v0")
+    env.reset(seed=0)
+    _, _, terminated, _, info = env.unwrapped.step([0.0, 0.08, 0.0, 0.6, 0.2])
+    assert not terminated and info["feasible"]
+
+
+def test_step_before_reset_raises():
+    env = gym.make("FootstepDoor-v0").unwrapped
+    with pytest.raises(gym.error.ResetNeeded):
+        env.step(NOMINAL)
+    with pytest.raises(gym.error.ResetNeeded):
+        env.sensing()
+
+
+# ------------------------------------------------------------------ sensing snapshot
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_snapshot_is_read_only_and_matches_info(env_id):
+    env = gym.make(env_id)
+    _, info = env.reset(seed=0)
+    _, _, _, _, info = env.step(NOMINAL)
+    snap = env.unwrapped.sensing()
+    assert snap.com == pytest.approx(info["com"], abs=1e-12)
+    assert snap.com_vel == pytest.approx(info["com_vel"], abs=1e-12)
+    assert snap.time == info["time"]
+    assert snap.support_foot == pytest.approx(info["foot_pose"], abs=1e-12)
+    assert snap.support_side == {"left": LEFT, "right": RIGHT}[info["support_foot"]]
+    assert snap.previous_command == pytest.approx(info["command"])
+    # CoM relative to the support foot, in its frame.
+    x, y, yaw = snap.support_foot
+    dx, dy = snap.com[0] - x, snap.com[1] - y
+    assert snap.com_local == pytest.approx((math.cos(yaw) * dx + math.sin(yaw) * dy,
+                                            -math.sin(yaw) * dx + math.cos(yaw) * dy), abs=1e-12)
+
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        snap.time = 0.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        snap.obstacles[0].position = (0.0, 0.0)
+    assert isinstance(snap.obstacles, tuple)
+    shapes = snap.shapes_at(0.0)
+    arrays = [getattr(shapes, f.name) for f in dataclasses.fields(shapes)]
+    for arr in arrays:
+        if arr.flags.writeable:  # a fresh array is fine, as long as writing to it changes nothing
+            arr[...] = 123.0
+    again = snap.shapes_at(0.0)
+    for f in dataclasses.fields(again):
+        assert not np.any(getattr(again, f.name) == 123.0), f.name
+    # The snapshot does not follow the env on.
+    frozen_view = (snap.time, snap.com, snap.obstacles)
+    env.step(NOMINAL)
+    assert (snap.time, snap.com, snap.obstacles) == frozen_view
+
+
+def rod_ends(view):
+    c, s = math.cos(view.angle), math.sin(view.angle)
+    return [(view.position[0] + c * p[0] - s * p[1], view.position[1] + s * p[0] + c * p[1]) for p in (view.a, view.b)]
+
+
+def test_snapshot_predicts_the_door_exactly():
+    """The door turns at a constant rate: shapes_at(dt) is where the rod really is after dt."""
+    env = gym.make("FootstepDoor-v0")
+    env.reset(seed=0)
+    snap = env.unwrapped.sensing()
+    for period, action in ((0.8, NOMINAL), (0.5, np.array([0.0, 0.08, 0.0, 0.3, 0.2]))):
+        predicted = snap.shapes_at(period)
+        _, _, terminated, _, _ = env.step(action)
+        assert not terminated
+        snap = env.unwrapped.sensing()
+        (rod,) = [o for o in snap.obstacles if not o.static]
+        seg = np.stack([predicted.segment_a, predicted.segment_b], axis=1)  # (K, 2, 2)
+        actual = np.array(rod_ends(rod))
+        match = [np.allclose(s, actual, atol=1e-9) for s in seg]
+        assert sum(match) == 1
+        # The walls do not move.
+        walls = [np.array(rod_ends(o)) for o in snap.obstacles if o.static]
+        assert all(any(np.allclose(s, w, atol=1e-12) for s in seg) for w in walls)
+
+
+def test_snapshot_predicts_the_crossing_car_exactly():
+    env = gym.make("FootstepCrossing-v0")
+    env.reset(seed=0)
+    predicted = env.unwrapped.sensing().shapes_at(0.8)
+    env.step(NOMINAL)
+    (car,) = [o for o in env.unwrapped.sensing().obstacles if not o.static]
+    actual = np.array(rod_ends(car))
+    assert np.allclose(np.stack([predicted.segment_a[0], predicted.segment_b[0]]), actual, atol=1e-9)
+
+
+def test_snapshot_holds_no_future_of_the_crowd():
+    """A member's sensed velocity is what it did over the past step, not what it will do next."""
+    env = gym.make("FootstepCrowd-v0", crowd_speed=0.2)
+    env.reset(seed=0)
+    snap0 = env.unwrapped.sensing()
+    assert all(o.velocity == (0.0, 0.0) for o in snap0.obstacles)  # standing still at the start
+    period = 0.8
+    env.step(NOMINAL)
+    snap1 = env.unwrapped.sensing()
+    p0 = np.array([o.position for o in snap0.obstacles])
+    p1 = np.array([o.position for o in snap1.obstacles])
+    v1 = np.array([o.velocity for o in snap1.obstacles])
+    assert np.allclose(v1, (p1 - p0) / period, atol=1e-9)  # the past step's motion
+    env.step(NOMINAL)
+    p2 = np.array([o.position for o in env.unwrapped.sensing().obstacles])
+    # The crowd accelerates and breathes: the constant-velocity prediction is not the truth.
+    assert not np.allclose(p1 + v1 * period, p2, atol=1e-4)
+    names = {f.name for f in dataclasses.fields(snap1)}
+    assert not any("scenario" in n or "world" in n or "future" in n for n in names)

@@ -1,0 +1,265 @@
+"""baselines/eval_planner.py: statistics, recording, figures and tables, and the CLI end to end.
+
+The CLI runs in a subprocess exactly as a user runs it. The in-process tests drive the
+episode runner with a stand-in policy (walk straight at the nominal period), so they
+check the evaluation machinery independently of the planners' quality.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import matplotlib.image
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SCRIPT = REPO / "baselines" / "eval_planner.py"
+sys.path.insert(0, str(REPO / "baselines"))
+
+import eval_report  # noqa: E402
+from eval_episode import Cell, Task, planner_notes, run_episode  # noqa: E402
+from eval_stats import OUTCOMES, TIMING_FIELDS, EpisodeResult, cell_record, wilson_interval  # noqa: E402
+
+FASTEST_POLICY = "fixed-period"  # no period search; the quickest of the three per footstep
+REQUIRED_KEYS = {
+    "env": str, "policy": str, "params": dict, "episodes": int, "success_rate": float, "success_ci95": list,
+    "collision_rate": float, "fall_rate": float, "timeout_rate": float, "mean_steps": (float, type(None)),
+    "mean_path_length": (float, type(None)), "mean_time": (float, type(None)), "mean_steps_all": float,
+    "mean_path_length_all": float, "mean_time_all": float, "plan_ms_median": float, "plan_ms_p95": float,
+    "plan_ms_p99": float, "seeds": list,
+}
+RATES = ("success_rate", "collision_rate", "fall_rate", "timeout_rate")
+
+
+def run_cli(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(SCRIPT), *args], cwd=REPO, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+# ---------------------------------------------------------------- stand-in policy
+class StraightAhead:
+    """Walks straight at the longest stride and the nominal period; reports a fake pre-PSO command."""
+
+    def __init__(self, robot, seed=None):
+        self.command = robot.nominal_command.copy()
+        self.command[0] = 0.07
+        self.last_info = {}
+
+    def reset(self, seed=None):
+        self.last_info = {}
+
+    def act(self, observation, snapshot):
+        pre = self.command.copy()
+        pre[0] = 0.08
+        self.last_info = {"command_pre_pso": pre, "pso_ran": True}
+        return self.command.copy()
+
+
+def stand_in(name, robot, seed):
+    return StraightAhead(robot, seed)
+
+
+@pytest.fixture(scope="module")
+def stand_in_traces():
+    """One recorded stand-in episode per env (door at 8 deg/s)."""
+    cells = [Cell("FootstepDoor-v0", "door", "straight", (("door_speed", 8.0),)),
+             Cell("FootstepCrossing-v0", "crossing", "straight"), Cell("FootstepCrowd-v0", "crowd", "straight")]
+    return [run_episode(Task(i, c, 3, record=True), factory=stand_in) for i, c in enumerate(cells)]
+
+
+# ---------------------------------------------------------------- statistics
+def wilson_by_roots(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson's interval as the roots of (p_hat - p)^2 = z^2 p (1 - p) / n (independent of the closed form)."""
+    ph = k / n
+    a, b, c = 1 + z * z / n, -(2 * ph + z * z / n), ph * ph
+    roots = np.sort(np.roots([a, b, c]).real)
+    return float(roots[0]), float(roots[1])
+
+
+@pytest.mark.parametrize("k,n", [(0, 1), (1, 1), (0, 3), (2, 3), (10, 20), (19, 20), (20, 20), (7, 50)])
+def test_wilson_interval_matches_the_quadratic_and_contains_the_rate(k, n):
+    lo, hi = wilson_interval(k, n)
+    rlo, rhi = wilson_by_roots(k, n)
+    assert lo == pytest.approx(max(rlo, 0.0), abs=1e-9) and hi == pytest.approx(min(rhi, 1.0), abs=1e-9)
+    assert 0.0 <= lo <= k / n <= hi <= 1.0
+
+
+def test_wilson_interval_known_value_and_bad_input():
+    assert wilson_interval(10, 20) == pytest.approx((0.2993, 0.7007), abs=1e-4)
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    with pytest.raises(ValueError, match="successes"):
+        wilson_interval(3, 2)
+
+
+def _episode(seed, outcome, steps, t, path):
+    return EpisodeResult(cell_index=0, seed=seed, outcome=outcome, steps=steps, time=t, path_length=path,
+                         com_path_length=path + 0.1, plan_ms=[1.0, 2.0, 3.0], periods=[0.8, 0.4],
+                         pso_ran=[False, True])
+
+
+def test_cell_record_rates_and_means_over_successes():
+    eps = [_episode(2, "goal", 20, 10.0, 2.0), _episode(0, "collision", 5, 3.0, 0.5),
+           _episode(1, "goal", 30, 14.0, 3.0), _episode(3, "timeout", 200, 60.0, 1.0)]
+    r = cell_record("FootstepDoor-v0", "door", "p", {"door_speed": 14.0}, eps)
+    assert r["seeds"] == [0, 1, 2, 3] and r["outcomes"] == ["collision", "goal", "goal", "timeout"]
+    assert (r["success_rate"], r["collision_rate"], r["fall_rate"], r["timeout_rate"]) == (0.5, 0.25, 0.0, 0.25)
+    assert r["mean_steps"] == 25 and r["mean_time"] == 12.0 and r["mean_path_length"] == 2.5
+    assert r["mean_steps_all"] == pytest.approx(63.75) and r["mean_path_length_all"] == pytest.approx(1.625)
+    assert r["success_ci95"] == list(wilson_interval(2, 4))
+    assert r["pso_step_rate"] == 0.5 and r["mean_period"] == pytest.approx(0.6)
+    assert r["plan_ms_median"] == 2.0 and r["plan_ms_max"] == 3.0
+    none = cell_record("FootstepDoor-v0", "door", "p", {}, [_episode(0, "fall", 3, 1.0, 0.1)])
+    assert none["mean_steps"] is None and none["mean_steps_all"] == 3
+    with pytest.raises(ValueError, match="outcome"):
+        cell_record("FootstepDoor-v0", "door", "p", {}, [_episode(0, "exploded", 3, 1.0, 0.1)])
+
+
+# ---------------------------------------------------------------- recording (stand-in policy)
+def test_recorded_trace_is_consistent_with_the_result(stand_in_traces):
+    for res in stand_in_traces:
+        tr = res.trace
+        assert res.outcome in OUTCOMES and res.steps == len(tr.commands) == len(res.plan_ms) > 0
+        assert len(tr.times) == len(tr.com) == len(tr.centre) == len(tr.poses) == res.steps + 1
+        assert tr.poses.shape[1] == len(tr.shapes)
+        assert np.all(np.diff(tr.times) >= 0) and tr.times[-1] == pytest.approx(res.time)
+        assert res.path_length == pytest.approx(np.linalg.norm(np.diff(tr.centre, axis=0), axis=1).sum())
+        np.testing.assert_allclose(tr.commands[:, 0], 0.07)
+        np.testing.assert_allclose(tr.pre_pso[:, 0], 0.08)
+        assert res.periods == pytest.approx([0.8] * res.steps)
+        # One footprint per completed step, plus the two initial feet.
+        completed = res.steps - (res.outcome in ("collision", "fall"))
+        assert len(tr.footprints) == 2 + completed
+
+
+def test_same_seed_same_episode():
+    cell = Cell("FootstepCrowd-v0", "crowd", "straight")
+    a, b = (run_episode(Task(0, cell, 5, record=True), factory=stand_in) for _ in range(2))
+    assert (a.outcome, a.steps, a.time, a.path_length) == (b.outcome, b.steps, b.time, b.path_length)
+    np.testing.assert_array_equal(a.trace.poses, b.trace.poses)
+
+
+def test_planner_notes_reads_last_info():
+    class P:
+        last_info = {"command_pre_pso": [0.01, 0.08, 0.0, 0.6, 0.2], "pso_ran": False}
+
+    pre, ran = planner_notes(P())
+    assert pre.shape == (5,) and ran is False
+    assert planner_notes(object()) == (None, None)
+
+
+def test_command_table_format(stand_in_traces):
+    text = eval_report.command_table(stand_in_traces[0].trace)
+    lines = text.splitlines()
+    header = next(line for line in lines if line.startswith("| Steps"))
+    assert header == "| Steps | S (cm) | L (cm) | θ (rad) | T_DS (s) | T_SS (s) |"
+    rows = [line for line in lines if line.startswith("| ") and not line.startswith("| Steps")]
+    assert len(rows) == stand_in_traces[0].steps
+    # S was 8 cm before the (fake) PSO and 7 cm after: parentheses, bold row; T_SS unchanged.
+    assert rows[0].startswith("| **1** | (8.00) **7.00** | ") and rows[0].endswith(" | 0.00 | 0.20 | 0.60 |")
+
+
+def test_figure_draws_every_env(stand_in_traces, tmp_path):
+    for res in stand_in_traces:
+        path = eval_report.episode_figure([res.trace, res.trace], tmp_path / f"{res.trace.scenario}.png", "test")
+        img = matplotlib.image.imread(path)
+        assert img.shape[0] > 300 and img.shape[1] > 600 and img[..., :3].std() > 0.05
+
+
+# ---------------------------------------------------------------- the CLI
+def check_record(r: dict) -> None:
+    for key, types in REQUIRED_KEYS.items():
+        assert key in r, f"missing {key}"
+        assert isinstance(r[key], types if isinstance(types, tuple) else (types,)) or (
+            types is float and isinstance(r[key], int)), f"{key}={r[key]!r}"
+    assert r["episodes"] == len(r["seeds"]) >= 1
+    for k in RATES:
+        assert 0.0 <= r[k] <= 1.0
+    assert sum(r[k] for k in RATES) == pytest.approx(1.0)
+    lo, hi = r["success_ci95"]
+    assert 0.0 <= lo <= r["success_rate"] <= hi <= 1.0
+    assert 0 < r["plan_ms_median"] <= r["plan_ms_p95"] <= r["plan_ms_p99"]
+    assert r["mean_steps_all"] >= 1 and r["mean_path_length_all"] >= 0 and r["mean_time_all"] >= 0
+    if r["success_rate"] > 0:
+        assert r["mean_steps"] >= 1 and r["mean_path_length"] > 0 and r["mean_time"] > 0
+    else:
+        assert r["mean_steps"] is None
+
+
+def test_cli_one_episode_per_env(tmp_path):
+    out = tmp_path / "eval"
+    proc = run_cli("--episodes", "1", "--env", "door", "--env", "FootstepCrossing-v0", "--env", "crowd",
+                   "--policy", FASTEST_POLICY, "--out", str(out), "--workers", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert "| env |" in proc.stdout and FASTEST_POLICY in proc.stdout
+
+    records = json.loads((out / "results.json").read_text())
+    assert [(r["env"], r["params"]) for r in records] == [
+        ("FootstepDoor-v0", {"door_speed": 17.0}), ("FootstepCrossing-v0", {}), ("FootstepCrowd-v0", {})]
+    for r in records:
+        check_record(r)
+        assert r["policy"] == FASTEST_POLICY and r["seeds"] == [0]
+
+    with (out / "results.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == len(records)
+    for row, r in zip(rows, records):
+        assert (row["env"], row["policy"], float(row["success_rate"])) == (r["env"], r["policy"], r["success_rate"])
+        assert float(row["success_ci95_lo"]) == pytest.approx(r["success_ci95"][0])
+        assert row["param_door_speed"] == ("17.0" if r["params"] else "")
+
+    for name in ("door_17", "crossing", "crowd"):
+        png = out / "figures" / f"{name}.png"
+        assert png.exists() and png.stat().st_size > 20_000, name
+    tables = sorted(p.name for p in (out / "tables").glob("*.md"))
+    assert tables == [f"crowd_{FASTEST_POLICY}_seed0.md", f"door_17_{FASTEST_POLICY}_seed0.md"]
+    assert "| Steps | S (cm) |" in (out / "tables" / tables[1]).read_text()
+    summary = (out / "summary.md").read_text()
+    assert "results.json" in summary and "figures/door_17.png" in summary
+    assert json.loads((out / "run.json").read_text())["seeds"] == [0]
+
+
+def _without_timing(records: list[dict]) -> list[dict]:
+    return [{k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in records]
+
+
+def test_workers_do_not_change_results(tmp_path):
+    common = ["--episodes", "2", "--seed", "7", "--env", "door", "--env", "crowd", "--door-speed", "14",
+              "--policy", "period-aware", "--no-figures"]
+    outs = []
+    for workers in ("1", "2"):
+        out = tmp_path / f"w{workers}"
+        proc = run_cli(*common, "--out", str(out), "--workers", workers)
+        assert proc.returncode == 0, proc.stderr
+        outs.append(json.loads((out / "results.json").read_text()))
+    assert outs[0][0]["seeds"] == [7, 8]
+    assert _without_timing(outs[0]) == _without_timing(outs[1])
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--env", "moon"], "unknown env 'moon'"),
+    (["--policy", "teleport"], "unknown policy 'teleport'"),
+    (["--episodes", "0"], "--episodes: must be >= 1"),
+    (["--door-speed", "-3"], "--door-speed"),
+    (["--env", "crowd", "--door-speed", "8"], "--door-speed applies to the door env only"),
+])
+def test_bad_cli_values_exit_nonzero_with_a_message(args, message, tmp_path):
+    proc = run_cli(*args, "--out", str(tmp_path / "x"), timeout=60)
+    assert proc.returncode != 0
+    assert message in proc.stderr
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
+def test_quick_default_runs(tmp_path):
+    proc = run_cli("--out", str(tmp_path), timeout=900)
+    assert proc.returncode == 0, proc.stderr
+    records = json.loads((tmp_path / "results.json").read_text())
+    assert {r["scenario"] for r in records} == {"door", "crossing", "crowd"}
+    for r in records:
+        check_record(r)

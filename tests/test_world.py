@@ -1,0 +1,304 @@
+"""The pymunk world (footstep_gym/world.py) and its collision sweep, against analytic geometry.
+
+References are worked out by hand in each test: the time at which a circle moving at a
+known speed first touches another shape, the angle at which a rotating rod reaches a
+point, and (through the env) the instant a revolving-door wing meets a robot whose CoM
+sways as scipy's numerical integration of the LIPM says it should.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+from scipy.integrate import solve_ivp
+
+import footstep_gym  # noqa: F401  (registers the envs)
+from footstep_gym.config import config_dir
+from footstep_gym.world import World
+
+R = 0.10  # [m] robot radius used by the direct World tests
+MAX_CHECK = 0.02  # [s]
+FRACTION = 0.25
+NOMINAL = np.array([0.0, 0.08, 0.0, 0.6, 0.2])
+
+
+def make_world(radius: float = R) -> World:
+    return World(radius, collision_slop=0.001, max_check_interval=MAX_CHECK, motion_fraction=FRACTION)
+
+
+def standing(x: float = 0.0, y: float = 0.0):
+    return lambda t: (x, y)
+
+
+def assert_detected(result, t_true: float, closing_speed: float, radius: float = R) -> None:
+    """Contact reported no earlier than it happens, no later than one check, shallowly."""
+    assert result.collided
+    assert result.time >= t_true - 1e-9, (result.time, t_true)
+    assert result.time <= t_true + MAX_CHECK + 1e-9, (result.time, t_true)
+    # No obstacle moves more than FRACTION x radius between two checks: the overlap
+    # found at detection is at most that deep.
+    assert closing_speed * (result.time - t_true) <= FRACTION * radius + 1e-9
+
+
+# ------------------------------------------------------------------ direct sweeps
+def test_world_uses_metric_collision_slop():
+    world = make_world()
+    assert world.space.collision_slop == pytest.approx(0.001)
+
+
+@pytest.mark.parametrize("speed", [0.05, 0.5, 3.0, 10.0])
+def test_circle_approaching_standing_robot_hits_at_gap_over_speed(speed):
+    world = make_world()
+    start_x, radius = 1.0, 0.05
+    world.add_circle("ball", (start_x, 0.0), radius, velocity=(-speed, 0.0))
+    gap = start_x - radius - R
+    t_true = gap / speed
+    result = world.sweep(standing(), duration=t_true + 1.0, robot_speed_bound=0.0)
+    assert_detected(result, t_true, speed)
+    assert result.obstacle == "ball"
+    # The world is left at the time of contact, the robot at its place on the path.
+    assert world.time == pytest.approx(result.time, abs=1e-12)
+    ball = world.obstacles[0].body
+    assert ball.position.x == pytest.approx(start_x - speed * result.time, abs=1e-9)
+    assert tuple(world.robot_body.position) == pytest.approx((0.0, 0.0))
+
+
+@pytest.mark.parametrize("speed", [0.1, 0.4])
+def test_robot_walking_into_static_wall(speed):
+    world = make_world()
+    thickness = 0.02
+    world.add_wall("wall", (1.0, -1.0), (1.0, 1.0), thickness)
+    t_true = (1.0 - 0.5 * thickness - R) / speed
+    result = world.sweep(lambda t: (speed * t, 0.0), duration=t_true + 0.5, robot_speed_bound=speed)
+    assert_detected(result, t_true, speed)
+    assert result.obstacle == "wall"
+    assert tuple(world.robot_body.position) == pytest.approx((speed * result.time, 0.0), abs=1e-12)
+
+
+def test_fast_thin_obstacle_does_not_tunnel_through():
+    """A 2 cm ball at 10 m/s crosses the whole robot in 24 ms: a check at the ends would miss it."""
+    world = make_world()
+    speed, radius = 10.0, 0.01
+    world.add_circle("bullet", (-1.0, 0.0), radius, velocity=(speed, 0.0))
+    duration = 0.3  # at the end the bullet is 2 m past the robot
+    t_true = (1.0 - radius - R) / speed
+    result = world.sweep(standing(), duration, robot_speed_bound=0.0)
+    assert_detected(result, t_true, speed)
+
+
+@pytest.mark.parametrize("omega_deg", [8.0, 17.0, 90.0])
+def test_rotating_rod_reaches_standing_robot_at_predicted_angle(omega_deg):
+    """A rod turning clockwise about the origin towards a robot at (d, 0).
+
+    The rod's half-line at angle a is at distance d sin(a) from the robot's centre, so the
+    surfaces touch when d sin(a) = R + h.
+    """
+    world = make_world()
+    d, half_length, h = 0.35, 0.5, 0.01
+    a0 = math.radians(50.0)
+    omega = math.radians(omega_deg)
+    world.add_rod("door", (0.0, 0.0), (-half_length, 0.0), (half_length, 0.0), 2 * h, angle=a0,
+                  angular_velocity=-omega)
+    t_true = (a0 - math.asin((R + h) / d)) / omega
+    result = world.sweep(standing(d, 0.0), duration=t_true + 2.0, robot_speed_bound=0.0)
+    assert_detected(result, t_true, omega * (half_length + h))
+    assert world.obstacles[0].body.angle == pytest.approx(a0 - omega * result.time, abs=1e-9)
+
+
+@pytest.mark.parametrize("miss", [0.002, -0.002])
+def test_near_miss_is_clear_and_graze_is_a_hit(miss):
+    """A ball passing the robot with its surface `miss` metres from the robot's circle."""
+    world = make_world()
+    radius, speed = 0.05, 0.5
+    lateral = R + radius + miss
+    world.add_circle("ball", (-1.0, lateral), radius, velocity=(speed, 0.0))
+    result = world.sweep(standing(), duration=4.0, robot_speed_bound=0.0)
+    if miss > 0:
+        assert not result.collided and result.time == 4.0 and result.obstacle is None
+    else:
+        # First contact where the centre distance equals R + radius.
+        t_true = (1.0 - math.sqrt((R + radius) ** 2 - lateral ** 2)) / speed
+        assert_detected(result, t_true, speed)
+
+
+def test_obstacle_moving_away_never_collides_and_world_advances_by_duration():
+    world = make_world()
+    world.add_circle("ball", (0.3, 0.0), 0.05, velocity=(0.7, 0.0))
+    world.add_wall("wall", (-5.0, 1.0), (5.0, 1.0), 0.02)
+    duration = 2.5
+    result = world.sweep(lambda t: (-0.05 * t, 0.0), duration, robot_speed_bound=0.05)
+    assert not result.collided
+    assert result.time == duration and result.obstacle is None
+    assert world.time == pytest.approx(duration, abs=1e-12)
+    assert world.obstacles[0].body.position.x == pytest.approx(0.3 + 0.7 * duration, abs=1e-9)
+    assert tuple(world.robot_body.position) == pytest.approx((-0.05 * duration, 0.0))
+    # A second sweep continues from there.
+    world.sweep(standing(), 0.5, 0.0)
+    assert world.time == pytest.approx(duration + 0.5, abs=1e-12)
+    assert world.obstacles[0].body.position.x == pytest.approx(0.3 + 0.7 * (duration + 0.5), abs=1e-9)
+
+
+def test_far_obstacles_need_few_checks():
+    """Conservative advancement: with 10 m of clearance a 1 s sweep needs no fine checks."""
+    world = make_world()
+    world.add_circle("far", (10.0, 0.0), 0.05, velocity=(-0.3, 0.0))
+    result = world.sweep(lambda t: (0.1 * t, 0.0), 1.0, robot_speed_bound=0.1)
+    assert not result.collided
+    assert result.checks <= 3
+
+
+def test_empty_world_sweep():
+    world = make_world()
+    result = world.sweep(lambda t: (t, 0.0), 1.0, robot_speed_bound=1.0)
+    assert not result.collided and result.time == 1.0
+
+
+def test_clearance_and_nearest_match_geometry():
+    world = make_world()
+    world.add_circle("ball", (1.0, 0.0), 0.1, velocity=(0.0, 0.2))
+    world.add_wall("wall", (-3.0, -0.5), (3.0, -0.5), 0.02)  # surface at y = -0.49
+    omega = 0.5
+    world.add_rod("rod", (0.0, 2.0), (-0.5, 0.0), (0.5, 0.0), 0.02, angular_velocity=omega)
+    dist, hit = world.clearance((0.0, 0.0), horizon=5.0)
+    assert hit.name == "wall" and dist == pytest.approx(0.49, abs=1e-9)
+    dist, hit = world.clearance((0.0, 0.0), horizon=0.3)  # nothing within the horizon
+    assert hit is None
+
+    near = world.nearest((0.0, 0.0), k=5, max_distance=3.0)
+    names = [o.name for _, _, _, o in near]
+    assert names == ["wall", "ball", "rod"]  # 0.49, 0.9, 1.99
+    dists = [d for d, _, _, _ in near]
+    assert dists == pytest.approx([0.49, 0.9, 1.99], abs=1e-9)
+    # Closest points and the velocities of those points.
+    _, p_ball, v_ball, _ = near[1]
+    assert p_ball == pytest.approx((0.9, 0.0), abs=1e-9)
+    assert v_ball == pytest.approx((0.0, 0.2), abs=1e-12)
+    _, p_rod, v_rod, _ = near[2]
+    assert p_rod == pytest.approx((0.0, 1.99), abs=1e-9)
+    # A point (0, -0.01) from the rod's centre turning at omega moves at omega x r = (0.01 omega, 0).
+    assert v_rod == pytest.approx((0.01 * omega, 0.0), abs=1e-9)
+    assert near[0][2] == (0.0, 0.0)  # static wall
+    assert len(world.nearest((0.0, 0.0), k=2, max_distance=3.0)) == 2
+    assert len(world.nearest((0.0, 0.0), k=5, max_distance=1.0)) == 2
+
+
+def test_max_obstacle_speed_counts_rotation():
+    world = make_world()
+    world.add_circle("ball", (1.0, 0.0), 0.1, velocity=(0.3, 0.4))
+    world.add_rod("rod", (0.0, 2.0), (-0.5, 0.0), (0.5, 0.0), 0.02, angular_velocity=-2.0)
+    # Fastest point: the rod's tip surface, 0.51 m from its centre at 2 rad/s.
+    assert world.max_obstacle_speed() == pytest.approx(max(0.5, 2.0 * 0.51))
+
+
+# ------------------------------------------------------------------ the sweep inside the env
+def _yaml(name: str) -> dict:
+    with open(config_dir() / name, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+def lipm_com_path(starts, feet, first_support, t_ss, t_ds, omega, dt=2e-4):
+    """CoM path of stepping in place by scipy integration of c'' = omega^2 (c - p(t)).
+
+    ``starts``: the CoM ``(position, velocity)`` at the start of each step (the pendulum
+    is unstable, so each step is integrated from the state the env reports rather than
+    open loop over many steps). ZMP at the support foot's centre during single support,
+    moving linearly to the other foot's centre during double support (the nominal
+    schedule, DESIGN.md §3). Returns ``(t, c)`` with c of shape (N, 2).
+    """
+    def rhs(_t, y, pa, pb, t0, tau):
+        p = pa + (pb - pa) * (_t - t0) / tau if tau else pa
+        return [y[2], y[3], omega ** 2 * (y[0] - p[0]), omega ** 2 * (y[1] - p[1])]
+
+    ts, cs = [], []
+    support = first_support
+    t0 = 0.0
+    for com, vel in starts:
+        state = np.array([*com, *vel], dtype=float)
+        pa, pb = np.asarray(feet[support]), np.asarray(feet[-support])
+        for (start, end, tau, a, b) in ((t0, t0 + t_ss, 0.0, pa, pa), (t0 + t_ss, t0 + t_ss + t_ds, t_ds, pa, pb)):
+            sol = solve_ivp(rhs, (start, end), state, args=(a, b, start, tau), dense_output=True,
+                            rtol=1e-10, atol=1e-12, method="DOP853")
+            grid = np.linspace(start, end, max(2, int(round((end - start) / dt))), endpoint=False)
+            ts.append(grid)
+            cs.append(sol.sol(grid)[:2].T)
+            state = sol.y[:, -1]
+        t0 += t_ss + t_ds
+        support = -support
+    return np.concatenate(ts), np.concatenate(cs)
+
+
+def rod_distance(points, angle, centre, half_length):
+    """Distance from points (N, 2) to the rod's axis segment through ``centre`` at ``angle`` (N,)."""
+    u = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    rel = points - np.asarray(centre)
+    s = np.clip(np.einsum("nd,nd->n", rel, u), -half_length, half_length)
+    return np.linalg.norm(rel - s[:, None] * u, axis=1)
+
+
+@pytest.mark.parametrize("door_speed, start_angle, start", [
+    (17.0, 130.0, (0.0, -0.30)),  # the lower wing sweeps down onto a robot below the post
+    (8.0, 130.0, (0.0, -0.30)),
+    (14.0, 75.0, (0.25, -0.20)),  # the upper wing comes round clockwise onto a robot right of the post
+])
+def test_door_wing_hits_robot_stepping_in_place_at_predicted_time(door_speed, start_angle, start):
+    door = _yaml("scenarios/door.yaml")
+    robot = _yaml("robot.yaml")
+    env = gym.make("FootstepDoor-v0", door_speed=door_speed, door_start_angle=start_angle,
+                   door_angle_jitter=0.0, start_jitter=0.0, start=list(start))
+    _, info0 = env.reset(seed=0)
+    infos = []
+    for _ in range(12):
+        _, _, terminated, truncated, info = env.step(NOMINAL)
+        infos.append(info)
+        if terminated or truncated:
+            break
+    assert info["termination"] == "collision" and info["obstacle"] == "door"
+    for earlier in infos[:-1]:
+        assert abs(earlier["zmp_offset"][0]) < 1e-9 and abs(earlier["zmp_offset"][1]) < 1e-9
+
+    # Independent reference: the CoM by ODE integration, the rod by its constant rotation.
+    half = 0.5 * robot["nominal_side_stride"]
+    feet = {-1: (start[0], start[1] - half), +1: (start[0], start[1] + half)}  # right, left; yaw 0
+    omega = math.sqrt(robot["gravity"] / robot["com_height"])
+    starts = [(i["com"], i["com_vel"]) for i in [info0, *infos[:-1]]]
+    t, c = lipm_com_path(starts, feet, -1, robot["nominal_t_ss"], robot["nominal_t_ds"], omega)
+    angle = math.radians(start_angle) - math.radians(door_speed) * t
+    d = rod_distance(c, angle, door["door_centre"], door["door_radius"])
+    touching = d < robot["body_radius"] + 0.5 * door["door_thickness"]
+    assert touching.any() and not touching[0]
+    t_true = t[np.argmax(touching)]
+    assert 0.0 < t_true
+    reported = info["time"]
+    env_cfg = _yaml("env.yaml")
+    assert t_true - 1e-3 <= reported <= t_true + env_cfg["max_check_interval"] + 1e-3, (reported, t_true)
+    # The robot was stepped through whole steps until then: contact lies inside the last one.
+    assert reported > 0.8 * (len(infos) - 1) - 1e-9
+    env.close()
+
+
+def test_robot_walking_clear_of_every_obstacle_never_collides():
+    """Crossing env with the car 5 m ahead and timed to arrive after 40 s: 40 nominal strides."""
+    env = gym.make("FootstepCrossing-v0", crossing_x=5.0, timing_jitter=0.0, goal=[20.0, 0.0],
+                   max_steps=500, time_limit=500.0)
+    env.reset(seed=1)
+    ramp = [0.02, 0.04, 0.06, 0.08] + [0.10] * 36  # reach a 10 cm stride gradually
+    xs = []
+    for stride in ramp:
+        _, _, terminated, truncated, info = env.step(np.array([stride, 0.08, 0.0, 0.6, 0.2]))
+        assert not terminated and not truncated
+        assert not info["collision"] and info["termination"] is None and info["feasible"]
+        xs.append(info["com"][0])
+    assert xs[-1] > 3.0  # it really walked (about 3.6 m)
+    assert info["time"] == pytest.approx(0.8 * len(ramp))
+
+
+def test_standing_outside_the_door_never_collides():
+    env = gym.make("FootstepDoor-v0", door_speed=17.0)
+    env.reset(seed=2)
+    for _ in range(40):  # 32 s: the door turns more than a full revolution
+        _, _, terminated, truncated, info = env.step(NOMINAL)
+        assert not terminated and not truncated and not info["collision"]

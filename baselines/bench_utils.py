@@ -1,6 +1,7 @@
 """Helpers of ``baselines/benchmark.py``: summaries, machine description, memory probes, markdown.
 
-Standard library and numpy only (no psutil): RSS comes from ``/proc/self/statm`` and
+Standard library and numpy only (no psutil): RSS comes from ``/proc/self/statm``,
+``/proc/self/status`` (``VmHWM``, reset through ``/proc/self/clear_refs``) and
 ``resource.getrusage``.
 """
 
@@ -86,6 +87,73 @@ def rss_bytes() -> int | None:
         return pages * os.sysconf("SC_PAGE_SIZE")
     except (OSError, ValueError, IndexError):
         return None
+
+
+def _vm_hwm_bytes() -> int | None:
+    """``VmHWM`` (peak RSS) from ``/proc/self/status`` [bytes], ``None`` where unavailable."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+class RssPeak:
+    """Peak RSS of this process from now on, C allocations (pymunk/chipmunk, numpy) included.
+
+    ``getrusage``'s ``ru_maxrss`` is the peak over the whole process life, usually set while
+    importing. Here, on Linux, writing ``5`` to ``/proc/self/clear_refs`` resets the kernel's
+    peak (``VmHWM``) to the current RSS, so :attr:`peak` is the exact peak since then, even
+    inside a call. Where that is not allowed, it falls back to the largest current RSS
+    seen by :meth:`sample` (call it after every step; it misses peaks inside a call).
+    ``peak`` is ``None`` without ``/proc``.
+    """
+
+    def __init__(self) -> None:
+        self._page = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
+        try:
+            self._f = open("/proc/self/statm", "rb", buffering=0)  # noqa: SIM115 - closed in close()
+        except OSError:
+            self._f = None
+        self.sampled_peak: int | None = None
+        self.samples = 0
+        try:
+            with open("/proc/self/clear_refs", "w", encoding="ascii") as f:
+                f.write("5")
+            self.hwm_reset = _vm_hwm_bytes() is not None
+        except OSError:
+            self.hwm_reset = False
+        self.sample()
+
+    @property
+    def method(self) -> str:
+        if self.hwm_reset:
+            return "VmHWM reset at the baseline (/proc/self/clear_refs)"
+        return "current RSS sampled after every step" if self._f is not None or self.samples else "unavailable"
+
+    def sample(self) -> int | None:
+        if self._f is None:
+            return None
+        self._f.seek(0)
+        rss = int(self._f.read().split()[1]) * self._page
+        self.samples += 1
+        if self.sampled_peak is None or rss > self.sampled_peak:
+            self.sampled_peak = rss
+        return rss
+
+    @property
+    def peak(self) -> int | None:
+        hwm = _vm_hwm_bytes() if self.hwm_reset else None
+        vals = [v for v in (hwm, self.sampled_peak) if v is not None]
+        return max(vals) if vals else None
+
+    def close(self) -> None:
+        if self._f is not None:
+            self._f.close()
+            self._f = None
 
 
 def max_rss_bytes() -> int:

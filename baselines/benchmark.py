@@ -1,6 +1,6 @@
 """How fast footstep_gym is: env steps/s, LIPM checks/s, planning time per footstep, memory.
 
-    python baselines/benchmark.py            # quick (about 2-3 minutes on 2 cores)
+    python baselines/benchmark.py            # quick, the default (1-3 minutes on 2 cores)
     python baselines/benchmark.py --full     # more repetitions, more episodes
     python baselines/benchmark.py --out runs/benchmark --sections env,lipm
 
@@ -17,15 +17,20 @@ with ``time.perf_counter``. Measured:
   same seeds, so the planner's time is excluded and measured separately). Episodes reset
   when done and resets are inside the timed loop (the episode length is reported). The
   same through ``gym.make_vec(id, num_envs=2, vectorization_mode="sync"/"async")``
-  (steps/s counts sub-env steps: 2 per vector step), and the same for ``CartPole-v1``,
-  ``Pendulum-v1`` and ``BipedalWalker-v3`` (random commands; skipped when not installed);
+  (``AsyncVectorEnv``: 2 worker processes, checked and recorded; steps/s counts sub-env
+  transitions, the reset-only steps of the default ``NEXT_STEP`` autoreset are timed but
+  not counted), and the same for ``CartPole-v1``, ``Pendulum-v1`` and ``BipedalWalker-v3``
+  (random commands; skipped when not installed). Single-process cells are interleaved
+  round by round, so the FootstepDoor / BipedalWalker ratio is paired per round;
 * **LIPM feasibility checks/s**: ``lipm.check_step`` (one command, plain Python) and
   ``lipm.check_steps`` with batches of 1, 32 and 1024 (commands/s);
 * **planning time per footstep** (``policy.act``; median, p95, p99) of ``period-aware``,
-  ``fixed-period`` and ``pso-only`` on each env, and their success rates on the same seeds;
-* **peak memory** of one env (``tracemalloc`` peak around make + reset + N steps, and the
-  RSS growth read from ``/proc/self/statm`` / ``getrusage``, each in a fresh subprocess)
-  and of the period-aware planner.
+  ``fixed-period`` and ``pso-only`` on each env, and their success rates on the same seeds
+  (the planners alternate seed by seed);
+* **peak memory** of one env (make + reset + N near-nominal steps) and of the period-aware
+  planner (M acts), on each env: the ``tracemalloc`` peak, and the peak RSS above the
+  baseline (the kernel's ``VmHWM`` reset at the baseline; else sampled after every step;
+  C allocations included), each figure in a fresh subprocess.
 
 Targets (PASS/MISS in the output; they live here, never in timed tests): FootstepDoor
 steps/s >= BipedalWalker's; batched LIPM >= 1e6 commands/s at batch 1024; period-aware
@@ -56,8 +61,8 @@ import numpy as np  # noqa: E402
 
 import footstep_gym  # noqa: E402
 from bench_utils import (  # noqa: E402
-    finite_json, fmt_bytes, fmt_num, fmt_stat, machine_info, markdown_table, max_rss_bytes, rss_bytes,
-    summary, tail_summary,
+    RssPeak, finite_json, fmt_bytes, fmt_num, fmt_stat, machine_info, markdown_table, max_rss_bytes,
+    rss_bytes, summary, tail_summary,
 )
 from footstep_gym import lipm  # noqa: E402
 from footstep_gym.robot import load_robot  # noqa: E402
@@ -91,24 +96,36 @@ class Settings:
     lipm_rep_seconds: float
     planner_episodes: int  # seeds per env (the same seeds for every planner)
     planner_max_steps: int | None  # cap on footsteps per planner episode (smoke only; None = the env's limit)
-    memory_steps: int
+    planner_warmup_steps: int  # untimed footsteps of each planner on an extra seed before the timed episodes
+    planner_budget_s: float | None  # per env: no new seed after this (>= 2 seeds always run); None = no limit
+    memory_steps: int  # env steps in the env's memory probe
+    memory_acts: int  # planner acts in the planner's memory probe
+    memory_budget_s: float | None  # a memory probe stops stepping after this (>= 1 step always runs)
+    action_pool: int  # distinct pre-sampled commands per env cell (cycled; sampling is outside the timing)
 
 
 MODES = {
     "smoke": Settings("smoke", repetitions=2, rep_seconds=0.02, warmup_seconds=0.01, min_steps=5,
                       vec_repetitions=2, vec_rep_seconds=0.02, lipm_rep_seconds=0.01,
-                      planner_episodes=1, planner_max_steps=4, memory_steps=20),
+                      planner_episodes=1, planner_max_steps=2, planner_warmup_steps=1, planner_budget_s=None,
+                      memory_steps=20, memory_acts=2, memory_budget_s=None, action_pool=64),
     "quick": Settings("quick", repetitions=7, rep_seconds=0.25, warmup_seconds=0.2, min_steps=50,
                       vec_repetitions=5, vec_rep_seconds=0.25, lipm_rep_seconds=0.1,
-                      planner_episodes=4, planner_max_steps=None, memory_steps=500),
+                      planner_episodes=4, planner_max_steps=None, planner_warmup_steps=3, planner_budget_s=45.0,
+                      memory_steps=500, memory_acts=50, memory_budget_s=15.0, action_pool=1024),
     "full": Settings("full", repetitions=21, rep_seconds=0.5, warmup_seconds=0.5, min_steps=200,
                      vec_repetitions=11, vec_rep_seconds=0.5, lipm_rep_seconds=0.3,
-                     planner_episodes=12, planner_max_steps=None, memory_steps=2000),
+                     planner_episodes=12, planner_max_steps=None, planner_warmup_steps=3, planner_budget_s=600.0,
+                     memory_steps=2000, memory_acts=200, memory_budget_s=120.0, action_pool=4096),
 }
 
 
+_T0 = time.perf_counter()
+
+
 def log(msg: str) -> None:
-    print(msg, file=sys.stderr, flush=True)
+    """Progress on stderr (stdout carries only the report), with the time since start."""
+    print(f"[{time.perf_counter() - _T0:6.1f} s] {msg}", file=sys.stderr, flush=True)
 
 
 # ------------------------------------------------------------------ commands
@@ -198,7 +215,7 @@ class SingleCell:
             self.steps_per_rep = self.loops * k
             return
         env.reset(seed=seed)
-        pool = 4096
+        pool = settings.action_pool
         if commands == "random":
             self.actions = random_commands(env.action_space, pool, seed)
         else:
@@ -269,15 +286,38 @@ def measure_singles(cells_spec: list[tuple[str, str]], settings: Settings, seed:
     return out
 
 
+def vector_workers(vec: gym.vector.VectorEnv) -> dict[str, Any]:
+    """How ``vec`` runs its sub-envs: class, autoreset mode, sub-env count and worker processes.
+
+    ``AsyncVectorEnv`` keeps one ``multiprocessing.Process`` per sub-env; a
+    ``SyncVectorEnv`` steps its sub-envs one after the other in this process.
+    """
+    procs = getattr(vec, "processes", None)
+    pids = [p.pid for p in procs] if procs else []
+    mode = getattr(vec, "autoreset_mode", None) or vec.metadata.get("autoreset_mode")
+    return {"class": type(vec).__name__, "num_envs": vec.num_envs,
+            "autoreset_mode": getattr(mode, "name", None) or (str(mode) if mode is not None else None),
+            "worker_processes": len(pids),
+            "workers_alive": sum(bool(p.is_alive()) for p in procs) if procs else 0,
+            "worker_pids_distinct_from_parent": len(set(pids)) == len(pids) and os.getpid() not in pids}
+
+
 def measure_vector(env_id: str, mode: str, commands: str, settings: Settings, seed: int,
                    replay: list[tuple[int, np.ndarray]] | None = None, num_envs: int = 2) -> dict[str, Any]:
-    """Sub-env steps/s through ``gym.make_vec(id, num_envs, vectorization_mode=mode)``."""
+    """Sub-env steps/s through ``gym.make_vec(id, num_envs, vectorization_mode=mode)``.
+
+    Only transitions count as steps: with gymnasium's default ``NEXT_STEP`` autoreset, the
+    vector step after a sub-env's episode ended only resets that sub-env (the action is
+    ignored). That reset is timed (as the single-process loop times its resets) but not
+    counted, so vector and single-process steps/s count the same thing.
+    """
     vec = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode=mode)
     try:
+        vec.reset(seed=seed)  # async: the workers are up before anything is timed
+        workers = vector_workers(vec)
         if commands == "planner":
-            return _measure_replay_vector(vec, replay or [], settings, num_envs)
-        vec.reset(seed=seed)
-        pool = 2048
+            return {**_measure_replay_vector(vec, replay or [], settings, num_envs), "vector": workers}
+        pool = settings.action_pool
         if commands == "random":
             actions = random_commands(vec.action_space, pool, seed)
         else:
@@ -285,28 +325,41 @@ def measure_vector(env_id: str, mode: str, commands: str, settings: Settings, se
             rng = np.random.default_rng(seed)
             actions = list(near_nominal_commands(robot, pool * num_envs, rng).reshape(pool, num_envs, 5))
         cursor = [0]
+        next_step_reset = workers["autoreset_mode"] == "NEXT_STEP"
+        pending = [np.zeros(num_envs, dtype=bool)]  # sub-envs whose next step is an autoreset
+        resets = [0]
 
         def run_once(n: int) -> tuple[float, int, int]:
             step = vec.step
             m = len(actions)
-            episodes = 0
+            episodes, autoresets, done = 0, 0, pending[0]
             t0 = time.perf_counter()
             for i in range(cursor[0], cursor[0] + n):
                 _, _, term, trunc, _ = step(actions[i % m])
-                episodes += int(np.count_nonzero(term | trunc))
+                if next_step_reset:
+                    autoresets += int(np.count_nonzero(done))
+                    ended = (term | trunc) & ~done
+                else:
+                    ended = term | trunc
+                episodes += int(np.count_nonzero(ended))
+                done = term | trunc
             dt = time.perf_counter() - t0
             cursor[0] += n
-            return dt, n * num_envs, episodes
+            pending[0] = done
+            resets[0] += autoresets
+            return dt, n * num_envs - autoresets, episodes
 
         n_sub = _calibrate(run_once, settings, settings.vec_rep_seconds)
         n = max(1, n_sub // num_envs)
         rates, steps, episodes = [], 0, 0
+        resets[0] = 0
         for _ in range(settings.vec_repetitions):
             dt, k, e = run_once(n)
             rates.append(k / dt)
             steps, episodes = steps + k, episodes + e
-        return {"steps_per_s": summary(rates), "steps_per_rep": n * num_envs, "steps": steps,
-                "episodes": episodes, "mean_episode_steps": steps / max(episodes, 1), "num_envs": num_envs}
+        return {"steps_per_s": summary(rates), "rates": rates, "vector_steps_per_rep": n, "steps": steps,
+                "autoreset_steps": resets[0], "episodes": episodes,
+                "mean_episode_steps": steps / max(episodes, 1), "num_envs": num_envs, "vector": workers}
     finally:
         vec.close()
 
@@ -350,8 +403,10 @@ def _measure_replay_vector(vec: gym.vector.VectorEnv, episodes: list[tuple[int, 
             t, s = t + dt, s + k
         rates.append(s / t)
         total += s
-    return {"steps_per_s": summary(rates), "steps_per_rep": loops * sum(len(a) * num_envs for _, a in groups),
-            "steps": total, "episodes": None, "mean_episode_steps": None, "num_envs": num_envs}
+    return {"steps_per_s": summary(rates), "rates": rates,
+            "steps_per_rep": loops * sum(len(a) * num_envs for _, a in groups), "steps": total,
+            "autoreset_steps": 0, "episodes": loops * len(groups) * num_envs * settings.vec_repetitions,
+            "mean_episode_steps": sum(len(a) for _, a in groups) / len(groups), "num_envs": num_envs}
 
 
 def _available(env_id: str) -> str | None:
@@ -426,8 +481,14 @@ def bench_lipm(settings: Settings, seed: int) -> dict[str, Any]:
         lipm.check_step(robot, com, vel, scalar_cmds[i], support)
         return 1
 
-    out: dict[str, Any] = {"check_step": {"commands_per_s": summary(timed(one_scalar)), "batch": 1}}
     log("  lipm check_step")
+    out: dict[str, Any] = {"check_step": {"commands_per_s": summary(timed(one_scalar)), "batch": 1}}
+    # What was timed: the verdicts of both paths on the whole pool (they should agree).
+    scalar_ok = np.array([all(lipm.check_step(robot, com, vel, c, support)[:2]) for c in scalar_cmds])
+    batch_ok = np.asarray(lipm.check_steps(robot, com2, vel2, pool, support).feasible, dtype=bool)
+    out["commands"] = {"pool": len(pool), "sampling": "uniform in the command box, nominal steady-state CoM",
+                       "feasible_fraction": float(batch_ok.mean()),
+                       "scalar_batched_agreement": float((scalar_ok == batch_ok).mean())}
     out["check_steps"] = {}
     for batch in LIPM_BATCHES:
         log(f"  lipm check_steps batch {batch}")
@@ -452,69 +513,95 @@ def _make_policy_fn() -> tuple[Callable | None, str | None]:
     return make_policy, None
 
 
-def run_planner_episodes(make_policy: Callable, planner: str, env_id: str, seeds: list[int],
-                         max_steps: int | None, warmup_seed: int) -> dict[str, Any]:
-    """Run ``planner`` on ``env_id`` from each seed; time ``sensing()``, ``policy.act`` and ``env.step`` per footstep."""
-    env = gym.make(env_id)
-    robot = env.unwrapped.robot
-    policy = make_policy(planner, robot, seed=seeds[0])
-    plan_s, sense_s, step_s = [], [], []
-    stages: dict[str, list[float]] = {}
-    pso_ran = 0
-    episodes, recorded = [], []
-    try:
-        for k, seed in enumerate([warmup_seed, *seeds]):
-            warm = k == 0
-            obs, info = env.reset(seed=seed)
-            policy.reset(seed=seed)
-            actions, n, info = [], 0, {}
-            while True:
-                t0 = time.perf_counter()
-                snapshot = env.unwrapped.sensing()
-                t1 = time.perf_counter()
-                action = policy.act(obs, snapshot)
-                t2 = time.perf_counter()
-                obs, _, terminated, truncated, info = env.step(action)
-                t3 = time.perf_counter()
-                n += 1
-                actions.append(np.array(action, copy=True))
-                if not warm:
-                    sense_s.append(t1 - t0)
-                    plan_s.append(t2 - t1)
-                    step_s.append(t3 - t2)
-                    li = getattr(policy, "last_info", None) or {}
-                    for key in STAGE_KEYS:
-                        if isinstance(li.get(key), (int, float)):
-                            stages.setdefault(key, []).append(1e-3 * li[key])
-                    pso_ran += bool(li.get("pso_ran", False))
-                if terminated or truncated or (max_steps is not None and n >= max_steps) or (warm and n >= 3):
-                    break
-            if warm:
-                continue
-            episodes.append({"seed": seed, "steps": n, "termination": info.get("termination"),
-                             "success": bool(info.get("is_success", False)), "time": info.get("time"),
-                             "capped": not (terminated or truncated)})
-            recorded.append((seed, np.array(actions), info.get("termination")))
-    finally:
-        env.close()
-    successes = sum(e["success"] for e in episodes)
-    return {
-        "plan_time_s": tail_summary(plan_s),
-        "sensing_time_s": tail_summary(sense_s),
-        "env_step_time_s": tail_summary(step_s),
-        "stage_time_s": {k.removeprefix("time_").removesuffix("_ms"): tail_summary(v) for k, v in stages.items()},
-        "pso_ran_fraction": pso_ran / max(len(plan_s), 1),
-        "footsteps": len(plan_s),
-        "episodes": len(episodes),
-        "successes": successes,
-        "success_rate": successes / max(len(episodes), 1),
-        "seeds": list(seeds),
-        "per_episode": episodes,
-        "_recorded": recorded,
-    }
+class PlannerRun:
+    """One planner on one env: times ``sensing()``, ``policy.act`` and ``env.step`` per footstep.
+
+    :func:`bench_planners` alternates the planners seed by seed (the same seeds for every
+    planner), so that background load hits them alike and their time ratio is fair.
+    """
+
+    def __init__(self, make_policy: Callable, planner: str, env_id: str, seeds: list[int],
+                 max_steps: int | None, warmup_steps: int = 3) -> None:
+        self.planner, self.env_id, self.seeds, self.max_steps = planner, env_id, list(seeds), max_steps
+        self.warmup_steps = warmup_steps
+        self.env = gym.make(env_id)
+        self.policy = make_policy(planner, self.env.unwrapped.robot, seed=self.seeds[0])
+        self.plan_s: list[float] = []
+        self.sense_s: list[float] = []
+        self.step_s: list[float] = []
+        self.stages: dict[str, list[float]] = {}
+        self.pso_ran = 0
+        self.episodes: list[dict[str, Any]] = []
+        self.recorded: list[tuple[int, np.ndarray, Any]] = []
+
+    def episode(self, seed: int, warm: bool = False) -> int:
+        """Run one episode from ``seed`` (a warm-up stops after ``warmup_steps``, unrecorded). Returns its footsteps."""
+        env, policy = self.env, self.policy
+        obs, info = env.reset(seed=seed)
+        policy.reset(seed=seed)
+        actions, n, info = [], 0, {}
+        terminated = truncated = False
+        sensing = env.unwrapped.sensing
+        while True:
+            t0 = time.perf_counter()
+            snapshot = sensing()
+            t1 = time.perf_counter()
+            action = policy.act(obs, snapshot)
+            t2 = time.perf_counter()
+            obs, _, terminated, truncated, info = env.step(action)
+            t3 = time.perf_counter()
+            n += 1
+            actions.append(np.array(action, copy=True))
+            if not warm:
+                self.sense_s.append(t1 - t0)
+                self.plan_s.append(t2 - t1)
+                self.step_s.append(t3 - t2)
+                li = getattr(policy, "last_info", None) or {}
+                for key in STAGE_KEYS:
+                    if isinstance(li.get(key), (int, float)):
+                        self.stages.setdefault(key, []).append(1e-3 * li[key])
+                self.pso_ran += bool(li.get("pso_ran", False))
+            capped = self.max_steps is not None and n >= self.max_steps
+            if terminated or truncated or capped or (warm and n >= self.warmup_steps):
+                break
+        if not warm:
+            self.episodes.append({"seed": seed, "steps": n, "termination": info.get("termination"),
+                                  "success": bool(info.get("is_success", False)), "time": info.get("time"),
+                                  "capped": not (terminated or truncated)})
+            self.recorded.append((seed, np.array(actions), info.get("termination")))
+        return n
+
+    def result(self) -> dict[str, Any]:
+        successes = sum(e["success"] for e in self.episodes)
+        return {
+            "plan_time_s": tail_summary(self.plan_s),
+            "sensing_time_s": tail_summary(self.sense_s),
+            "env_step_time_s": tail_summary(self.step_s),
+            "stage_time_s": {k.removeprefix("time_").removesuffix("_ms"): tail_summary(v)
+                             for k, v in self.stages.items()},
+            "pso_ran_fraction": self.pso_ran / max(len(self.plan_s), 1),
+            "footsteps": len(self.plan_s),
+            "episodes": len(self.episodes),
+            "successes": successes,
+            "success_rate": successes / max(len(self.episodes), 1),
+            "seeds": [e["seed"] for e in self.episodes],
+            "per_episode": self.episodes,
+        }
+
+    def close(self) -> None:
+        self.env.close()
+
+
+def _error(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"[:300]
 
 
 def bench_planners(settings: Settings, seed: int) -> tuple[dict[str, Any], dict[str, list]]:
+    """Planning time per footstep and success of every planner on every env, on the same seeds.
+
+    Also returns the period-aware planner's recorded commands per env (replayed by the
+    env-steps section, so that the env is timed without the planner).
+    """
     make_policy, reason = _make_policy_fn()
     if make_policy is None:
         return {"skipped": reason}, {}
@@ -522,19 +609,50 @@ def bench_planners(settings: Settings, seed: int) -> tuple[dict[str, Any], dict[
     results: dict[str, Any] = {}
     replays: dict[str, list] = {}
     for env_id in FOOTSTEP_ENVS:
-        results[env_id] = {}
-        for planner in PLANNERS:
-            log(f"  planner {planner:13s} on {env_id}")
-            try:
-                r = run_planner_episodes(make_policy, planner, env_id, seeds, settings.planner_max_steps,
-                                         warmup_seed=seed + 10_000)
-            except Exception as exc:  # noqa: BLE001
-                results[env_id][planner] = {"skipped": f"{type(exc).__name__}: {exc}"[:300]}
-                continue
-            recorded = r.pop("_recorded")
-            if planner == "period-aware":
-                replays[env_id] = recorded
-            results[env_id][planner] = r
+        runs: dict[str, PlannerRun] = {}
+        failed: dict[str, str] = {}
+        try:
+            for planner in PLANNERS:
+                try:
+                    runs[planner] = PlannerRun(make_policy, planner, env_id, seeds, settings.planner_max_steps,
+                                                settings.planner_warmup_steps)
+                    runs[planner].episode(seed + 10_000, warm=True)
+                except Exception as exc:  # noqa: BLE001 - one broken planner must not lose the rest
+                    failed[planner] = _error(exc)
+                    runs.pop(planner, None)
+            t_env = time.perf_counter()
+            budget_hit = False
+            for i, s in enumerate(seeds):
+                if settings.planner_budget_s is not None and i >= 2 and \
+                        time.perf_counter() - t_env > settings.planner_budget_s:
+                    budget_hit = True
+                    log(f"  planners on {env_id}: time budget of {settings.planner_budget_s:.0f} s used up; "
+                        f"{i} of {len(seeds)} seeds run (the same for every planner)")
+                    break
+                done = []
+                for planner, run in list(runs.items()):
+                    t0 = time.perf_counter()
+                    try:
+                        n = run.episode(s)
+                    except Exception as exc:  # noqa: BLE001
+                        failed[planner] = _error(exc)
+                        run.close()
+                        del runs[planner]
+                        continue
+                    done.append(f"{planner} {n} steps {time.perf_counter() - t0:.1f} s")
+                log(f"  planners on {env_id:20s} seed {s} ({i + 1}/{len(seeds)}): " + ", ".join(done))
+            results[env_id] = {}
+            for planner in PLANNERS:
+                if planner in failed:
+                    results[env_id][planner] = {"skipped": failed[planner]}
+                else:
+                    results[env_id][planner] = {**runs[planner].result(), "seeds_planned": list(seeds),
+                                                "budget_exhausted": budget_hit}
+            if "period-aware" in runs:
+                replays[env_id] = runs["period-aware"].recorded
+        finally:
+            for run in runs.values():
+                run.close()
     return results, replays
 
 
@@ -543,16 +661,24 @@ def _memory_child(spec: dict[str, Any]) -> dict[str, Any]:
     """Runs in a fresh interpreter: memory of make + reset + N steps (env) or of the period-aware planner.
 
     Modules are imported before the baseline (code is not the env's memory); for the
-    planner, the env is made and stepped first so that only the planner's memory remains.
+    planner, the env is made and stepped first so that only the planner's memory remains
+    (its env keeps stepping, so the env's growth over those steps is included).
+    Without tracemalloc, ``peak_rss_delta_bytes`` is the peak RSS above the baseline
+    (``RssPeak``: the kernel's ``VmHWM`` reset at the baseline, else the current RSS sampled
+    after every step and act). With tracemalloc (a separate child: tracing slows everything
+    and allocates), the peak of Python-level allocations (numpy's buffers included).
     """
     import gc
 
     import footstep_gym.env  # noqa: F401 - pymunk, scenarios, world
 
     env_id, n, what, use_tm = spec["env_id"], spec["steps"], spec["what"], spec["tracemalloc"]
+    budget = spec.get("budget_s")
+    done = 0
     rng = np.random.default_rng(0)
     make_policy = None
     env = None
+    obs = None
     if what == "planner":
         make_policy, reason = _make_policy_fn()
         if make_policy is None:
@@ -561,26 +687,33 @@ def _memory_child(spec: dict[str, Any]) -> dict[str, Any]:
         env.reset(seed=0)
         for _ in range(3):  # the env's own lazy allocations before the planner is measured
             env.step(env.unwrapped.robot.nominal_command)
-        env.reset(seed=0)
+        obs, _ = env.reset(seed=0)
     actions = list(near_nominal_commands(load_robot(), n, rng)) if what == "env" else []
     gc.collect()
     rss0, max0 = rss_bytes(), max_rss_bytes()
+    sampler = RssPeak()
     if use_tm:
         tracemalloc.start()
     t0 = time.perf_counter()
-    peak_all, peak_act = 0, None
+    peak_all, peak_act, episodes = 0, None, 0
     if what == "env":
         env = gym.make(env_id)
         env.reset(seed=0)
+        sampler.sample()
         for a in actions:
             _, _, term, trunc, _ = env.step(a)
             if term or trunc:
                 env.reset()
+                episodes += 1
+            sampler.sample()
+            done += 1
+            if budget is not None and time.perf_counter() - t0 > budget:
+                break
     else:
         policy = make_policy("period-aware", env.unwrapped.robot, seed=0)
         policy.reset(seed=0)
-        obs = env.unwrapped._observation()
-        peak_act, ep = 0, 0
+        sampler.sample()
+        peak_act = 0
         for _ in range(n):
             snap = env.unwrapped.sensing()
             if use_tm:
@@ -590,13 +723,19 @@ def _memory_child(spec: dict[str, Any]) -> dict[str, Any]:
             action = policy.act(obs, snap)
             if use_tm:
                 peak_act = max(peak_act, tracemalloc.get_traced_memory()[1] - cur)
+            sampler.sample()
             obs, _, term, trunc, _ = env.step(action)
             if term or trunc:
-                ep += 1
-                obs, _ = env.reset(seed=ep)
-                policy.reset(seed=ep)
+                episodes += 1
+                obs, _ = env.reset(seed=episodes)
+                policy.reset(seed=episodes)
+            sampler.sample()
+            done += 1
+            if budget is not None and time.perf_counter() - t0 > budget:
+                break
     elapsed = time.perf_counter() - t0
-    out: dict[str, Any] = {"steps": n, "seconds": elapsed}
+    out: dict[str, Any] = {"steps": done, "steps_planned": n, "episodes_ended": episodes, "seconds": elapsed,
+                           "torch_imported": "torch" in sys.modules}
     if use_tm:
         current, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
@@ -604,35 +743,102 @@ def _memory_child(spec: dict[str, Any]) -> dict[str, Any]:
         if peak_act is not None:
             out["tracemalloc_peak_per_act_bytes"] = peak_act
     else:
+        sampler.sample()
         rss1, max1 = rss_bytes(), max_rss_bytes()
         out.update(rss_before_bytes=rss0, rss_after_bytes=rss1,
                    rss_delta_bytes=None if rss0 is None or rss1 is None else rss1 - rss0,
-                   max_rss_delta_bytes=max1 - max0, max_rss_bytes=max1)
+                   peak_rss_bytes=sampler.peak, peak_rss_method=sampler.method,
+                   rss_samples=sampler.samples, sampled_peak_rss_bytes=sampler.sampled_peak,
+                   peak_rss_delta_bytes=None if rss0 is None or sampler.peak is None else sampler.peak - rss0,
+                   max_rss_bytes=max1, max_rss_delta_bytes=max1 - max0)
+    sampler.close()
     return out
 
 
 def _spawn_memory(spec: dict[str, Any]) -> dict[str, Any]:
+    """One memory probe in a fresh interpreter (``--_memory-child``); the fallback without a fork server."""
     cmd = [sys.executable, str(Path(__file__).resolve()), "--_memory-child", json.dumps(spec)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=MEMORY_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        return {"skipped": f"child timed out after {MEMORY_TIMEOUT_S} s"}
     if proc.returncode != 0:
         return {"skipped": f"child failed: {proc.stderr.strip().splitlines()[-1:]}"}
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def bench_memory(settings: Settings) -> dict[str, Any]:
-    out: dict[str, Any] = {"env": {}, "planner": {}}
+def _memory_job(spec: dict[str, Any]) -> dict[str, Any]:
+    """One memory probe in a forked child of the fork server (runs there, not in the benchmark process)."""
+    try:
+        return finite_json(_memory_child(spec))
+    except Exception as exc:  # noqa: BLE001 - reported, not raised across processes
+        return {"skipped": _error(exc)}
+
+
+MEMORY_TIMEOUT_S = 900
+
+
+def _run_memory_jobs(specs: list[dict[str, Any]], workers: int) -> tuple[list[dict[str, Any]], str]:
+    """Run the probes ``workers`` at a time, each in a process of its own. Returns (results, how).
+
+    With a ``forkserver`` (POSIX): a fresh interpreter imports this module (numpy,
+    gymnasium, pymunk, footstep_gym) once, and every probe runs in a new process forked
+    from it (``maxtasksperchild=1``), so each starts from the state of a fresh interpreter
+    after the imports, without paying ~0.5 s of imports per probe. Elsewhere, one
+    ``python benchmark.py --_memory-child`` per probe.
+    """
+    import multiprocessing as mp
+
+    try:
+        ctx = mp.get_context("forkserver")
+    except ValueError:
+        ctx = None
+    if ctx is not None:
+        ctx.set_forkserver_preload([__name__])  # "__main__" when run as a script
+        try:
+            with ctx.Pool(processes=workers, maxtasksperchild=1) as pool:
+                pending = [pool.apply_async(_memory_job, (spec,)) for spec in specs]
+                results = []
+                for r in pending:
+                    try:
+                        results.append(r.get(timeout=MEMORY_TIMEOUT_S))
+                    except mp.TimeoutError:
+                        results.append({"skipped": f"probe timed out after {MEMORY_TIMEOUT_S} s"})
+            return results, "forkserver (a forked process per probe)"
+        except (OSError, RuntimeError, ImportError) as exc:
+            log(f"  fork server unavailable ({_error(exc)}); one interpreter per probe")
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=workers) as tpool:
+        return list(tpool.map(_spawn_memory, specs)), "subprocess (a fresh interpreter per probe)"
+
+
+def bench_memory(settings: Settings, workers: int | None = None) -> dict[str, Any]:
+    """Memory of one env (each scenario) and of the period-aware planner (on each scenario).
+
+    Every figure comes from a process of its own (see :func:`_run_memory_jobs`); they run
+    ``workers`` at a time (default: the usable cores). Nothing is timed here, so running
+    them side by side does not change what they measure (RSS and tracemalloc are per process).
+    """
     n = settings.memory_steps
-    for env_id in FOOTSTEP_ENVS:
-        log(f"  memory env {env_id}")
-        rss = _spawn_memory({"env_id": env_id, "steps": n, "what": "env", "tracemalloc": False})
-        tm = _spawn_memory({"env_id": env_id, "steps": n, "what": "env", "tracemalloc": True})
-        out["env"][env_id] = {"rss": rss, "tracemalloc": tm}
-    env_id = FOOTSTEP_ENVS[0]
-    log(f"  memory planner period-aware on {env_id}")
-    steps = max(5, n // 10)
-    rss = _spawn_memory({"env_id": env_id, "steps": steps, "what": "planner", "tracemalloc": False})
-    tm = _spawn_memory({"env_id": env_id, "steps": steps, "what": "planner", "tracemalloc": True})
-    out["planner"]["period-aware"] = {"env_id": env_id, "rss": rss, "tracemalloc": tm}
+    planner_steps = settings.memory_acts
+    jobs: list[tuple[str, str, str, dict[str, Any]]] = []
+    for what, steps in (("env", n), ("planner", planner_steps)):
+        for env_id in FOOTSTEP_ENVS:
+            for kind in ("rss", "tracemalloc"):
+                jobs.append((what, env_id, kind, {"env_id": env_id, "steps": steps, "what": what,
+                                                  "tracemalloc": kind == "tracemalloc",
+                                                  "budget_s": settings.memory_budget_s}))
+    workers = workers or machine_info()["cores_usable"] or 1
+    log(f"  {len(jobs)} memory probes ({workers} at a time): env x{n} steps and period-aware planner "
+        f"x{planner_steps} acts, on {len(FOOTSTEP_ENVS)} envs")
+    results, how = _run_memory_jobs([spec for *_, spec in jobs], workers)
+    out: dict[str, Any] = {"process_per_probe": how, "env": {}, "planner": {"period-aware": {}}}
+    for (what, env_id, kind, _), r in zip(jobs, results):
+        if what == "env":
+            out["env"].setdefault(env_id, {})[kind] = r
+        else:
+            out["planner"]["period-aware"].setdefault(env_id, {"env_id": env_id})[kind] = r
     return out
 
 
@@ -698,6 +904,11 @@ def evaluate_targets(res: dict[str, Any], nominal_period: float) -> tuple[list[d
                     f">= {PSO_SPEEDUP_TARGET:.0f}x faster, success >= pso-only's",
                     f"{speedup:.1f}x, success {pa['successes']}/{pa['episodes']} vs "
                     f"{pso['successes']}/{pso['episodes']}", ok, value=speedup)
+            else:
+                add(f"period-aware vs pso-only, {env_id}", f">= {PSO_SPEEDUP_TARGET:.0f}x faster, success >= "
+                    "pso-only's", f"n/a (pso-only: {pso.get('skipped', 'not measured')})"[:120], None)
+    elif plans:
+        add("period-aware planning", "runs", f"n/a ({plans['skipped']})"[:120], None)
     return targets, ratios
 
 
@@ -728,7 +939,7 @@ def report(res: dict[str, Any]) -> str:
            "All rates: median (IQR) over repetitions in this run; min/max are in benchmark.json.", ""]
     envs = res.get("env_steps")
     if envs:
-        out += ["## Env steps per second (resets included; vector rates count sub-env steps, 2 envs)", ""]
+        out += ["## Env steps per second (resets timed; vector rates count sub-env transitions, 2 sub-envs)", ""]
         rows = []
         for env_id, by_cmd in envs.items():
             for commands, cell in by_cmd.items():
@@ -738,10 +949,23 @@ def report(res: dict[str, Any]) -> str:
                              _cell_str(cell.get("async")),
                              f"{eplen:.1f}" if isinstance(eplen, (int, float)) else "n/a"])
         out += [markdown_table(["env", "commands", "1 process", "sync ×2", "async ×2", "steps/episode"], rows), ""]
-        skipped = {f"{e}": c.get("single", {}).get("skipped") for e, bc in envs.items() for c in bc.values()
-                   if "skipped" in c.get("single", {})}
+        vec_info = {mode: {(c.get(mode) or {}).get("vector", {}).get("class") for bc in envs.values()
+                           for c in bc.values()} - {None} for mode in VEC_MODES}
+        procs = {(c.get("async") or {}).get("vector", {}).get("worker_processes") for bc in envs.values()
+                 for c in bc.values()} - {None}
+        out.append(f"- `gym.make_vec(id, num_envs=2, vectorization_mode=...)`: sync = {sorted(vec_info['sync'])} "
+                   f"(both sub-envs in this process), async = {sorted(vec_info['async'])} with "
+                   f"{sorted(procs)} worker process(es); default autoreset (NEXT_STEP): the reset-only vector "
+                   "steps are timed, not counted.")
+        skipped: dict[str, str] = {}
+        for e, bc in envs.items():
+            for commands, c in bc.items():
+                for mode, cell in c.items():
+                    if isinstance(cell, dict) and "skipped" in cell:
+                        key = e if "skipped" in c.get("single", {}) else f"{e} {commands} {mode}"
+                        skipped.setdefault(key, cell["skipped"])
         for e, why in skipped.items():
-            out.append(f"- {e}: skipped ({why})")
+            out.append(f"- {e}: skipped ({why[:200]})")
         for env_id, by_cmd in envs.items():
             if by_cmd.get("planner", {}).get("single", {}).get("replay_matches_recording") is False:
                 out.append(f"- {env_id}: replaying the planner's commands did NOT end the episodes as recorded "
@@ -759,6 +983,10 @@ def report(res: dict[str, Any]) -> str:
             rows.append(["check_steps", b, fmt_stat(s), f"{1e6 * int(b) / s['median']:.1f}"])
         out += ["## LIPM feasibility checks", "",
                 markdown_table(["function", "batch", "commands/s", "µs per call"], rows), ""]
+        c = lp.get("commands")
+        if c:
+            out += [f"{c['pool']} commands {c['sampling']}: {100 * c['feasible_fraction']:.1f}% feasible; "
+                    f"check_step and check_steps agree on {100 * c['scalar_batched_agreement']:.2f}%.", ""]
     pl = res.get("planners")
     if pl:
         out += ["## Planning time per footstep (policy.act; sensing and env.step timed apart)", ""]
@@ -778,20 +1006,43 @@ def report(res: dict[str, Any]) -> str:
                                  r["footsteps"]])
             out += [markdown_table(["env", "planner", "median ms", "p95 ms", "p99 ms", "sensing ms", "PSO ran",
                                     "success", "footsteps"], rows), ""]
+            for env_id, by_planner in pl.items():
+                r = next((r for r in by_planner.values() if "seeds" in r), None)
+                if r and r.get("budget_exhausted"):
+                    out.append(f"- {env_id}: the time budget ({res['meta']['settings']['planner_budget_s']:.0f} s "
+                               f"per env) was used up after {len(r['seeds'])} of {len(r['seeds_planned'])} seeds "
+                               "(the same seeds for every planner).")
+            if any(r.get("footsteps", 1e9) < 100 for bp in pl.values() for r in bp.values()):
+                out.append("- With fewer than 100 footsteps, p99 is close to the maximum; `--full` runs more seeds.")
+            out.append("")
     mem = res.get("memory")
     if mem:
         rows = []
+
+        def mem_row(label: str, r: dict[str, Any], per_act: bool = False) -> list[str]:
+            rss, tm = r.get("rss", {}), r.get("tracemalloc", {})
+            tm_s = tm.get("skipped", "")[:60] or fmt_bytes(tm.get("tracemalloc_peak_bytes"))
+            if per_act and "skipped" not in tm:
+                tm_s += f" (one act: {fmt_bytes(tm.get('tracemalloc_peak_per_act_bytes'))})"
+            if "skipped" in rss:
+                return [label, tm_s, rss["skipped"][:60], "", ""]
+            return [label, tm_s, fmt_bytes(rss.get("peak_rss_delta_bytes")), fmt_bytes(rss.get("rss_delta_bytes")),
+                    fmt_bytes(rss.get("max_rss_bytes"))]
+
         for env_id, r in mem["env"].items():
-            rows.append([f"env {env_id} (make+reset+{r['rss'].get('steps', '?')} steps)",
-                         fmt_bytes(r["tracemalloc"].get("tracemalloc_peak_bytes")),
-                         fmt_bytes(r["rss"].get("rss_delta_bytes")), fmt_bytes(r["rss"].get("max_rss_bytes"))])
-        for name, r in mem["planner"].items():
-            rows.append([f"planner {name} on {r['env_id']} (make+reset+{r['rss'].get('steps', '?')} acts)",
-                         fmt_bytes(r["tracemalloc"].get("tracemalloc_peak_bytes"))
-                         + f" (one act: {fmt_bytes(r['tracemalloc'].get('tracemalloc_peak_per_act_bytes'))})",
-                         fmt_bytes(r["rss"].get("rss_delta_bytes")), fmt_bytes(r["rss"].get("max_rss_bytes"))])
-        out += ["## Memory (fresh subprocess each; modules imported before the baseline)", "",
-                markdown_table(["what", "tracemalloc peak", "RSS growth", "process peak RSS"], rows), ""]
+            rows.append(mem_row(f"env {env_id} (make+reset+{r.get('rss', {}).get('steps', '?')} steps)", r))
+        for name, by_env in mem["planner"].items():
+            for env_id, r in by_env.items():
+                rows.append(mem_row(f"planner {name} on {env_id} ({r.get('rss', {}).get('steps', '?')} acts)",
+                                    r, per_act=True))
+        out += [f"## Peak memory (a process per figure: {mem.get('process_per_probe', 'subprocess')}; "
+                "modules imported before the baseline)", "",
+                markdown_table(["what", "tracemalloc peak", "peak RSS above baseline", "RSS growth at end",
+                                "process peak RSS"], rows), "",
+                "tracemalloc: peak of Python-level allocations (numpy buffers included); peak RSS above "
+                "baseline: the kernel's VmHWM reset at the baseline (C allocations of pymunk and numpy "
+                "included); process peak RSS (getrusage): the whole process, interpreter and imports "
+                "included.", ""]
     if res.get("targets"):
         out += ["## Targets", "", markdown_table(["target", "threshold", "measured", "status"],
                                                  [[t["target"], t["threshold"], t["measured"], t["status"]]
@@ -809,9 +1060,14 @@ def _loadavg() -> list[float] | None:
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n")[0] + " Quick mode by default (a few minutes at most on 2 cores); "
+        "--full for more repetitions and episodes. Prints markdown tables (with each target's PASS/MISS) on "
+        "stdout, progress on stderr, and writes <out>/benchmark.json and <out>/benchmark.md.")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--full", action="store_true", help="more repetitions and episodes (several minutes)")
+    g.add_argument("--quick", action="store_true", help="the default: few repetitions, 4 seeds per planner and env")
+    g.add_argument("--full", action="store_true",
+                   help="more repetitions (21 per cell) and 12 seeds per planner and env (several minutes)")
     g.add_argument("--smoke", action="store_true", help=argparse.SUPPRESS)  # tiny, for the tests
     p.add_argument("--out", type=Path, default=Path("runs/benchmark"), help="directory for benchmark.json")
     p.add_argument("--seed", type=int, default=0)
@@ -854,6 +1110,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         log("memory ...")
         res["memory"] = bench_memory(settings)
     res["meta"]["duration_s"] = time.perf_counter() - t0
+    res["meta"]["torch_imported"] = "torch" in sys.modules  # the benchmarked paths are torch-free
     res["meta"]["load_average_end"] = _loadavg()
     res["targets"], res["ratios"] = evaluate_targets(res, robot.nominal_period)
     text = report(res)

@@ -1,12 +1,16 @@
 """baselines/benchmark.py runs end to end (tiny ``--smoke`` mode) and writes a well-formed JSON.
 
 No timing thresholds here: the speed targets live in the benchmark's own PASS/MISS table.
+These tests check structure, keys and the sanity of the values (positive, finite, ordered
+spreads, consistent counts, two worker processes for the async vectoriser, ...), and the
+PASS/MISS logic on made-up figures.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -15,9 +19,16 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = ROOT / "baselines" / "benchmark.py"
+sys.path.insert(0, str(SCRIPT.parent))
+
+import bench_utils  # noqa: E402
+import benchmark  # noqa: E402
+
 FOOTSTEP_ENVS = ("FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0")
 REFERENCE_ENVS = ("CartPole-v1", "Pendulum-v1", "BipedalWalker-v3")
 PLANNERS = ("period-aware", "fixed-period", "pso-only")
+COMMANDS = ("random", "near_nominal", "planner")
+SMOKE = benchmark.MODES["smoke"]
 
 
 def _positive_finite(x, what: str) -> None:
@@ -33,95 +44,285 @@ def _check_spread(s: dict, what: str, keys=("median", "q1", "q3", "min", "max"))
         assert s["min"] <= s["q1"] <= s["median"] <= s["q3"] <= s["max"], f"{what}: spread out of order {s}"
 
 
+def _reject_constant(name: str):
+    raise ValueError(f"non-standard JSON constant {name}")
+
+
 @pytest.fixture(scope="module")
 def smoke(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
     proc = subprocess.run([sys.executable, str(SCRIPT), "--smoke", "--out", str(out)],
                           capture_output=True, text=True, timeout=300, cwd=str(ROOT))
     assert proc.returncode == 0, proc.stderr[-3000:]
-    data = json.loads((out / "benchmark.json").read_text())
-    return data, proc.stdout
+    # Strict JSON: NaN / Infinity must have become null.
+    data = json.loads((out / "benchmark.json").read_text(), parse_constant=_reject_constant)
+    assert (out / "benchmark.md").read_text().strip() == proc.stdout.strip()
+    return data, proc.stdout, proc.stderr
 
 
-def test_machine_and_meta(smoke):
-    data, _ = smoke
+def _live(cell: dict, what: str) -> bool:
+    """Whether a cell was measured; a skipped cell must say why."""
+    if "skipped" in cell:
+        assert isinstance(cell["skipped"], str) and cell["skipped"], what
+        return False
+    return True
+
+
+# ------------------------------------------------------------------ the smoke run
+def test_machine_meta_and_progress(smoke):
+    data, _, stderr = smoke
     meta = data["meta"]
     assert meta["mode"] == "smoke"
+    assert meta["sections"] == list(benchmark.SECTIONS)
     m = meta["machine"]
-    for key in ("cpu", "cores_logical", "python", "numpy", "pymunk", "gymnasium"):
+    for key in ("cpu", "cores_logical", "cores_usable", "python", "numpy", "pymunk", "gymnasium"):
         assert m[key], key
     _positive_finite(meta["duration_s"], "duration_s")
     _positive_finite(meta["nominal_period_s"], "nominal_period_s")
+    assert meta["torch_imported"] is False, "the benchmarked code paths must not import torch"
+    for section in ("planners ...", "lipm ...", "env steps ...", "memory ...", "wrote "):
+        assert section in stderr, f"no progress line {section!r}"
 
 
 def test_env_steps_per_second(smoke):
-    data, _ = smoke
+    data, _, _ = smoke
+    envs = data["env_steps"]
+    assert set(envs) == set(FOOTSTEP_ENVS) | set(REFERENCE_ENVS)
+    for env_id in FOOTSTEP_ENVS + REFERENCE_ENVS:
+        commands = COMMANDS if env_id in FOOTSTEP_ENVS else ("random",)
+        assert set(envs[env_id]) == set(commands)
+        for c in commands:
+            assert set(envs[env_id][c]) == {"single", "sync", "async"}
+            for mode in ("single", "sync", "async"):
+                cell, what = envs[env_id][c][mode], f"{env_id}.{c}.{mode}"
+                if env_id in FOOTSTEP_ENVS and c != "planner":
+                    assert "skipped" not in cell, f"{what}: {cell.get('skipped')}"
+                if not _live(cell, what):  # reference env not installed, or planners unavailable
+                    continue
+                _check_spread(cell["steps_per_s"], what)
+                assert cell["steps_per_s"]["median"] < 1e8, f"{what}: implausible rate"
+                assert len(cell["rates"]) == cell["steps_per_s"]["n"]
+                assert cell["steps_per_s"]["n"] == (SMOKE.repetitions if mode == "single"
+                                                    else SMOKE.vec_repetitions)
+                _positive_finite(cell["steps"], f"{what}.steps")
+                assert cell["mean_episode_steps"] is None or cell["mean_episode_steps"] >= 1.0
+                if mode != "single":
+                    assert cell["num_envs"] == 2
+                    assert cell["autoreset_steps"] >= 0
+    for env_id in ("FootstepCrossing-v0", "CartPole-v1"):  # always installed
+        assert "skipped" not in envs[env_id]["random"]["single"]
+
+
+def test_make_vec_uses_two_workers_sync_and_async(smoke):
+    data, stdout, _ = smoke
+    seen = set()
+    for env_id, by_cmd in data["env_steps"].items():
+        for c, cell in by_cmd.items():
+            for mode in ("sync", "async"):
+                if "skipped" in cell[mode]:
+                    continue
+                v = cell[mode]["vector"]
+                assert v["num_envs"] == 2
+                if mode == "async":
+                    assert v["class"] == "AsyncVectorEnv", (env_id, c)
+                    assert v["worker_processes"] == 2 and v["workers_alive"] == 2, (env_id, c, v)
+                    assert v["worker_pids_distinct_from_parent"] is True
+                else:
+                    assert v["class"] == "SyncVectorEnv", (env_id, c)
+                    assert v["worker_processes"] == 0
+                seen.add(mode)
+    assert seen == {"sync", "async"}
+    assert "AsyncVectorEnv" in stdout and "SyncVectorEnv" in stdout
+
+
+def test_planner_replay_and_ratios(smoke):
+    data, _, _ = smoke
     envs = data["env_steps"]
     for env_id in FOOTSTEP_ENVS:
-        for commands in ("random", "near_nominal", "planner"):
-            for mode in ("single", "sync", "async"):
-                cell = envs[env_id][commands][mode]
-                if commands == "planner" and "skipped" in cell:
-                    # Only when the planners are unavailable or fail; the reason is recorded.
-                    assert "planner" in cell["skipped"] or "Error" in cell["skipped"]
-                    continue
-                assert "skipped" not in cell, f"{env_id} {commands} {mode}: {cell.get('skipped')}"
-                _check_spread(cell["steps_per_s"], f"{env_id}.{commands}.{mode}")
-                _positive_finite(cell["steps"], f"{env_id}.{commands}.{mode}.steps")
-    for env_id in REFERENCE_ENVS:
-        for mode in ("single", "sync", "async"):
-            cell = envs[env_id]["random"][mode]
-            if "skipped" in cell:  # the optional dependency (e.g. box2d) is not installed
-                assert isinstance(cell["skipped"], str) and cell["skipped"]
-                continue
-            _check_spread(cell["steps_per_s"], f"{env_id}.random.{mode}")
-    ratio = data["ratios"]["FootstepDoor_near_nominal/BipedalWalker"]
-    if "skipped" not in envs["BipedalWalker-v3"]["random"]["single"]:
-        _check_spread(ratio, "door/bipedal ratio")
+        single = envs[env_id]["planner"]["single"]
+        if _live(single, env_id):
+            assert isinstance(single["replay_matches_recording"], bool)
+    bw, ratios = envs["BipedalWalker-v3"]["random"]["single"], data["ratios"]
+    for c in COMMANDS:
+        key, door = f"FootstepDoor_{c}/BipedalWalker", envs["FootstepDoor-v0"][c]["single"]
+        assert key in ratios
+        if "rates" in bw and "rates" in door:
+            _check_spread(ratios[key], key)
+            # Paired per interleaved round, then the median.
+            paired = sorted(d / b for d, b in zip(door["rates"], bw["rates"]))
+            assert ratios[key]["median"] == pytest.approx(bench_utils.summary(paired)["median"])
+        else:
+            assert ratios[key] is None
 
 
 def test_lipm_checks_per_second(smoke):
-    data, _ = smoke
+    data, _, _ = smoke
     lipm = data["lipm"]
     _check_spread(lipm["check_step"]["commands_per_s"], "check_step")
+    assert set(lipm["check_steps"]) == {"1", "32", "1024"}
     for batch in ("1", "32", "1024"):
-        _check_spread(lipm["check_steps"][batch]["commands_per_s"], f"check_steps[{batch}]")
+        cell = lipm["check_steps"][batch]
+        assert cell["batch"] == int(batch)
+        _check_spread(cell["commands_per_s"], f"check_steps[{batch}]")
+    c = lipm["commands"]
+    assert c["pool"] >= 1024
+    assert 0.0 < c["feasible_fraction"] < 1.0  # the timed commands mix feasible and infeasible ones
+    assert c["scalar_batched_agreement"] >= 0.99
 
 
 def test_planners(smoke):
-    data, _ = smoke
+    data, _, _ = smoke
     planners = data["planners"]
     if "skipped" in planners:
         pytest.skip(f"planners unavailable: {planners['skipped']}")
+    assert set(planners) == set(FOOTSTEP_ENVS)
     for env_id in FOOTSTEP_ENVS:
+        assert set(planners[env_id]) == set(PLANNERS)
         for name in PLANNERS:
-            r = planners[env_id][name]
-            assert "skipped" not in r, f"{env_id} {name}: {r.get('skipped')}"
-            _check_spread(r["plan_time_s"], f"{env_id}.{name}.plan_time_s", keys=("median", "p95", "p99", "max"))
-            assert r["plan_time_s"]["median"] <= r["plan_time_s"]["p95"] <= r["plan_time_s"]["p99"]
-            assert r["episodes"] >= 1 and r["footsteps"] >= 1
-            assert 0.0 <= r["success_rate"] <= 1.0
-            assert r["seeds"] == planners[env_id]["period-aware"]["seeds"]  # the same seeds for every planner
+            r, what = planners[env_id][name], f"{env_id}.{name}"
+            assert "skipped" not in r, f"{what}: {r.get('skipped')}"
+            _check_spread(r["plan_time_s"], f"{what}.plan_time_s", keys=("median", "p95", "p99", "max"))
+            p = r["plan_time_s"]
+            assert p["median"] <= p["p95"] <= p["p99"] <= p["max"]
+            assert p["n"] == r["footsteps"] == sum(e["steps"] for e in r["per_episode"])
+            _check_spread(r["sensing_time_s"], f"{what}.sensing_time_s", keys=("median", "p95", "p99", "max"))
+            assert r["episodes"] == len(r["per_episode"]) >= 2
+            assert r["successes"] == sum(e["success"] for e in r["per_episode"])
+            assert r["success_rate"] == pytest.approx(r["successes"] / r["episodes"])
+            assert 0.0 <= r["pso_ran_fraction"] <= 1.0
+            # The same seeds for every planner.
+            assert r["seeds"] == planners[env_id]["period-aware"]["seeds"] == [e["seed"] for e in r["per_episode"]]
+            assert all(e["steps"] <= SMOKE.planner_max_steps for e in r["per_episode"])
 
 
 def test_memory(smoke):
-    data, _ = smoke
+    data, _, _ = smoke
     mem = data["memory"]
+    assert set(mem["env"]) == set(FOOTSTEP_ENVS)
     for env_id in FOOTSTEP_ENVS:
-        r = mem["env"][env_id]
-        _positive_finite(r["tracemalloc"]["tracemalloc_peak_bytes"], f"{env_id} tracemalloc peak")
-        _positive_finite(r["rss"]["max_rss_bytes"], f"{env_id} max rss")
-        assert isinstance(r["rss"]["rss_delta_bytes"], int)
-    pa = mem["planner"]["period-aware"]
-    if "skipped" not in pa["tracemalloc"]:
-        _positive_finite(pa["tracemalloc"]["tracemalloc_peak_bytes"], "planner tracemalloc peak")
+        rss, tm = mem["env"][env_id]["rss"], mem["env"][env_id]["tracemalloc"]
+        assert "skipped" not in rss and "skipped" not in tm, (rss, tm)
+        assert rss["steps"] == tm["steps"] == SMOKE.memory_steps
+        _positive_finite(tm["tracemalloc_peak_bytes"], f"{env_id} tracemalloc peak")
+        assert tm["tracemalloc_peak_bytes"] >= tm["tracemalloc_current_bytes"] >= 0
+        assert tm["tracemalloc_peak_bytes"] < 1 << 30
+        _positive_finite(rss["max_rss_bytes"], f"{env_id} max rss")
+        if rss["peak_rss_bytes"] is not None:  # /proc available
+            assert isinstance(rss["rss_delta_bytes"], int)
+            assert rss["peak_rss_bytes"] >= rss["rss_before_bytes"]
+            assert 0 <= rss["peak_rss_delta_bytes"] < 1 << 30
+            assert rss["peak_rss_method"]
+        assert rss["torch_imported"] is False and tm["torch_imported"] is False
+    if "skipped" in data["planners"]:
+        return
+    by_env = mem["planner"]["period-aware"]
+    assert set(by_env) == set(FOOTSTEP_ENVS)
+    for env_id, r in by_env.items():
+        assert r["env_id"] == env_id
+        tm, rss = r["tracemalloc"], r["rss"]
+        assert "skipped" not in tm and "skipped" not in rss, (tm, rss)
+        _positive_finite(tm["tracemalloc_peak_bytes"], f"planner on {env_id}: tracemalloc peak")
+        assert 0 <= tm["tracemalloc_peak_per_act_bytes"] <= tm["tracemalloc_peak_bytes"]
+        assert 1 <= rss["steps"] <= SMOKE.memory_acts
 
 
 def test_targets_and_table(smoke):
-    data, stdout = smoke
-    statuses = {t["status"] for t in data["targets"]}
-    assert statuses <= {"PASS", "MISS", "N/A"}
-    names = " ".join(t["target"] for t in data["targets"])
-    assert "BipedalWalker" in names and "batch 1024" in names
-    assert "| env | commands |" in stdout and "## Targets" in stdout
-    assert "PASS" in stdout or "MISS" in stdout
+    data, stdout, _ = smoke
+    targets = data["targets"]
+    assert {t["status"] for t in targets} <= {"PASS", "MISS", "N/A"}
+    names = [t["target"] for t in targets]
+    assert sum("BipedalWalker" in n for n in names) == len(COMMANDS)
+    assert "LIPM check_steps, batch 1024" in names
+    if "skipped" not in data["planners"]:
+        for env_id in FOOTSTEP_ENVS:
+            for prefix in ("period-aware median plan time", "period-aware p99 plan time", "period-aware vs pso-only"):
+                assert f"{prefix}, {env_id}" in names
+    # Each target is printed with its measured value and status.
+    assert "## Targets" in stdout and "| env | commands |" in stdout
+    for t in targets:
+        assert f"| {t['target']} | {t['threshold']} | {t['measured']} | {t['status']} |" in stdout
+    lipm_t = next(t for t in targets if t["target"] == "LIPM check_steps, batch 1024")
+    v = data["lipm"]["check_steps"]["1024"]["commands_per_s"]["median"]
+    assert lipm_t["value"] == pytest.approx(v)
+    assert lipm_t["status"] == ("PASS" if v >= benchmark.LIPM_TARGET_PER_S else "MISS")
+    for section in ("## Env steps per second", "## LIPM feasibility checks", "## Planning time per footstep",
+                    "## Peak memory"):
+        assert section in stdout
+
+
+# ------------------------------------------------------------------ in-process, no timing
+def _plan(median: float, p99: float, successes: int, episodes: int = 4) -> dict:
+    return {"plan_time_s": {"median": median, "p95": p99, "p99": p99, "max": p99, "mean": median, "n": 50},
+            "successes": successes, "episodes": episodes, "success_rate": successes / episodes}
+
+
+def test_evaluate_targets_pass_miss_logic():
+    T = 0.8  # nominal period: 8 ms median and 40 ms p99 limits
+    res = {
+        "env_steps": {"FootstepDoor-v0": {c: {"single": {"rates": [2.0, 3.0, 4.0]}} for c in COMMANDS},
+                      "BipedalWalker-v3": {"random": {"single": {"rates": [1.0, 4.0, 2.0]}}}},
+        "lipm": {"check_steps": {"1024": {"commands_per_s": {"median": 999_999.0}}}},
+        "planners": {
+            "A": {"period-aware": _plan(0.005, 0.030, 3), "pso-only": _plan(0.060, 0.2, 3)},  # all PASS
+            "B": {"period-aware": _plan(0.009, 0.041, 2), "pso-only": _plan(0.060, 0.2, 3)},  # all MISS
+            "C": {"period-aware": {"skipped": "boom"}, "pso-only": _plan(0.060, 0.2, 3)},
+            "D": {"period-aware": _plan(0.001, 0.002, 1), "pso-only": {"skipped": "boom"}},
+        },
+    }
+    targets, ratios = benchmark.evaluate_targets(res, T)
+    status = {t["target"]: t["status"] for t in targets}
+    # Paired per round: 2/1, 3/4, 4/2 -> median 2.
+    assert ratios["FootstepDoor_random/BipedalWalker"]["median"] == pytest.approx(2.0)
+    assert status["FootstepDoor-v0 steps/s >= BipedalWalker-v3 (1 process, random commands)"] == "PASS"
+    assert status["LIPM check_steps, batch 1024"] == "MISS"
+    assert status["period-aware median plan time, A"] == "PASS"
+    assert status["period-aware p99 plan time, A"] == "PASS"
+    assert status["period-aware vs pso-only, A"] == "PASS"  # 12x, 3/4 vs 3/4
+    assert status["period-aware median plan time, B"] == "MISS"
+    assert status["period-aware p99 plan time, B"] == "MISS"
+    assert status["period-aware vs pso-only, B"] == "MISS"  # 6.7x and lower success
+    assert status["period-aware planning on C"] == "MISS"
+    assert status["period-aware vs pso-only, D"] == "N/A"
+    # Without BipedalWalker (not installed) the ratio is N/A, never a failure.
+    res["env_steps"]["BipedalWalker-v3"] = {"random": {"single": {"skipped": "box2d missing"}}}
+    targets, ratios = benchmark.evaluate_targets(res, T)
+    assert ratios["FootstepDoor_random/BipedalWalker"] is None
+    assert {t["status"] for t in targets if "BipedalWalker" in t["target"]} == {"N/A"}
+
+
+def test_bench_utils():
+    s = bench_utils.summary([5.0, 1.0, 3.0, 2.0, 4.0])
+    assert (s["median"], s["min"], s["max"], s["n"]) == (3.0, 1.0, 5.0, 5)
+    assert s["q1"] == 2.0 and s["q3"] == 4.0
+    assert math.isnan(bench_utils.summary([])["median"])
+    t = bench_utils.tail_summary(list(range(1, 101)))
+    assert t["median"] <= t["p95"] <= t["p99"] <= t["max"] == 100 and t["n"] == 100
+    assert bench_utils.fmt_num(1_234_567) == "1.23M" and bench_utils.fmt_num(8467) == "8.47k"
+    assert bench_utils.fmt_num(float("nan")) == "n/a"
+    assert bench_utils.fmt_bytes(2048) == "2.0 KiB" and bench_utils.fmt_bytes(None) == "n/a"
+    j = bench_utils.finite_json({"a": float("nan"), "b": [float("inf"), 1.5], 3: (1, 2)})
+    assert j == {"a": None, "b": [None, 1.5], "3": [1, 2]}
+    assert bench_utils.markdown_table(["x", "y"], [[1, 2]]) == "| x | y |\n|---|---|\n| 1 | 2 |"
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs /proc")
+def test_rss_peak_sees_a_transient_allocation():
+    import numpy as np
+
+    r = bench_utils.RssPeak()
+    base = r.sample()
+    a = np.ones(64 << 20 >> 3)  # 64 MiB, touched (above any mmap threshold: fresh pages)
+    del a
+    r.sample()
+    if r.hwm_reset:  # the kernel's peak, reset at construction, saw the buffer
+        assert r.peak - base >= 48 << 20
+    assert r.peak >= base
+    r.close()
+
+
+def test_help_mentions_quick_default_and_full():
+    args = benchmark.parse_args([])
+    assert not args.full and not args.quick  # quick is the default
+    assert benchmark.parse_args(["--full"]).full
+    with pytest.raises(SystemExit):
+        benchmark.parse_args(["--quick", "--full"])

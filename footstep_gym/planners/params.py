@@ -43,15 +43,21 @@ class PeriodSearchParams:
     rollout_lane_offsets_m: list = plain()  # [m] rollout lanes beside the straight line to the goal
     rollout_stride_fractions: list = plain()  # rollout strides as fractions of rrt.step_size_m
     rollout_lookahead_m: float = positive()  # [m] pure-pursuit lookahead along a lane
+    rollout_wait_steps: list = plain()  # steps in place before a rollout sets off (0: at once)
+    commit_tolerance_m: float = nonnegative()  # [m] previous plan kept if the robot stands this close to its node
+    extra_margin_m: float = nonnegative()  # [m] more clearance in the search than in the RRT: slack in the timing
 
     def validate(self) -> None:
-        for name in ("rollout_lane_offsets_m", "rollout_stride_fractions"):
+        for name in ("rollout_lane_offsets_m", "rollout_stride_fractions", "rollout_wait_steps"):
             value = getattr(self, name)
             if not value or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in value):
                 raise ConfigError(f"period_search.{name} must be a non-empty list of numbers, got {value!r}")
         if not all(0 < f <= 1 for f in self.rollout_stride_fractions):
             raise ConfigError(f"period_search.rollout_stride_fractions must lie in (0, 1], "
                               f"got {self.rollout_stride_fractions}")
+        if not all(float(w).is_integer() and w >= 0 for w in self.rollout_wait_steps):
+            raise ConfigError(f"period_search.rollout_wait_steps must be whole numbers >= 0, "
+                              f"got {self.rollout_wait_steps}")
         for name in ("floor_grid", "stride_grid"):
             if getattr(self, name) < 2:
                 raise ConfigError(f"period_search.{name} must be >= 2, got {getattr(self, name)}")

@@ -127,7 +127,8 @@ class GoalRollouts:
     the *lane* parallel to the line from the start node to the goal, offset sideways by
     ``lane_offsets[k]`` [m] (pure pursuit of the lane point ``lookahead`` ahead; the lane
     closes onto the goal over the last ``lookahead``), with a stride of
-    ``stride_fractions[j] * step_size`` [m], the first stride clipped into
+    ``stride_fractions[j] * step_size`` [m] after ``wait_steps[w]`` steps in place (so that
+    "let the wing pass, then go" is in the library), the first stride clipped into
     ``first_stride(T)`` (what the LIPM allows from the current CoM state at that period). Every step turns
     at most the side-dependent hardware limits. The body follows the midpoints of
     consecutive nodes (the robot centre between its feet), so step ``d`` moves it from
@@ -136,17 +137,26 @@ class GoalRollouts:
     :class:`~footstep_gym.planners.prediction.BodyModel`: the obstacles predicted at those
     times, the CoM's sway towards the support foot). A rollout that reaches the goal
     stops there.
-    Rollouts span ``ceil(horizon / T)`` steps.
+    Rollouts span ``ceil(horizon / T)`` steps, but no more than the slowest of them needs
+    to reach the goal (so a long horizon costs nothing once the goal is within it).
 
     :meth:`free_walks` gives the free rollouts of a period already evaluated (the
     evidence that the period works; the planner seeds its RRT with them).
+
+    ``committed``: the walk ``(nodes (k + 1, 2), headings (k + 1,))`` the planner chose at
+    its previous step, now starting at the current node. It joins the library (re-timed
+    at every period tried), and :meth:`committed_free` tells whether it still holds at
+    its own period: a greedy planner that re-plans from scratch every step can otherwise
+    put off forever a plan that starts with "wait three steps" (it is again "wait three
+    steps" one step later).
     """
 
     def __init__(self, body: BodyModel, robot: Robot, start: WalkStart,
                  goal: Sequence[float], goal_radius: float, *, horizon: float, step_size: float,
                  lane_offsets: Sequence[float], stride_fractions: Sequence[float], lookahead: float,
-                 edge_samples: int,
-                 first_stride: Callable[[float], tuple[float, float] | None] | None = None) -> None:
+                 edge_samples: int, wait_steps: Sequence[int] = (0,),
+                 first_stride: Callable[[float], tuple[float, float] | None] | None = None,
+                 committed: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.body = body
         self.robot = robot
         self.start = start
@@ -157,14 +167,20 @@ class GoalRollouts:
         self.lookahead = lookahead
         self.edge_samples = edge_samples
         self.first_stride = first_stride
-        off, frac = np.meshgrid(np.asarray(lane_offsets, float), np.asarray(stride_fractions, float))
+        off, frac, wait = np.meshgrid(np.asarray(lane_offsets, float), np.asarray(stride_fractions, float),
+                                      np.asarray(wait_steps, dtype=int), indexing="ij")
         self._offsets = off.ravel()
         self._strides = frac.ravel() * step_size
+        self._waits = wait.ravel()
         axis = self.goal - start.node
         self._length = float(np.linalg.norm(axis))
+        # Steps the slowest rollout needs to reach the goal (with some slack for the lanes'
+        # detours): deeper rollouts would only re-check a robot already standing at the goal.
+        self._max_depth = int(np.ceil(self._length / float(self._strides.min()) * 1.2)) + int(self._waits.max()) + 2
         self._dir = axis / self._length if self._length > 0 else np.array([np.cos(start.heading),
                                                                            np.sin(start.heading)])
         self._normal = np.array([-self._dir[1], self._dir[0]])
+        self.committed = committed
         self.calls = 0
         self._free_walks: dict[float, list[np.ndarray]] = {}
 
@@ -178,7 +194,7 @@ class GoalRollouts:
 
     def nodes(self, period: float) -> tuple[np.ndarray, np.ndarray]:
         """Rollout nodes ``(R, D + 1, 2)`` and headings ``(R, D + 1)`` (index 0: the start) for ``period`` [s]."""
-        depth = max(1, int(np.ceil(self.horizon / period - 1e-9)))
+        depth = max(1, min(int(np.ceil(self.horizon / period - 1e-9)), self._max_depth))
         n_roll = self._offsets.size
         pos = np.tile(self.start.node, (n_roll, 1))
         heading = np.full(n_roll, self.start.heading)
@@ -192,7 +208,7 @@ class GoalRollouts:
             aim = self._aim(pos) - pos
             lo, hi = footstep.turn_bounds(side, self.robot)
             heading = heading + np.clip(footstep.wrap_angle(np.arctan2(aim[:, 1], aim[:, 0]) - heading), lo, hi)
-            stride = self._strides
+            stride = np.where(d <= self._waits, 0.0, self._strides)
             if d == 1 and window is not None:
                 stride = np.clip(stride, *window)
             dist = np.linalg.norm(self.goal - pos, axis=1)
@@ -203,9 +219,39 @@ class GoalRollouts:
             side = -side
         return out, headings
 
+    def _with_committed(self, nodes: np.ndarray, headings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The rollouts plus the committed walk, padded (standing at its end) or cut to the same depth."""
+        walk, walk_headings = self.committed
+        n_nodes = nodes.shape[1]
+        idx = np.minimum(np.arange(n_nodes), len(walk) - 1)
+        return (np.concatenate([nodes, walk[idx][None]], axis=0),
+                np.concatenate([headings, walk_headings[idx][None]], axis=0))
+
+    def committed_free(self, period: float) -> bool:
+        """Whether the committed walk alone is still free at ``period`` (``False`` without one)."""
+        if self.committed is None or len(self.committed[0]) < 2:
+            return False
+        walk, headings = self.committed
+        return bool(self._free(walk[None], headings[None], period)[0])
+
     def __call__(self, period: float) -> bool:
         self.calls += 1
         nodes, headings = self.nodes(period)
+        if self.committed is not None:
+            nodes, headings = self._with_committed(nodes, headings)
+        ok = self._free(nodes, headings, period)
+        walks = [self._trim(nodes[i]) for i in np.flatnonzero(ok)]
+        # Nearest the goal at the end first, then the quickest there; the committed walk (last row) leads if free.
+        order = sorted(range(len(walks)), key=lambda i: (round(float(np.linalg.norm(walks[i][-1] - self.goal)), 3),
+                                                         len(walks[i])))
+        if self.committed is not None and ok[-1]:
+            order.remove(len(walks) - 1)
+            order.insert(0, len(walks) - 1)
+        self._free_walks[period] = [walks[i] for i in order]
+        return not bool(ok.any())
+
+    def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float) -> np.ndarray:
+        """``(R,)`` bool: walk ``r`` (nodes ``(R, D + 1, 2)``, step ``d`` during ``[(d-1) T, d T]``) stays free."""
         n_roll, n_nodes, _ = nodes.shape
         prev = np.concatenate([np.tile(self.start.previous_node, (n_roll, 1, 1)), nodes[:, :-1]], axis=1)
         bodies = 0.5 * (prev + nodes)  # body at the end of step d = midpoint(n[d-1], n[d])
@@ -221,17 +267,14 @@ class GoalRollouts:
         # Once a rollout has reached the goal the episode is over: do not check it further.
         reached = np.linalg.norm(nodes[:, 1:] - self.goal, axis=-1) <= self.goal_radius
         done_before = np.concatenate([np.zeros((n_roll, 1), bool), np.cumsum(reached, axis=1)[:, :-1] > 0], axis=1)
-        ok = (free | np.repeat(done_before, self.edge_samples, axis=1)).all(axis=1)
-        self._free_walks[period] = [self._trim(nodes[i]) for i in np.flatnonzero(ok)]
-        return not bool(ok.any())
+        return (free | np.repeat(done_before, self.edge_samples, axis=1)).all(axis=1)
 
     def free_walks(self, period: float, limit: int | None = None) -> list[np.ndarray]:
-        """Free rollouts ``(k + 1, 2)`` at an evaluated ``period``, those ending nearest the goal first."""
+        """Free walks ``(k + 1, 2)`` at ``period``: the committed one if free, then those ending nearest the goal."""
         walks = self._free_walks.get(period)
         if walks is None:
             self(period)
             walks = self._free_walks[period]
-        walks = sorted(walks, key=lambda w: float(np.linalg.norm(w[-1] - self.goal)))
         return walks[:limit] if limit is not None else walks
 
     def _trim(self, nodes: np.ndarray) -> np.ndarray:

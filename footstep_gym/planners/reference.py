@@ -142,18 +142,27 @@ class PeriodAwarePlanner(_Planner):
             step_cost=c.rrt.step_cost_m)
         self.half_width = 0.5 * robot.nominal_side_stride
         self.delta_low, self.delta_high = c.pso.delta_bounds(vary_period=self.vary_period)
+        self._last_path: tuple[np.ndarray, np.ndarray, float] | None = None  # rest of the last goal path, its period
+
+    def reset(self, seed: int | None = None) -> None:
+        super().reset(seed)
+        self._last_path = None
 
     # -------------------------------------------------------------- the three stages
     def _plan(self, snapshot: Snapshot) -> tuple[np.ndarray, dict[str, Any]]:
         info: dict[str, Any] = {}
         cfg = self.config
         horizon = cfg.prediction.horizon_s
-        body = BodyModel(ObstaclePredictor(snapshot, horizon=horizon), self.robot, cfg.prediction.safety_margin_m)
         start = walk_start(snapshot, self.half_width)
+        predictor = ObstaclePredictor(snapshot, horizon=horizon, region=self._region(start.node, snapshot.goal))
+        body = BodyModel(predictor, self.robot, cfg.prediction.safety_margin_m)
+        search_body = BodyModel(predictor, self.robot,
+                                cfg.prediction.safety_margin_m + cfg.period_search.extra_margin_m)
 
         t = time.perf_counter()
-        rollouts = self._rollouts(snapshot, start, body)
-        period = self.choose_period(snapshot, rollouts, info)
+        committed, committed_period = self._committed(start)
+        rollouts = self._rollouts(snapshot, start, search_body, committed)
+        period = self.choose_period(snapshot, rollouts, info, committed_period)
         window = self._stride_window(snapshot, period)
         info["time_period_search_ms"] = 1e3 * (time.perf_counter() - t)
 
@@ -165,6 +174,7 @@ class PeriodAwarePlanner(_Planner):
         if path is None:
             path = self.rrt.best_partial_path(stay_until=horizon)
         info.update(rrt_nodes=self.rrt.tree.n, rrt_seeds=len(seeds), path=path.nodes, stride_window=window)
+        self._last_path = (path.nodes[1:], path.headings[1:], period) if path.reached_goal and path.n_steps else None
         reference = self.command_from_path(snapshot, path, period, window)
         info["time_rrt_ms"] = 1e3 * (time.perf_counter() - t)
 
@@ -175,22 +185,53 @@ class PeriodAwarePlanner(_Planner):
         info["period"] = float(command[3] + command[4])
         return command, info
 
-    def _rollouts(self, snapshot: Snapshot, start, body: BodyModel) -> GoalRollouts:
+    def _region(self, node: np.ndarray, goal: Any) -> tuple[np.ndarray, np.ndarray]:
+        """A box [m] that holds every body point stages 1-2 can check: the RRT's sampling box
+        grown by a step (angle-limit re-draws), the body's radius, the margins and the CoM sway."""
+        c = self.config
+        pad = (c.rrt.sample_margin_m + c.rrt.step_size_m + self.robot.body_radius + c.prediction.safety_margin_m
+               + c.period_search.extra_margin_m + 0.5 * self.robot.stride_side[1])
+        goal = np.asarray(goal, dtype=float)
+        return np.minimum(node, goal) - pad, np.maximum(node, goal) + pad
+
+    def _committed(self, start) -> tuple[tuple[np.ndarray, np.ndarray] | None, float | None]:
+        """The previous step's goal path from the node the robot now stands on, and its period.
+
+        ``(None, None)`` if there is none or the robot did not land where it planned to
+        (by more than ``commit_tolerance_m``: the PSO moved the step, or a fall-back was taken).
+        """
+        if self._last_path is None:
+            return None, None
+        nodes, headings, period = self._last_path
+        if np.linalg.norm(nodes[0] - start.node) > self.config.period_search.commit_tolerance_m:
+            return None, None
+        nodes = np.concatenate([start.node[None], nodes[1:]])
+        headings = np.concatenate([[start.heading], headings[1:]])
+        return (nodes, headings), period
+
+    def _rollouts(self, snapshot: Snapshot, start, body: BodyModel,
+                  committed: tuple[np.ndarray, np.ndarray] | None = None) -> GoalRollouts:
         cfg = self.config
         ps = cfg.period_search
         return GoalRollouts(
             body, self.robot, start, snapshot.goal, snapshot.goal_tolerance, horizon=cfg.prediction.horizon_s,
             step_size=cfg.rrt.step_size_m, lane_offsets=ps.rollout_lane_offsets_m,
             stride_fractions=ps.rollout_stride_fractions, lookahead=ps.rollout_lookahead_m,
-            edge_samples=cfg.prediction.edge_samples, first_stride=lambda T: self._stride_window(snapshot, T))
+            edge_samples=cfg.prediction.edge_samples, wait_steps=ps.rollout_wait_steps,
+            first_stride=lambda T: self._stride_window(snapshot, T), committed=committed)
 
     def _stride_window(self, snapshot: Snapshot, period: float) -> tuple[float, float] | None:
         """Front strides the LIPM accepts for the first step at ``period`` (see :func:`stride_window`)."""
         return stride_window(self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, period,
                              self.config.rrt.step_size_m, self.config.period_search.stride_grid)
 
-    def choose_period(self, snapshot: Snapshot, collides: GoalRollouts, info: dict[str, Any]) -> float:
-        """Stage 1: the longest collision-free period (Algorithm 1), from the shortest reachable one."""
+    def choose_period(self, snapshot: Snapshot, collides: GoalRollouts, info: dict[str, Any],
+                      committed_period: float | None = None) -> float:
+        """Stage 1: the longest collision-free period (Algorithm 1), from the shortest reachable one.
+
+        If the previous step's plan still holds at its period, that period is known to be
+        free and becomes the search's lower end (so the result is never shorter).
+        """
         robot, ps = self.robot, self.config.period_search
         t_n = robot.nominal_period
         if not self.vary_period:
@@ -199,9 +240,11 @@ class PeriodAwarePlanner(_Planner):
         strides = (float(snapshot.previous_command[0]), self.config.rrt.step_size_m)
         floor = shortest_feasible_period(robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side,
                                          strides, min(ps.t0_s, t_n), t_n, ps.floor_grid)
-        result = longest_free_period(collides, floor, t_n, ps.iterations)
+        kept = (committed_period is not None and floor <= committed_period <= t_n
+                and collides.committed_free(committed_period))
+        result = longest_free_period(collides, committed_period if kept else floor, t_n, ps.iterations)
         info.update(period_search=result.period, period_floor=floor, nominal_free=result.nominal_free,
-                    search_evaluations=result.evaluations)
+                    search_evaluations=result.evaluations, plan_kept=kept)
         return result.period
 
     def command_from_path(self, snapshot: Snapshot, path, period: float,

@@ -189,34 +189,42 @@ class ModifiedRRT:
     def best_partial_path(self, stay_until: float | None = None) -> RRTPath:
         """For when :meth:`plan` fails: the branch to the node closest to the goal (ties: least cost).
 
-        With ``stay_until`` [s], only nodes where the robot could keep stepping in place
-        until that time (body from its arrival point to the node, then on the node, all
-        free) are candidates, the root included; if there is none, every node is.
+        With ``stay_until`` [s], the candidates are the nodes where the robot, stepping in
+        place once it has arrived, would stay free the longest (all those that last until
+        ``stay_until``, the root included, if any do): a greedy planner that cannot see a way
+        to the goal advances as far as it safely can and waits there, and when every spot
+        will be hit, it takes the one hit last rather than the one nearest the goal.
         """
         tree = self.tree
         assert tree is not None, "plan() first"
         n = tree.n
         key = np.linalg.norm(tree.xy[:n] - self._goal, axis=1) + 1e-6 * tree.cost[:n]
         if stay_until is not None:
-            ok = self._can_stay(np.arange(n), stay_until)
-            if ok.any():
-                key = np.where(ok, key, np.inf)
+            survival = self._stay_time(np.arange(n), stay_until)
+            key = np.where(survival >= survival.max() - 1e-9, key, np.inf)
         return tree.path_to(int(np.argmin(key)), reached_goal=False)
 
-    def _can_stay(self, nodes: np.ndarray, until: float) -> np.ndarray:
-        """Whether stepping in place at each node, from its arrival until ``until`` [s], stays free."""
+    def _stay_time(self, nodes: np.ndarray, until: float) -> np.ndarray:
+        """How long [s] stepping in place at each node stays free: ``until`` if it lasts that long.
+
+        The in-place step (body from where it arrived to the node) is checked at
+        ``edge_samples`` instants, then standing on the node at ``2 * edge_samples`` more up
+        to ``until``; the answer is the last instant before the first one that collides.
+        """
         tree, e = self.tree, self.edge_samples
         t_arrive = tree.depth[nodes] * self._period
-        # the in-place step: body from where it arrived to the node itself
         pts_a, times_a = body_path_points(tree.body[nodes], tree.xy[nodes], t_arrive, t_arrive + self._period, e)
-        # then standing there, checked at e more instants up to ``until``
         t_end = np.maximum(until, t_arrive + self._period)
-        pts_b, times_b = body_path_points(tree.xy[nodes], tree.xy[nodes], t_arrive + self._period, t_end, e)
-        pts = np.concatenate([pts_a.reshape(-1, e, 2), pts_b.reshape(-1, e, 2)], axis=1).reshape(-1, 2)
-        times = np.concatenate([times_a.reshape(-1, e), times_b.reshape(-1, e)], axis=1).reshape(-1)
-        normals = np.zeros((len(nodes), 2 * e, 2))
+        pts_b, times_b = body_path_points(tree.xy[nodes], tree.xy[nodes], t_arrive + self._period, t_end, 2 * e)
+        k = 3 * e
+        pts = np.concatenate([pts_a.reshape(-1, e, 2), pts_b.reshape(-1, 2 * e, 2)], axis=1).reshape(-1, 2)
+        times = np.concatenate([times_a.reshape(-1, e), times_b.reshape(-1, 2 * e)], axis=1)
+        normals = np.zeros((len(nodes), k, 2))
         normals[:, :e] = support_normal(tree.heading[nodes], tree.side[nodes])[:, None, :]
-        return self._body.free(pts, times, normals.reshape(-1, 2), self._period).reshape(len(nodes), 2 * e).all(axis=1)
+        free = self._body.free(pts, times.reshape(-1), normals.reshape(-1, 2), self._period).reshape(len(nodes), k)
+        first_hit = np.where(free.all(axis=1), k, np.argmin(free, axis=1))
+        last_free = np.where(first_hit > 0, times[np.arange(len(nodes)), np.maximum(first_hit - 1, 0)], 0.0)
+        return np.where(first_hit == k, until, np.minimum(last_free, until))
 
     # ------------------------------------------------------------------ the steps
     def _sampling_box(self, start: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -279,14 +287,18 @@ class ModifiedRRT:
         return free.reshape(len(parents), self.edge_samples).all(axis=1)
 
     def _insert_seed(self, nodes: np.ndarray) -> None:
-        """Insert a known-free walk (row 0 = the root) as a chain of nodes."""
+        """Insert a known-free walk (row 0 = the root) as a chain of nodes.
+
+        A step of zero length is a step in place: the new node keeps its parent's heading.
+        """
         parent = 0
         for xy in nodes[1:]:
             vec = xy - self.tree.xy[parent]
             length = float(np.hypot(*vec))
             if length <= 1e-9:
-                break
-            heading = np.array([np.arctan2(vec[1], vec[0])])
+                heading = self.tree.heading[[parent]]
+            else:
+                heading = np.array([np.arctan2(vec[1], vec[0])])
             self._insert(np.array([parent]), xy[None], heading, np.array([length]))
             parent = self.tree.n - 1
 

@@ -3,7 +3,10 @@
 A rod through the door's centre (two wings of ``door_radius``) turns clockwise at
 ``door_speed`` deg/s, starting from the vertical. A corridor leads the robot across the
 disc's lower half, where the wings sweep *against* its direction of travel: the upper
-wall stops at the disc on both sides and the lower wall runs past the rod's tip. A
+wall stops at the disc on both sides, the lower wall runs past the rod's tip, and a
+half drum (a polygon of ``drum_segments`` walls just outside the tip's circle) closes
+the upper half, as a revolving door's enclosure does, so the co-rotating half is a dead
+end rather than a way round. A
 straight crossing at the nominal period's top speed (12.5 cm/s) finds a gap at 8 deg/s
 but not at 14 or 17; quicker steps find one (DESIGN.md §4).
 """
@@ -31,6 +34,7 @@ class DoorConfig(ScenarioConfig):
     corridor_x: tuple[float, float] = interval()  # [m] extent of the walls, relative to the door centre
     wall_thickness: float = positive()  # [m]
     wall_gap: float = nonnegative()  # [m] between the rod's tip circle and the upper wall's ends
+    drum_segments: int = nonnegative()  # walls of the half drum over the upper half (0: open, no drum)
 
     def validate(self) -> None:
         super().validate()
@@ -39,6 +43,20 @@ class DoorConfig(ScenarioConfig):
                 f"door: corridor_y[0]={self.corridor_y[0]} must lie below the rod's tip "
                 f"(-door_radius - door_thickness/2 = {-self.door_radius - 0.5 * self.door_thickness})"
             )
+        if self.drum_segments and abs(self.corridor_y[1]) >= self.drum_radius:
+            raise ConfigError(f"door: corridor_y[1]={self.corridor_y[1]} must cut the drum "
+                              f"(|y| < drum radius {self.drum_radius:.3f}) when drum_segments > 0")
+        if self.drum_segments:
+            step = (math.pi - 2 * math.asin(self.corridor_y[1] / self.drum_radius)) / self.drum_segments
+            sag = self.drum_radius * (1 - math.cos(0.5 * step))
+            if sag >= self.wall_gap:
+                raise ConfigError(f"door: drum_segments={self.drum_segments} is too few: the drum's walls sag "
+                                  f"{sag * 1e3:.1f} mm inwards, into the rod's sweep (wall_gap {self.wall_gap} m)")
+
+    @property
+    def drum_radius(self) -> float:
+        """Radius [m] of the drum's (and the upper walls' ends') centre line around the door centre."""
+        return self.door_radius + 0.5 * self.door_thickness + self.wall_gap + 0.5 * self.wall_thickness
 
 
 class Door(Scenario):
@@ -54,7 +72,15 @@ class Door(Scenario):
                       angular_velocity=-math.radians(c.door_speed))
         x0, x1 = c.corridor_x
         bottom, top = c.corridor_y
-        edge = r + 0.5 * c.door_thickness + c.wall_gap + 0.5 * c.wall_thickness
+        edge = c.drum_radius
         world.add_wall("wall_bottom", (cx + x0, cy + bottom), (cx + x1, cy + bottom), c.wall_thickness)
         world.add_wall("wall_top_left", (cx + x0, cy + top), (cx - edge, cy + top), c.wall_thickness)
         world.add_wall("wall_top_right", (cx + edge, cy + top), (cx + x1, cy + top), c.wall_thickness)
+        if c.drum_segments:
+            # Vertices on the circle of radius ``edge``, from the right wall's end over the top to
+            # the left one's (validate() keeps the chords' sag inside wall_gap).
+            a0 = math.asin(top / edge)
+            angles = [a0 + (math.pi - 2 * a0) * k / c.drum_segments for k in range(c.drum_segments + 1)]
+            pts = [(cx + edge * math.cos(a), cy + edge * math.sin(a)) for a in angles]
+            for k, (a, b) in enumerate(zip(pts, pts[1:])):
+                world.add_wall(f"drum_{k}", a, b, c.wall_thickness)

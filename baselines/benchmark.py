@@ -74,6 +74,7 @@ VEC_MODES = ("sync", "async")
 SECTIONS = ("env", "lipm", "planners", "memory")
 LIPM_BATCHES = (1, 32, 1024)
 STAGE_KEYS = ("time_period_search_ms", "time_rrt_ms", "time_pso_ms")  # policy.last_info, when present
+MEMORY_TIMEOUT_S = 900  # for the whole memory section (each probe also has a stepping budget)
 
 # Targets (reported, never asserted in tests).
 LIPM_TARGET_PER_S = 1_000_000
@@ -767,50 +768,75 @@ def _spawn_memory(spec: dict[str, Any]) -> dict[str, Any]:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def _memory_job(spec: dict[str, Any]) -> dict[str, Any]:
-    """One memory probe in a forked child of the fork server (runs there, not in the benchmark process)."""
-    try:
-        return finite_json(_memory_child(spec))
-    except Exception as exc:  # noqa: BLE001 - reported, not raised across processes
-        return {"skipped": _error(exc)}
+def _memory_server(request: dict[str, Any]) -> list[dict[str, Any]]:
+    """Runs in a fresh interpreter (``--_memory-server``): every probe in a child forked from it.
 
+    This interpreter has imported numpy, gymnasium, pymunk, footstep_gym and the planners
+    and allocated nothing else, so a forked child starts from the state of a fresh
+    interpreter after its imports (what ``--_memory-child`` measures from), without paying
+    ~0.5 s of imports per probe. ``workers`` children run at a time; each writes its
+    result to a file of its own and leaves with ``os._exit``.
+    """
+    import tempfile
 
-MEMORY_TIMEOUT_S = 900
+    import footstep_gym.env  # noqa: F401
+    _make_policy_fn()  # import the planners once, here
+    specs, workers = request["specs"], max(1, int(request["workers"]))
+    results: list[dict[str, Any] | None] = [None] * len(specs)
+    with tempfile.TemporaryDirectory(prefix="footstep-bench-mem-") as tmp:
+        running: dict[int, int] = {}
+        nxt = 0
+        while nxt < len(specs) or running:
+            while nxt < len(specs) and len(running) < workers:
+                path = os.path.join(tmp, f"{nxt}.json")
+                pid = os.fork()
+                if pid == 0:  # child: measure, write, leave without cleanup handlers
+                    code = 0
+                    try:
+                        out = finite_json(_memory_child(specs[nxt]))
+                    except BaseException as exc:  # noqa: BLE001
+                        out, code = {"skipped": _error(exc)}, 1
+                    try:
+                        with open(path, "w", encoding="utf-8") as f:
+                            json.dump(out, f)
+                    finally:
+                        os._exit(code)
+                running[pid] = nxt
+                nxt += 1
+            pid, status = os.wait()
+            i = running.pop(pid)
+            try:
+                with open(os.path.join(tmp, f"{i}.json"), encoding="utf-8") as f:
+                    results[i] = json.load(f)
+            except (OSError, ValueError):
+                results[i] = {"skipped": f"probe process ended with status {status} and no result"}
+    return [r if r is not None else {"skipped": "no result"} for r in results]
 
 
 def _run_memory_jobs(specs: list[dict[str, Any]], workers: int) -> tuple[list[dict[str, Any]], str]:
     """Run the probes ``workers`` at a time, each in a process of its own. Returns (results, how).
 
-    With a ``forkserver`` (POSIX): a fresh interpreter imports this module (numpy,
-    gymnasium, pymunk, footstep_gym) once, and every probe runs in a new process forked
-    from it (``maxtasksperchild=1``), so each starts from the state of a fresh interpreter
-    after the imports, without paying ~0.5 s of imports per probe. Elsewhere, one
-    ``python benchmark.py --_memory-child`` per probe.
+    Where ``os.fork`` exists: one fresh ``--_memory-server`` interpreter forks a child per
+    probe (:func:`_memory_server`). Otherwise, or if that fails: one fresh
+    ``--_memory-child`` interpreter per probe.
     """
-    import multiprocessing as mp
-
-    try:
-        ctx = mp.get_context("forkserver")
-    except ValueError:
-        ctx = None
-    if ctx is not None:
-        ctx.set_forkserver_preload([__name__])  # "__main__" when run as a script
+    if hasattr(os, "fork"):
+        cmd = [sys.executable, str(Path(__file__).resolve()), "--_memory-server"]
         try:
-            with ctx.Pool(processes=workers, maxtasksperchild=1) as pool:
-                pending = [pool.apply_async(_memory_job, (spec,)) for spec in specs]
-                results = []
-                for r in pending:
-                    try:
-                        results.append(r.get(timeout=MEMORY_TIMEOUT_S))
-                    except mp.TimeoutError:
-                        results.append({"skipped": f"probe timed out after {MEMORY_TIMEOUT_S} s"})
-            return results, "forkserver (a forked process per probe)"
-        except (OSError, RuntimeError, ImportError) as exc:
-            log(f"  fork server unavailable ({_error(exc)}); one interpreter per probe")
+            proc = subprocess.run(cmd, input=json.dumps({"specs": specs, "workers": workers}),
+                                  capture_output=True, text=True, timeout=MEMORY_TIMEOUT_S)
+            if proc.returncode == 0:
+                results = json.loads(proc.stdout.strip().splitlines()[-1])
+                if isinstance(results, list) and len(results) == len(specs):
+                    return results, "a child forked per probe from a fresh interpreter"
+            why = (proc.stderr.strip().splitlines() or ["no output"])[-1]
+        except (subprocess.TimeoutExpired, ValueError, IndexError) as exc:
+            why = _error(exc)
+        log(f"  memory server failed ({why[:200]}); a fresh interpreter per probe instead")
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(max_workers=workers) as tpool:
-        return list(tpool.map(_spawn_memory, specs)), "subprocess (a fresh interpreter per probe)"
+        return list(tpool.map(_spawn_memory, specs)), "a fresh interpreter per probe"
 
 
 def bench_memory(settings: Settings, workers: int | None = None) -> dict[str, Any]:
@@ -1074,6 +1100,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--sections", default=",".join(SECTIONS),
                    help=f"comma-separated subset of {','.join(SECTIONS)}")
     p.add_argument("--_memory-child", dest="memory_child", default=None, help=argparse.SUPPRESS)
+    p.add_argument("--_memory-server", dest="memory_server", action="store_true", help=argparse.SUPPRESS)
     return p.parse_args(argv)
 
 
@@ -1081,6 +1108,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     args = parse_args(argv)
     if args.memory_child:
         print(json.dumps(finite_json(_memory_child(json.loads(args.memory_child)))))
+        return {}
+    if args.memory_server:
+        print(json.dumps(_memory_server(json.loads(sys.stdin.read()))))
         return {}
     settings = MODES["full" if args.full else "smoke" if args.smoke else "quick"]
     sections = [s.strip() for s in args.sections.split(",") if s.strip()]

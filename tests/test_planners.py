@@ -3,7 +3,7 @@
 * Stage 1, :func:`longest_free_period` (Algorithm 1 as its text describes it): hand-made
   monotone predicates ``collides(T) = T > T*`` whose answer ``T*`` is known.
 * Stage 2, :class:`ModifiedRRT` (Algorithm 2): free space, a wall with a gap, a blocking
-  wall and a wall that opens at a known time, with body checks written here. Every edge
+  wall and a gate that shuts at a known time, with body checks written here. Every edge
   is re-derived from the node coordinates and checked against the hardware angle limits
   written out from DESIGN §1 / paper Fig. 4 (and cross-checked with ``footstep.turn_bounds``).
 * Stage 3, :func:`minimise` on a shifted sphere whose minimiser is known, and
@@ -190,7 +190,7 @@ def check_tree_edges(tree, start, robot, step_size, step_cost):
         vec = xy[i] - xy[p]
         length = float(np.hypot(*vec))
         assert length <= step_size + 1e-9, (i, length)
-        # a zero-length edge (stepping in place; see test_rrt_goal_nodes_are_distinct) has no
+        # a zero-length edge (stepping in place; see test_rrt_goal_nodes_are_distinct_paths) has no
         # direction to derive: its stored heading is checked against the limits instead
         heading[i] = math.atan2(vec[1], vec[0]) if length > 0 else tree.heading[i]
         turn = wrap(heading[i] - heading[p])
@@ -276,6 +276,47 @@ def test_rrt_free_space_reaches_goal_within_hardware_limits(robot, body_kind, si
         for pts_shape, times_shape, normals_shape, period in body.calls:
             assert len(pts_shape) == 2 and pts_shape[1] == 2
             assert times_shape == (pts_shape[0],) and normals_shape == pts_shape and period == 0.8
+
+
+class Recorder(AlwaysFree):
+    """Free space that remembers every (point, time, support normal) it was asked about."""
+
+    def free(self, points, times, normals, period):
+        self.rows = getattr(self, "rows", []) + [np.column_stack([points, times, normals])]
+        return super().free(points, times, normals, period)
+
+
+def test_rrt_checks_the_body_path_at_its_own_times(robot):
+    """DESIGN §5: during step d, i.e. [(d-1) T, d T], the body walks from (grandparent + parent) / 2
+    to (parent + node) / 2, starting from where the body is now; the CoM sways towards the support
+    foot (the parent's foot), so each segment is checked with that foot's normal."""
+    period, samples = 0.55, 5
+    start = WalkStart(node=np.array([0.0, 0.0]), heading=0.3, side=LEFT, body=np.array([0.01, 0.03]),
+                      previous_node=np.array([-0.1, 0.0]))
+    body = Recorder()
+    rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "edge_samples": samples, "iterations": 200})
+    rrt.plan(start, (1.0, 0.5), 0.1, body, period=period, rng=np.random.default_rng(5))
+    tree = rrt.tree
+    xy, parent = tree.xy[: tree.n], tree.parent[: tree.n]
+    heading_of = {0: start.heading}
+    side_of = {0: start.side}
+    depth_of = {0: 0}
+    expected = []
+    s = np.linspace(0.0, 1.0, samples)
+    for i in range(1, tree.n):  # all free: every query became a node, in order
+        p = parent[i]
+        vec = xy[i] - xy[p]
+        heading_of[i] = math.atan2(vec[1], vec[0]) if np.any(vec != 0) else tree.heading[i]
+        side_of[i] = -side_of[p]
+        depth_of[i] = depth_of[p] + 1
+        a = start.body if p == 0 else 0.5 * (xy[parent[p]] + xy[p])
+        b = 0.5 * (xy[p] + xy[i])
+        pts = a + s[:, None] * (b - a)
+        times = (depth_of[p] + s) * period
+        h = heading_of[p]
+        normal = side_of[p] * np.array([-math.sin(h), math.cos(h)])  # left normal, towards a left support foot
+        expected.append(np.column_stack([pts, times, np.tile(normal, (samples, 1))]))
+    np.testing.assert_allclose(np.concatenate(body.rows), np.concatenate(expected), atol=1e-12)
 
 
 def test_rrt_angle_limits_bind(robot):
@@ -413,6 +454,7 @@ def test_rrt_is_time_aware_races_a_closing_gate(robot, seed):
     path = rrt.plan(start, goal, radius, gate, period=period, rng=np.random.default_rng(seed))
     assert path is not None
     check_path(path, start, goal, radius, robot, settings["step_size"], settings["step_cost"])
+    check_tree_edges(rrt.tree, start, robot, settings["step_size"], settings["step_cost"])  # depths too
     pts, times = body_samples(path, start, period, settings["edge_samples"])
     assert not gate.blocked(pts, times).any()
     beyond = np.flatnonzero(pts[:, 0] > 0.5)
@@ -777,13 +819,10 @@ def test_prediction_known_numbers_circle_and_rotating_rod():
                                                  ("FootstepCrossing-v0", 1, dict(crossing_x=0.5))])
 def test_prediction_matches_pymunk_for_constant_motion(env_id, steps, kwargs):
     """Door and crossing car move at constant (angular) velocity: the prediction is pymunk's future."""
-    import pymunk
-
     env, snap = snapshot_after(env_id, steps, **kwargs)
     pred = ObstaclePredictor(snap)
     rng = np.random.default_rng(3)
     world = env.unwrapped.world
-    query = pymunk.ShapeFilter(mask=0b10)
     t_prev = 0.0
     for t in (0.3, 0.8, 1.6, 3.0):
         world.advance(t - t_prev)
@@ -791,12 +830,12 @@ def test_prediction_matches_pymunk_for_constant_motion(env_id, steps, kwargs):
         pts = np.asarray(snap.com) + rng.uniform(-1.5, 1.5, (60, 2))
         if env_id == "FootstepDoor-v0":
             pts = np.vstack([pts, rng.uniform(-0.6, 0.6, (60, 2))])
-        truth = np.array([world.space.point_query_nearest(tuple(p), 100.0, query).distance for p in pts])
+        truth = np.array([world.clearance(tuple(p), 100.0)[0] for p in pts])  # pymunk's nearest-shape query
         np.testing.assert_allclose(pred.clearance(pts, np.full(len(pts), t)), truth, atol=1e-6)
     env.close()
 
 
-def test_prediction_horizon_drops_moving_obstacles(robot):
+def test_prediction_horizon_drops_moving_obstacles():
     env, snap = snapshot_after("FootstepDoor-v0", 0)
     pts = np.array([[0.0, -0.3], [0.3, 0.0], [1.0, -0.5]])
     full = ObstaclePredictor(snap)
@@ -822,7 +861,7 @@ def test_prediction_never_reads_the_simulator_future(env_id, kwargs):
     rng = np.random.default_rng(1)
     pts, times = sample_points(snap, 200, rng, spread=1.0, t_max=3.0)
     before = pred.clearance(pts, times).copy()
-    snap_before = dataclasses.replace(snap)
+    sensed = [(o.position, o.angle, o.velocity, o.angular_velocity) for o in snap.obstacles]
     # the simulator moves on (and, for the crowd, its members change velocity)
     for _ in range(3):
         _, _, terminated, _, _ = env.step(u.robot.nominal_command)
@@ -835,7 +874,7 @@ def test_prediction_never_reads_the_simulator_future(env_id, kwargs):
             o.body.velocity = (1.0, 1.0)
             o.body.angular_velocity = 1.0
     np.testing.assert_array_equal(pred.clearance(pts, times), before)
-    assert snap == snap_before
+    assert [(o.position, o.angle, o.velocity, o.angular_velocity) for o in snap.obstacles] == sensed
     np.testing.assert_allclose(before, direct_clearance(snap.obstacles, pts, times), atol=1e-9)
     # a predictor from a fresh snapshot does see the change, so the comparison above is not vacuous
     fresh = ObstaclePredictor(u.sensing())

@@ -24,6 +24,9 @@ class PredictionParams:
     """How far ahead obstacles are predicted and how much room the robot keeps."""
 
     horizon_s: float = positive()  # [s] moving obstacles predicted this far; beyond, only static shapes
+    unsteady_horizon_s: float = positive()  # [s] ... but only this far for shapes whose velocity changed since the last step
+    unsteady_speed_mps: float = nonnegative()  # [m/s] a velocity change above this makes a shape unsteady
+    unsteady_turn_rad_s: float = nonnegative()  # [rad/s] likewise for the angular velocity
     safety_margin_m: float = nonnegative()  # [m] added to robot.body_radius in every collision check
     edge_samples: int = positive()  # points checked along each body-path segment (>= 2)
 
@@ -75,6 +78,8 @@ class RRTParams:
     sample_margin_m: float = nonnegative()  # [m] the sampling box extends this far beyond start and goal
     step_cost_m: float = nonnegative()  # [m] added to the cost per step (0: pure cumulative length)
     seed_paths: int = nonnegative()  # free rollouts of the period search inserted as first branches
+    fallback_clearance_weight: float = nonnegative()  # no path to the goal: metres of progress worth 1 m of clearance
+    fallback_clearance_cap_m: float = nonnegative()  # [m] clearance beyond this earns nothing more
 
     def validate(self) -> None:
         if not self.goal_sample_rate < 1:

@@ -33,6 +33,30 @@ def _moves(view: ObstacleView) -> bool:
     return (not view.static) and (any(float(c) != 0.0 for c in view.velocity) or view.angular_velocity != 0.0)
 
 
+def steady_motion_horizons(previous: Snapshot | None, snapshot: Snapshot, short_horizon: float,
+                           speed_tolerance: float, turn_tolerance: float) -> dict[str, float]:
+    """``{name: short_horizon}`` for the shapes whose sensed motion changed since ``previous``.
+
+    A constant-velocity (or constant-turn) extrapolation is only as good as the motion is
+    steady. A robot can judge that from what it sensed one step ago: a shape whose velocity
+    changed by more than ``speed_tolerance`` [m/s] (or angular velocity by more than
+    ``turn_tolerance`` [rad/s]) is predicted only ``short_horizon`` [s] ahead. Without a
+    previous snapshot, every shape keeps the long horizon.
+    """
+    if previous is None:
+        return {}
+    before = {v.name: v for v in previous.obstacles}
+    out: dict[str, float] = {}
+    for v in snapshot.obstacles:
+        old = before.get(v.name)
+        if old is None or v.static:
+            continue
+        dv = float(np.hypot(v.velocity[0] - old.velocity[0], v.velocity[1] - old.velocity[1]))
+        if dv > speed_tolerance or abs(v.angular_velocity - old.angular_velocity) > turn_tolerance:
+            out[v.name] = short_horizon
+    return out
+
+
 def _may_enter(view: ObstacleView, region: tuple[np.ndarray, np.ndarray], horizon: float) -> bool:
     """Whether any point of ``view`` can lie inside the box ``region`` at some time in ``[0, horizon]``.
 
@@ -60,17 +84,24 @@ class ObstaclePredictor:
 
     ``horizon`` [s]: moving obstacles are predicted up to this time and ignored beyond it
     (``np.inf``: always predicted). ``moving_only``: leave obstacles that do not move out.
+    ``horizons``: ``{shape name: horizon [s]}``, a shorter horizon for shapes whose motion
+    is known to be less predictable (see :func:`steady_motion_horizons`).
     ``region``: ``(low (2,), high (2,))`` [m], a box holding every point that will be asked
     about; shapes that cannot come within it before the horizon (their reach circle swept
     along their velocity) are left out, which changes no answer and saves their cost.
     """
 
     def __init__(self, snapshot: Snapshot, horizon: float = np.inf, moving_only: bool = False,
-                 region: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+                 region: tuple[np.ndarray, np.ndarray] | None = None,
+                 horizons: dict[str, float] | None = None) -> None:
         self.horizon = float(horizon)
+        horizons = horizons or {}
         views = [v for v in snapshot.obstacles if (_moves(v) or not moving_only)
-                 and (region is None or _may_enter(v, region, self.horizon))]
+                 and (region is None or _may_enter(v, region, min(self.horizon, horizons.get(v.name, np.inf))))]
         n = len(views)
+        # Per shape: moving shapes are predicted up to their own horizon (``horizons[name]``, else ``horizon``).
+        self._horizon = np.array([min(self.horizon, horizons.get(v.name, np.inf)) if _moves(v) else np.inf
+                                  for v in views], dtype=float).reshape(n)
 
         def col(values: list) -> np.ndarray:
             return np.array(values, dtype=float).reshape(n)
@@ -105,8 +136,8 @@ class ObstaclePredictor:
         np.clip(u, 0.0, 1.0, out=u)
         d = ap - u * ab
         d2 = d.real ** 2 + d.imag ** 2
-        if np.isfinite(self.horizon):
-            d2[(tt > self.horizon) & self._moving] = np.inf
+        if np.isfinite(self._horizon).any():
+            d2[tt > self._horizon] = np.inf
         return d2
 
     def distances(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -195,6 +226,13 @@ class BodyModel:
         shift, grow = self.sway(period)
         pts = np.asarray(points, dtype=float).reshape(-1, 2) + shift * np.asarray(support_normals).reshape(-1, 2)
         return self.predictor.free(pts, times, self.robot.body_radius + self.margin + grow)
+
+
+    def slack(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray, period: float) -> np.ndarray:
+        """Clearance [m] beyond what :meth:`free` requires at each point, ``(N,)`` (negative: not free)."""
+        shift, grow = self.sway(period)
+        pts = np.asarray(points, dtype=float).reshape(-1, 2) + shift * np.asarray(support_normals).reshape(-1, 2)
+        return self.predictor.clearance(pts, times) - (self.robot.body_radius + self.margin + grow)
 
 
 def support_normal(heading: np.ndarray, side: np.ndarray) -> np.ndarray:

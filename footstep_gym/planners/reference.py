@@ -59,7 +59,12 @@ from footstep_gym.planners.period_search import (
     stride_window,
     walk_start,
 )
-from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor, body_path_points
+from footstep_gym.planners.prediction import (
+    BodyModel,
+    ObstaclePredictor,
+    body_path_points,
+    steady_motion_horizons,
+)
 from footstep_gym.planners.rrt import ModifiedRRT
 from footstep_gym.robot import Robot, load_robot
 from footstep_gym.sensing import Snapshot
@@ -139,14 +144,17 @@ class PeriodAwarePlanner(_Planner):
             robot, iterations=c.rrt.iterations, batch_size=c.rrt.batch_size, step_size=c.rrt.step_size_m,
             goal_sample_rate=c.rrt.goal_sample_rate, n_paths=c.rrt.n_paths,
             sample_margin=c.rrt.sample_margin_m, edge_samples=c.prediction.edge_samples,
-            step_cost=c.rrt.step_cost_m)
+            step_cost=c.rrt.step_cost_m, clearance_weight=c.rrt.fallback_clearance_weight,
+            clearance_cap=c.rrt.fallback_clearance_cap_m)
         self.half_width = 0.5 * robot.nominal_side_stride
         self.delta_low, self.delta_high = c.pso.delta_bounds(vary_period=self.vary_period)
         self._last_path: tuple[np.ndarray, np.ndarray, float] | None = None  # rest of the last goal path, its period
+        self._previous_snapshot: Snapshot | None = None  # what was sensed one step ago
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
         self._last_path = None
+        self._previous_snapshot = None
 
     # -------------------------------------------------------------- the three stages
     def _plan(self, snapshot: Snapshot) -> tuple[np.ndarray, dict[str, Any]]:
@@ -154,7 +162,13 @@ class PeriodAwarePlanner(_Planner):
         cfg = self.config
         horizon = cfg.prediction.horizon_s
         start = walk_start(snapshot, self.half_width)
-        predictor = ObstaclePredictor(snapshot, horizon=horizon, region=self._region(start.node, snapshot.goal))
+        pp = cfg.prediction
+        unsteady = steady_motion_horizons(self._previous_snapshot, snapshot, pp.unsteady_horizon_s,
+                                          pp.unsteady_speed_mps, pp.unsteady_turn_rad_s)
+        self._previous_snapshot = snapshot
+        info["unsteady_shapes"] = len(unsteady)
+        predictor = ObstaclePredictor(snapshot, horizon=horizon, region=self._region(start.node, snapshot.goal),
+                                      horizons=unsteady)
         body = BodyModel(predictor, self.robot, cfg.prediction.safety_margin_m)
         search_body = BodyModel(predictor, self.robot,
                                 cfg.prediction.safety_margin_m + cfg.period_search.extra_margin_m)

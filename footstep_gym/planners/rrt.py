@@ -63,10 +63,14 @@ from footstep_gym.planners.prediction import body_path_points, support_normal
 from footstep_gym.robot import Robot
 
 class BodyCheck(Protocol):
-    """``free(points (N, 2), times (N,), support_normals (N, 2), period) -> (N,)`` bool (e.g. :class:`BodyModel`)."""
+    """``free(points (N, 2), times (N,), support_normals (N, 2), period) -> (N,)`` bool, and ``slack``
+    (the same arguments) -> clearance [m] beyond the required one (e.g. :class:`BodyModel`)."""
 
     def free(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray,
              period: float) -> np.ndarray: ...
+
+    def slack(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray,
+              period: float) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -130,12 +134,13 @@ class ModifiedRRT:
     a sample is the goal; ``n_paths``: goal nodes collected before stopping;
     ``sample_margin``: the sampling box extends this far [m] beyond start and goal;
     ``edge_samples``: points checked along each body segment; ``step_cost``: cost [m]
-    added per step.
+    added per step; ``clearance_weight`` [m of goal distance per m], ``clearance_cap`` [m]:
+    how :meth:`best_partial_path` trades clearance for progress.
     """
 
     def __init__(self, robot: Robot, *, iterations: int, batch_size: int, step_size: float,
                  goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int,
-                 step_cost: float = 0.0) -> None:
+                 step_cost: float = 0.0, clearance_weight: float = 0.0, clearance_cap: float = 0.0) -> None:
         self.robot = robot
         self.iterations = iterations
         self.batch_size = batch_size
@@ -145,6 +150,8 @@ class ModifiedRRT:
         self.sample_margin = sample_margin
         self.edge_samples = edge_samples
         self.step_cost = step_cost
+        self.clearance_weight = clearance_weight
+        self.clearance_cap = clearance_cap
         self.tree: Tree | None = None
         self.goal_nodes: list[int] = []
 
@@ -200,12 +207,15 @@ class ModifiedRRT:
         n = tree.n
         key = np.linalg.norm(tree.xy[:n] - self._goal, axis=1) + 1e-6 * tree.cost[:n]
         if stay_until is not None:
-            survival = self._stay_time(np.arange(n), stay_until)
+            survival, slack = self._stay_time(np.arange(n), stay_until)
+            # Of the spots that last longest, the roomiest (up to clearance_cap) first, then the nearest the goal.
+            key = key - self.clearance_weight * np.minimum(slack, self.clearance_cap)
             key = np.where(survival >= survival.max() - 1e-9, key, np.inf)
         return tree.path_to(int(np.argmin(key)), reached_goal=False)
 
-    def _stay_time(self, nodes: np.ndarray, until: float) -> np.ndarray:
-        """How long [s] stepping in place at each node stays free: ``until`` if it lasts that long.
+    def _stay_time(self, nodes: np.ndarray, until: float) -> tuple[np.ndarray, np.ndarray]:
+        """How long [s] stepping in place at each node stays free (``until`` if it lasts that long),
+        and the smallest clearance [m] beyond the required one over the stay's first step.
 
         The in-place step (body from where it arrived to the node) is checked at
         ``edge_samples`` instants, then standing on the node at ``2 * edge_samples`` more up
@@ -221,10 +231,11 @@ class ModifiedRRT:
         times = np.concatenate([times_a.reshape(-1, e), times_b.reshape(-1, 2 * e)], axis=1)
         normals = np.zeros((len(nodes), k, 2))
         normals[:, :e] = support_normal(tree.heading[nodes], tree.side[nodes])[:, None, :]
-        free = self._body.free(pts, times.reshape(-1), normals.reshape(-1, 2), self._period).reshape(len(nodes), k)
+        slack = self._body.slack(pts, times.reshape(-1), normals.reshape(-1, 2), self._period).reshape(len(nodes), k)
+        free = slack >= 0.0
         first_hit = np.where(free.all(axis=1), k, np.argmin(free, axis=1))
         last_free = np.where(first_hit > 0, times[np.arange(len(nodes)), np.maximum(first_hit - 1, 0)], 0.0)
-        return np.where(first_hit == k, until, np.minimum(last_free, until))
+        return np.where(first_hit == k, until, np.minimum(last_free, until)), slack[:, : 2 * e].min(axis=1)
 
     # ------------------------------------------------------------------ the steps
     def _sampling_box(self, start: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -482,8 +482,6 @@ def test_rrt_blocking_gate_that_shut_before_any_crossing(robot):
     assert np.all(rrt.best_partial_path().nodes[:, 0] < 0.3 + 0.5 * RRT_SETTINGS["step_size"])
 
 
-@pytest.mark.xfail(strict=True, reason="BUG rrt.py: a goal sample whose nearest node lies exactly on the goal "
-                                       "adds a zero-length 'edge' (a duplicate goal node) that counts towards n_paths")
 def test_rrt_goal_nodes_are_distinct_paths(robot):
     """``n_paths`` goal nodes should be ``n_paths`` different ways to the goal, not one path plus steps in place."""
     start = make_start(RIGHT, 0.6, node=(0.2, -0.1))

@@ -186,7 +186,10 @@ class ModifiedRRT:
             parents = self._nearest_nodes(samples)
             delta = self._restrict_to_angle_limits(parents, samples, rng)
             new_xy, new_heading, length = self._steer(parents, samples, delta)
-            free = self._edges_free(parents, new_xy)
+            # A node already in the goal region ends its path: extending it would only add
+            # steps in place that count as more "paths" (n_paths) without being any.
+            free = ~self._in_goal(tree.xy[parents])
+            free[free] = self._edges_free(parents[free], new_xy[free])
             self._insert(parents[free], new_xy[free], new_heading[free], length[free])
         if not self.goal_nodes:
             return None
@@ -313,6 +316,9 @@ class ModifiedRRT:
             self._insert(np.array([parent]), xy[None], heading, np.array([length]))
             parent = self.tree.n - 1
 
+    def _in_goal(self, xy: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(xy - self._goal, axis=1) <= self._goal_radius
+
     def _insert(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray,
                 length: np.ndarray) -> None:
         """Steps 12-16: append the nodes, with cumulative length as cost; note goal nodes."""
@@ -326,6 +332,5 @@ class ModifiedRRT:
         tree.cost[sl] = tree.cost[parents] + length + self.step_cost
         tree.depth[sl] = tree.depth[parents] + 1
         tree.body[sl] = 0.5 * (tree.xy[parents] + new_xy)
-        in_goal = np.linalg.norm(new_xy - self._goal, axis=1) <= self._goal_radius
-        self.goal_nodes.extend((tree.n + np.flatnonzero(in_goal)).tolist())
+        self.goal_nodes.extend((tree.n + np.flatnonzero(self._in_goal(new_xy))).tolist())
         tree.n += k

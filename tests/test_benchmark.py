@@ -213,6 +213,8 @@ def test_memory(smoke):
             assert 0 <= rss["peak_rss_delta_bytes"] < 1 << 30
             assert rss["peak_rss_method"]
         assert rss["torch_imported"] is False and tm["torch_imported"] is False
+        assert rss["process"] == "fresh interpreter"  # RSS growth is only meaningful there
+        assert tm["process"]
     if "skipped" in data["planners"]:
         return
     by_env = mem["planner"]["period-aware"]

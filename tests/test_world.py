@@ -302,3 +302,140 @@ def test_standing_outside_the_door_never_collides():
     for _ in range(40):  # 32 s: the door turns more than a full revolution
         _, _, terminated, truncated, info = env.step(NOMINAL)
         assert not terminated and not truncated and not info["collision"]
+
+
+# ------------------------------------------------------------------ the revolving door's half drum
+def _door_views(**overrides):
+    env = gym.make("FootstepDoor-v0", **overrides)
+    env.reset(seed=0)
+    views = env.unwrapped.world.views()
+    env.close()
+    return views
+
+
+def _world_segment(view, angle=None):
+    """World endpoints of a segment view (its body turned to ``angle``, default its own)."""
+    ang = view.angle if angle is None else angle
+    c, s = math.cos(ang), math.sin(ang)
+    px, py = view.position
+    a = np.array([px + c * view.a[0] - s * view.a[1], py + s * view.a[0] + c * view.a[1]])
+    b = np.array([px + c * view.b[0] - s * view.b[1], py + s * view.b[0] + c * view.b[1]])
+    return a, b
+
+
+def _point_segment_distance(p, a, b):
+    """Distance from points p (N, 2) to segments a-b (each (N, 2) or (2,))."""
+    p, a, b = np.broadcast_arrays(np.atleast_2d(p), np.atleast_2d(a), np.atleast_2d(b))
+    ab = b - a
+    denom = (ab * ab).sum(axis=1)
+    u = np.where(denom > 0, ((p - a) * ab).sum(axis=1) / np.where(denom > 0, denom, 1.0), 0.0)
+    u = np.clip(u, 0.0, 1.0)
+    return np.linalg.norm(p - (a + u[:, None] * ab), axis=1)
+
+
+def _segment_segment_distance(p1, p2, q1, q2):
+    """Distance between segments p1-p2 (N, 2) and q1-q2 (N, 2) in the plane: 0 if they cross,
+    else the least of the four endpoint-to-segment distances."""
+    p1, p2, q1, q2 = np.broadcast_arrays(*(np.atleast_2d(np.asarray(v, dtype=float)) for v in (p1, p2, q1, q2)))
+
+    def cross(o, a, b):
+        return (a[:, 0] - o[:, 0]) * (b[:, 1] - o[:, 1]) - (a[:, 1] - o[:, 1]) * (b[:, 0] - o[:, 0])
+
+    d1, d2 = cross(q1, q2, p1), cross(q1, q2, p2)
+    d3, d4 = cross(p1, p2, q1), cross(p1, p2, q2)
+    crossing = (d1 * d2 < 0) & (d3 * d4 < 0)
+    ends = np.minimum.reduce([_point_segment_distance(p1, q1, q2), _point_segment_distance(p2, q1, q2),
+                              _point_segment_distance(q1, p1, p2), _point_segment_distance(q2, p1, p2)])
+    return np.where(crossing, 0.0, ends)
+
+
+def test_segment_distance_helper_known_numbers():
+    """The plain-geometry helpers the drum tests rely on."""
+    assert _segment_segment_distance([0, 0], [1, 0], [0.5, 0.3], [0.5, 2.0])[0] == pytest.approx(0.3)
+    assert _segment_segment_distance([0, 0], [1, 0], [0.5, -1.0], [0.5, 1.0])[0] == 0.0  # crossing
+    assert _segment_segment_distance([0, 0], [1, 0], [2.0, 0.0], [3.0, 0.0])[0] == pytest.approx(1.0)
+    assert _segment_segment_distance([0, 0], [1, 0], [1.3, 0.4], [2.0, 2.0])[0] == pytest.approx(0.5)
+
+
+def test_door_drum_closes_the_upper_half_without_a_gap():
+    """Default door: every point of the half circle of the drum's radius above the corridor's top
+    line lies inside the material of some drum wall, so no body gets between the drum's walls."""
+    door = _yaml("scenarios/door.yaml")
+    views = _door_views()
+    drum = [v for v in views if v.name.startswith("drum_")]
+    assert len(drum) == door["drum_segments"]
+    assert all(v.static and v.kind == "segment" for v in drum)
+    half_t = 0.5 * door["wall_thickness"]
+    radius = door["door_radius"] + 0.5 * door["door_thickness"] + door["wall_gap"] + half_t
+    cx, cy = door["door_centre"]
+    top = door["corridor_y"][1]
+    a0 = math.asin(top / radius)
+    ang = np.linspace(a0, math.pi - a0, 4001)
+    pts = np.stack([cx + radius * np.cos(ang), cy + radius * np.sin(ang)], axis=1)
+    assert np.all(pts[:, 1] >= cy + top - 1e-9)
+    dist = np.full(len(pts), np.inf)
+    for v in drum:
+        a, b = _world_segment(v)
+        dist = np.minimum(dist, _point_segment_distance(pts, a, b))
+        # each wall lies on the upper side of the corridor's top line
+        assert min(a[1], b[1]) >= cy + top - 1e-9
+    assert dist.max() <= half_t + 1e-3, dist.max()
+    # the drum meets the corridor's upper walls: their inner ends lie in drum material
+    for name in ("wall_top_left", "wall_top_right"):
+        (wall,) = [v for v in views if v.name == name]
+        a, b = _world_segment(wall)
+        inner = a if abs(a[0] - cx) < abs(b[0] - cx) else b
+        assert min(_point_segment_distance(inner, *_world_segment(v))[0] for v in drum) <= half_t
+
+
+@pytest.mark.parametrize("segments", [6, 16, 40])
+def test_door_drum_is_a_closed_chain_and_the_rod_never_touches_it(segments):
+    """For every drum_segments that validates, the walls chain end to end from one upper wall to the
+    other, and over a full revolution the rod keeps clear of every wall (drum and corridor)."""
+    door = _yaml("scenarios/door.yaml")
+    views = _door_views(drum_segments=segments)
+    drum = [v for v in views if v.name.startswith("drum_")]
+    assert len(drum) == segments
+    cx, cy = door["door_centre"]
+    ends = [_world_segment(v) for v in drum]
+    # order the walls by the angle of their midpoints around the door centre, then chain them
+    ends.sort(key=lambda ab: math.atan2(0.5 * (ab[0][1] + ab[1][1]) - cy, 0.5 * (ab[0][0] + ab[1][0]) - cx))
+    for (a, b), (c, d) in zip(ends, ends[1:]):  # neighbours share a vertex
+        assert min(np.linalg.norm(p - q) for p in (a, b) for q in (c, d)) < 1e-9
+    walls = {v.name: v for v in views if v.static}
+    first, last = ends[0], ends[-1]
+    for name, piece in (("wall_top_right", first), ("wall_top_left", last)):
+        wa, wb = _world_segment(walls[name])
+        assert _segment_segment_distance(wa, wb, piece[0], piece[1])[0] < 1e-9, name
+
+    (rod,) = [v for v in views if v.name == "door"]
+    assert not rod.static and rod.angular_velocity != 0.0
+    t = np.linspace(0.0, 2 * math.pi / abs(rod.angular_velocity), 7201)
+    angle = rod.angle + rod.angular_velocity * t
+    c, s = np.cos(angle), np.sin(angle)
+    px, py = rod.position
+    ra = np.stack([px + c * rod.a[0] - s * rod.a[1], py + s * rod.a[0] + c * rod.a[1]], axis=1)
+    rb = np.stack([px + c * rod.b[0] - s * rod.b[1], py + s * rod.b[0] + c * rod.b[1]], axis=1)
+    assert len(walls) == segments + 3
+    for name, wall in walls.items():
+        wa, wb = _world_segment(wall)
+        gap = _segment_segment_distance(ra, rb, wa, wb) - rod.radius - wall.radius
+        assert gap.min() > 0.0, (name, gap.min())
+
+
+def test_door_drum_segments_validation():
+    from footstep_gym.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="drum_segments") as err:
+        gym.make("FootstepDoor-v0", drum_segments=3)
+    assert isinstance(err.value, ValueError)
+    # 5 chords of the 0.54 m drum sag 26 mm, more than the 20 mm wall_gap: into the rod's sweep
+    with pytest.raises(ConfigError, match="drum_segments"):
+        gym.make("FootstepDoor-v0", drum_segments=5)
+
+
+def test_door_without_drum_has_no_drum_walls():
+    views = _door_views(drum_segments=0)
+    names = {v.name for v in views}
+    assert not any(n.startswith("drum_") for n in names)
+    assert names == {"door", "wall_bottom", "wall_top_left", "wall_top_right"}

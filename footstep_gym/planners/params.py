@@ -27,6 +27,8 @@ class PredictionParams:
     unsteady_horizon_s: float = positive()  # [s] ... but only this far for shapes whose velocity changed since the last step
     unsteady_speed_mps: float = nonnegative()  # [m/s] a velocity change above this makes a shape unsteady
     unsteady_turn_rad_s: float = nonnegative()  # [rad/s] likewise for the angular velocity
+    static_field_resolution_m: float = nonnegative()  # [m] grid of the static shapes' distance field (0: exact)
+    static_field_padding_m: float = nonnegative()  # [m] the field extends this far beyond the region asked for
     safety_margin_m: float = nonnegative()  # [m] added to robot.body_radius in every collision check
     edge_samples: int = positive()  # points checked along each body-path segment (>= 2)
 

@@ -47,6 +47,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from footstep_gym import footstep, lipm
+from footstep_gym.footstep import LEFT, RIGHT
 from footstep_gym.planners.prediction import BodyModel, body_path_points, support_normal
 from footstep_gym.robot import Robot
 
@@ -179,45 +180,50 @@ class GoalRollouts:
         self._max_depth = int(np.ceil(self._length / float(self._strides.min()) * 1.2)) + int(self._waits.max()) + 2
         self._dir = axis / self._length if self._length > 0 else np.array([np.cos(start.heading),
                                                                            np.sin(start.heading)])
-        self._normal = np.array([-self._dir[1], self._dir[0]])
         self.committed = committed
+        self._walk_cache: dict[tuple[float, float] | None, tuple[np.ndarray, np.ndarray]] = {}
         self.calls = 0
         self._free_walks: dict[float, list[np.ndarray]] = {}
-
-    def _aim(self, pos: np.ndarray) -> np.ndarray:
-        """Pure-pursuit aim points ``(R, 2)`` on each rollout's lane."""
-        along = (pos - self.start.node) @ self._dir
-        ahead = along + self.lookahead
-        taper = np.clip((self._length - ahead) / self.lookahead, 0.0, 1.0)
-        return (self.start.node + np.minimum(ahead, self._length)[:, None] * self._dir
-                + (taper * self._offsets)[:, None] * self._normal)
 
     def nodes(self, period: float) -> tuple[np.ndarray, np.ndarray]:
         """Rollout nodes ``(R, D + 1, 2)`` and headings ``(R, D + 1)`` (index 0: the start) for ``period`` [s]."""
         depth = max(1, min(int(np.ceil(self.horizon / period - 1e-9)), self._max_depth))
-        n_roll = self._offsets.size
-        pos = np.tile(self.start.node, (n_roll, 1))
-        heading = np.full(n_roll, self.start.heading)
-        side = self.start.side
         window = self.first_stride(period) if self.first_stride is not None else None
-        out = np.empty((n_roll, depth + 1, 2))
+        if window not in self._walk_cache:  # the walks depend on the period only through the first stride
+            self._walk_cache[window] = self._pursue(window, self._max_depth)
+        nodes, headings = self._walk_cache[window]
+        return nodes[:, : depth + 1], headings[:, : depth + 1]
+
+    def _pursue(self, window: tuple[float, float] | None, depth: int) -> tuple[np.ndarray, np.ndarray]:
+        """Pure pursuit of every rollout's lane for ``depth`` steps (2D points as complex numbers)."""
+        n_roll = self._offsets.size
+        node0 = complex(*self.start.node)
+        axis = complex(*self._dir)
+        goal = complex(*self.goal)
+        lane = self._offsets * (1j * axis)
+        limits = {side: footstep.turn_bounds(side, self.robot) for side in (LEFT, RIGHT)}
+        pos = np.full(n_roll, node0)
+        heading = np.full(n_roll, float(self.start.heading))
+        out = np.empty((n_roll, depth + 1), dtype=complex)
         headings = np.empty((n_roll, depth + 1))
-        out[:, 0] = pos
-        headings[:, 0] = heading
+        out[:, 0], headings[:, 0] = pos, heading
+        side = self.start.side
         for d in range(1, depth + 1):
-            aim = self._aim(pos) - pos
-            lo, hi = footstep.turn_bounds(side, self.robot)
-            heading = heading + np.clip(footstep.wrap_angle(np.arctan2(aim[:, 1], aim[:, 0]) - heading), lo, hi)
+            # Aim at the lane point ``lookahead`` ahead; the lane closes onto the goal over the last lookahead.
+            ahead = ((pos - node0) * axis.conjugate()).real + self.lookahead
+            taper = np.clip((self._length - ahead) / self.lookahead, 0.0, 1.0)
+            aim = node0 + np.minimum(ahead, self._length) * axis + taper * lane
+            lo, hi = limits[side]
+            heading = heading + np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi)
             stride = np.where(d <= self._waits, 0.0, self._strides)
             if d == 1 and window is not None:
                 stride = np.clip(stride, *window)
-            dist = np.linalg.norm(self.goal - pos, axis=1)
+            dist = np.abs(goal - pos)
             stride = np.where(dist <= self.goal_radius, 0.0, np.minimum(stride, dist))
-            pos = pos + stride[:, None] * np.stack([np.cos(heading), np.sin(heading)], axis=1)
-            out[:, d] = pos
-            headings[:, d] = heading
+            pos = pos + stride * np.exp(1j * heading)
+            out[:, d], headings[:, d] = pos, heading
             side = -side
-        return out, headings
+        return np.stack([out.real, out.imag], axis=-1), headings
 
     def _with_committed(self, nodes: np.ndarray, headings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The rollouts plus the committed walk, padded (standing at its end) or cut to the same depth."""

@@ -25,6 +25,7 @@ import functools
 import numpy as np
 
 from footstep_gym import footstep, lipm
+from footstep_gym.planners.distance_field import StaticDistanceField
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import ObstacleView, Snapshot
 
@@ -84,6 +85,9 @@ class ObstaclePredictor:
 
     ``horizon`` [s]: moving obstacles are predicted up to this time and ignored beyond it
     (``np.inf``: always predicted). ``moving_only``: leave obstacles that do not move out.
+    ``static_field``: a :class:`~footstep_gym.planners.distance_field.StaticDistanceField` of
+    the snapshot's static shapes; :meth:`free` and :meth:`clearance` then read those shapes'
+    part from it (a conservative bound, far cheaper) and measure only the others exactly.
     ``horizons``: ``{shape name: horizon [s]}``, a shorter horizon for shapes whose motion
     is known to be less predictable (see :func:`steady_motion_horizons`).
     ``region``: ``(low (2,), high (2,))`` [m], a box holding every point that will be asked
@@ -93,11 +97,16 @@ class ObstaclePredictor:
 
     def __init__(self, snapshot: Snapshot, horizon: float = np.inf, moving_only: bool = False,
                  region: tuple[np.ndarray, np.ndarray] | None = None,
-                 horizons: dict[str, float] | None = None) -> None:
+                 horizons: dict[str, float] | None = None,
+                 static_field: StaticDistanceField | None = None) -> None:
         self.horizon = float(horizon)
+        if static_field is not None and static_field.key != StaticDistanceField.geometry_key(snapshot.obstacles):
+            raise ValueError("static_field was built for other static shapes than the snapshot's")
+        self.static_field = static_field
         horizons = horizons or {}
         views = [v for v in snapshot.obstacles if (_moves(v) or not moving_only)
-                 and (region is None or _may_enter(v, region, min(self.horizon, horizons.get(v.name, np.inf))))]
+                 and (region is None or (static_field is not None and v.static)  # the field answers for these
+                      or _may_enter(v, region, min(self.horizon, horizons.get(v.name, np.inf))))]
         n = len(views)
         # Per shape: moving shapes are predicted up to their own horizon (``horizons[name]``, else ``horizon``).
         self._horizon = np.array([min(self.horizon, horizons.get(v.name, np.inf)) if _moves(v) else np.inf
@@ -119,25 +128,34 @@ class ObstaclePredictor:
         self._ab2 = np.abs(self._ab) ** 2
         self._radius = col([v.radius for v in views])
         self._moving = np.array([_moves(v) for v in views], dtype=bool).reshape(n)
+        # free() and clearance() measure these shapes exactly; the static ones come from the field if any.
+        self._exact = (np.flatnonzero([not v.static for v in views]) if static_field is not None
+                       else np.arange(n))
 
     @property
     def n_shapes(self) -> int:
         return self._radius.size
 
-    def _distance2(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
-        """Squared distances ``(N, S)`` from each point to each shape's centre line (``inf``: not checked)."""
+    def _distance2(self, points: np.ndarray, times: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
+        """Squared distances ``(N, S)`` from each point to each shape's centre line (``inf``: not checked).
+
+        ``idx``: only these shapes (columns), default all.
+        """
+        sel = slice(None) if idx is None else idx
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         p = pts[:, 0] + 1j * pts[:, 1]
         tt = np.broadcast_to(np.asarray(times, dtype=float), p.shape)[:, None]
-        rot = np.exp(1j * (self._angle + self._omega * tt))
-        ap = p[:, None] - (self._position + self._velocity * tt + rot * self._a)
-        ab = rot * self._ab
-        u = (ap * ab.conj()).real / np.where(self._ab2 > 0, self._ab2, 1.0)
+        rot = np.exp(1j * (self._angle[sel] + self._omega[sel] * tt))
+        ap = p[:, None] - (self._position[sel] + self._velocity[sel] * tt + rot * self._a[sel])
+        ab = rot * self._ab[sel]
+        ab2 = self._ab2[sel]
+        u = (ap * ab.conj()).real / np.where(ab2 > 0, ab2, 1.0)
         np.clip(u, 0.0, 1.0, out=u)
         d = ap - u * ab
         d2 = d.real ** 2 + d.imag ** 2
-        if np.isfinite(self._horizon).any():
-            d2[tt > self._horizon] = np.inf
+        horizon = self._horizon[sel]
+        if np.isfinite(horizon).any():
+            d2[tt > horizon] = np.inf
         return d2
 
     def distances(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -148,15 +166,26 @@ class ObstaclePredictor:
         return np.sqrt(self._distance2(points, times)) - self._radius
 
     def clearance(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
-        """Distance [m] from each point (at its own time) to the nearest shape surface, ``(N,)``."""
-        d = self.distances(points, times)
-        if d.shape[1] == 0:
-            return np.full(d.shape[0], np.inf)
-        return d.min(axis=1)
+        """Distance [m] from each point (at its own time) to the nearest shape surface, ``(N,)``.
+
+        With a ``static_field`` the static shapes' part is its conservative lower bound.
+        """
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        out = np.full(len(pts), np.inf)
+        if self._exact.size:
+            d = np.sqrt(self._distance2(pts, times, self._exact)) - self._radius[self._exact]
+            out = d.min(axis=1)
+        if self.static_field is not None:
+            out = np.minimum(out, self.static_field.clearance(pts))
+        return out
 
     def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
-        """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots)."""
-        return (self._distance2(points, times) >= (self._radius + safe_distance) ** 2).all(axis=1)
+        """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots for exact shapes)."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        ok = (self._distance2(pts, times, self._exact) >= (self._radius[self._exact] + safe_distance) ** 2).all(axis=1)
+        if self.static_field is not None:
+            ok &= self.static_field.clearance(pts) >= safe_distance
+        return ok
 
 
 _SAMPLES_CACHE: dict[int, np.ndarray] = {}

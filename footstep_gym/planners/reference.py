@@ -51,6 +51,7 @@ import numpy as np
 
 from footstep_gym import footstep, lipm
 from footstep_gym.planners import pso
+from footstep_gym.planners.distance_field import StaticDistanceField
 from footstep_gym.planners.params import PlannerConfig, load_planner_config
 from footstep_gym.planners.period_search import (
     GoalRollouts,
@@ -100,11 +101,36 @@ class _Planner(Policy):
         self.config = config
         self._seed = seed
         self.rng = np.random.default_rng(seed)
+        self._field: StaticDistanceField | None = None  # static shapes' distances, kept across steps
 
     def reset(self, seed: int | None = None) -> None:
         if seed is not None:
             self.rng = np.random.default_rng(seed)
         self.last_info = {}
+        self._field: StaticDistanceField | None = None
+
+    def static_field(self, snapshot: Snapshot, region: tuple[np.ndarray, np.ndarray]) -> StaticDistanceField | None:
+        """The distance field of the snapshot's static shapes over ``region``: built once, reused while it
+        covers the region and the static shapes are unchanged (``None`` if the resolution is 0)."""
+        res = self.config.prediction.static_field_resolution_m
+        if res <= 0:
+            return None
+        field = self._field
+        if (field is None or field.key != StaticDistanceField.geometry_key(snapshot.obstacles)
+                or not field.covers(region)):
+            pad = self.config.prediction.static_field_padding_m
+            field = StaticDistanceField(snapshot.obstacles, (region[0] - pad, region[1] + pad), res)
+            self._field = field
+        return field
+
+    def region(self, node: np.ndarray, goal: Any) -> tuple[np.ndarray, np.ndarray]:
+        """A box [m] that holds every body point the planner checks: the RRT's sampling box grown
+        by a step (angle-limit re-draws), the body's radius, the margins and the CoM sway."""
+        c = self.config
+        pad = (c.rrt.sample_margin_m + c.rrt.step_size_m + self.robot.body_radius + c.prediction.safety_margin_m
+               + c.period_search.extra_margin_m + 0.5 * self.robot.stride_side[1])
+        goal = np.asarray(goal, dtype=float)
+        return np.minimum(node, goal) - pad, np.maximum(node, goal) + pad
 
     def act(self, observation: Any, snapshot: Snapshot | None) -> np.ndarray:
         if snapshot is None:
@@ -167,8 +193,9 @@ class PeriodAwarePlanner(_Planner):
                                           pp.unsteady_speed_mps, pp.unsteady_turn_rad_s)
         self._previous_snapshot = snapshot
         info["unsteady_shapes"] = len(unsteady)
-        predictor = ObstaclePredictor(snapshot, horizon=horizon, region=self._region(start.node, snapshot.goal),
-                                      horizons=unsteady)
+        region = self.region(start.node, snapshot.goal)
+        predictor = ObstaclePredictor(snapshot, horizon=horizon, region=region, horizons=unsteady,
+                                      static_field=self.static_field(snapshot, region))
         body = BodyModel(predictor, self.robot, cfg.prediction.safety_margin_m)
         search_body = BodyModel(predictor, self.robot,
                                 cfg.prediction.safety_margin_m + cfg.period_search.extra_margin_m)
@@ -198,15 +225,6 @@ class PeriodAwarePlanner(_Planner):
         info["command_pre_pso"] = reference
         info["period"] = float(command[3] + command[4])
         return command, info
-
-    def _region(self, node: np.ndarray, goal: Any) -> tuple[np.ndarray, np.ndarray]:
-        """A box [m] that holds every body point stages 1-2 can check: the RRT's sampling box
-        grown by a step (angle-limit re-draws), the body's radius, the margins and the CoM sway."""
-        c = self.config
-        pad = (c.rrt.sample_margin_m + c.rrt.step_size_m + self.robot.body_radius + c.prediction.safety_margin_m
-               + c.period_search.extra_margin_m + 0.5 * self.robot.stride_side[1])
-        goal = np.asarray(goal, dtype=float)
-        return np.minimum(node, goal) - pad, np.maximum(node, goal) + pad
 
     def _committed(self, start) -> tuple[tuple[np.ndarray, np.ndarray] | None, float | None]:
         """The previous step's goal path from the node the robot now stands on, and its period.
@@ -334,7 +352,9 @@ class PSOOnlyPlanner(_Planner):
         """``f(FC (P, 5))``: distance to goal + predicted-collision and infeasibility penalties."""
         robot, cfg = self.robot, self.config
         p = cfg.pso_only
-        predictor = ObstaclePredictor(snapshot, horizon=cfg.prediction.horizon_s)
+        region = self.region(np.asarray(snapshot.com, dtype=float), snapshot.goal)
+        predictor = ObstaclePredictor(snapshot, horizon=cfg.prediction.horizon_s,
+                                      static_field=self.static_field(snapshot, region))
         side = snapshot.support_side
         support = np.asarray(snapshot.support_foot, dtype=float)
         goal = np.asarray(snapshot.goal, dtype=float)

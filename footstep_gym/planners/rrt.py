@@ -301,20 +301,36 @@ class ModifiedRRT:
         return free.reshape(len(parents), self.edge_samples).all(axis=1)
 
     def _insert_seed(self, nodes: np.ndarray) -> None:
-        """Insert a known-free walk (row 0 = the root) as a chain of nodes.
+        """Insert a known-free walk (row 0 = the root) as a chain of nodes, in one batch.
 
         A step of zero length is a step in place: the new node keeps its parent's heading.
         """
-        parent = 0
-        for xy in nodes[1:]:
-            vec = xy - self.tree.xy[parent]
-            length = float(np.hypot(*vec))
-            if length <= 1e-9:
-                heading = self.tree.heading[[parent]]
-            else:
-                heading = np.array([np.arctan2(vec[1], vec[0])])
-            self._insert(np.array([parent]), xy[None], heading, np.array([length]))
-            parent = self.tree.n - 1
+        tree = self.tree
+        if len(nodes) < 2:
+            return
+        vec = np.diff(nodes, axis=0)
+        length = np.hypot(vec[:, 0], vec[:, 1])
+        heading = np.arctan2(vec[:, 1], vec[:, 0])
+        moved = length > 1e-9
+        # a step in place inherits the heading of the last step that moved (the root's if none did)
+        last = np.maximum.accumulate(np.where(moved, np.arange(len(vec)), -1))
+        heading = np.where(last >= 0, heading[np.maximum(last, 0)], tree.heading[0])
+        parents = np.concatenate([[0], tree.n + np.arange(len(vec) - 1)])
+        self._insert_chain(parents, nodes[1:], heading, length)
+
+    def _insert_chain(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray,
+                      length: np.ndarray) -> None:
+        """:meth:`_insert` for nodes each of which may be the parent of the next (a seeded walk)."""
+        tree = self.tree
+        k = len(parents)
+        sl = slice(tree.n, tree.n + k)
+        tree.xy[sl], tree.heading[sl], tree.parent[sl] = new_xy, heading, parents
+        tree.side[sl] = -tree.side[0] * (-1) ** np.arange(k)
+        tree.depth[sl] = np.arange(1, k + 1)
+        tree.cost[sl] = np.cumsum(length + self.step_cost)
+        tree.body[sl] = 0.5 * (np.concatenate([tree.xy[:1], new_xy[:-1]]) + new_xy)
+        self.goal_nodes.extend((tree.n + np.flatnonzero(self._in_goal(new_xy))).tolist())
+        tree.n += k
 
     def _in_goal(self, xy: np.ndarray) -> np.ndarray:
         return np.linalg.norm(xy - self._goal, axis=1) <= self._goal_radius

@@ -147,7 +147,8 @@ class GoalRollouts:
     ``committed``: the walk ``(nodes (k + 1, 2), headings (k + 1,))`` the planner chose at
     its previous step, now starting at the current node. It joins the library (re-timed
     at every period tried), and :meth:`committed_free` tells whether it still holds at
-    its own period: a greedy planner that re-plans from scratch every step can otherwise
+    its own period, checked with ``committed_body`` (the margin it was chosen under; default
+    ``body``): a greedy planner that re-plans from scratch every step can otherwise
     put off forever a plan that starts with "wait three steps" (it is again "wait three
     steps" one step later).
     """
@@ -157,7 +158,8 @@ class GoalRollouts:
                  lane_offsets: Sequence[float], stride_fractions: Sequence[float], lookahead: float,
                  edge_samples: int, wait_steps: Sequence[int] = (0,),
                  first_stride: Callable[[float], tuple[float, float] | None] | None = None,
-                 committed: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+                 committed: tuple[np.ndarray, np.ndarray] | None = None,
+                 committed_body: BodyModel | None = None) -> None:
         self.body = body
         self.robot = robot
         self.start = start
@@ -181,6 +183,7 @@ class GoalRollouts:
         self._dir = axis / self._length if self._length > 0 else np.array([np.cos(start.heading),
                                                                            np.sin(start.heading)])
         self.committed = committed
+        self.committed_body = committed_body if committed_body is not None else body
         self._walk_cache: dict[tuple[float, float] | None, tuple[np.ndarray, np.ndarray]] = {}
         self.calls = 0
         self._free_walks: dict[float, list[np.ndarray]] = {}
@@ -238,14 +241,15 @@ class GoalRollouts:
         if self.committed is None or len(self.committed[0]) < 2:
             return False
         walk, headings = self.committed
-        return bool(self._free(walk[None], headings[None], period)[0])
+        return bool(self._free(walk[None], headings[None], period, self.committed_body)[0])
 
     def __call__(self, period: float) -> bool:
         self.calls += 1
         nodes, headings = self.nodes(period)
+        ok = self._free(nodes, headings, period)
         if self.committed is not None:
             nodes, headings = self._with_committed(nodes, headings)
-        ok = self._free(nodes, headings, period)
+            ok = np.append(ok, self._free(nodes[-1:], headings[-1:], period, self.committed_body))
         walks = [self._trim(nodes[i]) for i in np.flatnonzero(ok)]
         # Nearest the goal at the end first, then the quickest there; the committed walk (last row) leads if free.
         order = sorted(range(len(walks)), key=lambda i: (round(float(np.linalg.norm(walks[i][-1] - self.goal)), 3),
@@ -256,8 +260,10 @@ class GoalRollouts:
         self._free_walks[period] = [walks[i] for i in order]
         return not bool(ok.any())
 
-    def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float) -> np.ndarray:
+    def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float,
+              body: BodyModel | None = None) -> np.ndarray:
         """``(R,)`` bool: walk ``r`` (nodes ``(R, D + 1, 2)``, step ``d`` during ``[(d-1) T, d T]``) stays free."""
+        body = self.body if body is None else body
         n_roll, n_nodes, _ = nodes.shape
         prev = np.concatenate([np.tile(self.start.previous_node, (n_roll, 1, 1)), nodes[:, :-1]], axis=1)
         bodies = 0.5 * (prev + nodes)  # body at the end of step d = midpoint(n[d-1], n[d])
@@ -269,7 +275,7 @@ class GoalRollouts:
         sides = self.start.side * np.where(np.arange(n_nodes - 1) % 2 == 0, 1.0, -1.0)
         normals = support_normal(headings[:, :-1], sides[None, :]).reshape(-1, 2)
         normals = np.repeat(normals, self.edge_samples, axis=0)
-        free = self.body.free(pts, times, normals, period).reshape(n_roll, -1)
+        free = body.free(pts, times, normals, period).reshape(n_roll, -1)
         # Once a rollout has reached the goal the episode is over: do not check it further.
         reached = np.linalg.norm(nodes[:, 1:] - self.goal, axis=-1) <= self.goal_radius
         done_before = np.concatenate([np.zeros((n_roll, 1), bool), np.cumsum(reached, axis=1)[:, :-1] > 0], axis=1)

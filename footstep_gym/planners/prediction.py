@@ -73,7 +73,7 @@ def _may_enter(view: ObstacleView, region: tuple[np.ndarray, np.ndarray], horizo
     v = np.asarray(view.velocity, dtype=float)
     if not np.isfinite(horizon) and np.any(v != 0.0):
         return True
-    travel = v * (horizon if _moves(view) else 0.0)
+    travel = v * horizon if (_moves(view) and np.any(v != 0.0)) else np.zeros(2)  # a pure turn does not travel
     n = int(min(max(np.ceil(np.hypot(*travel) / max(reach, 1e-3)), 1), 1000))
     pts = p + np.linspace(0.0, 1.0, n + 1)[:, None] * travel
     gap = np.hypot(*np.maximum(np.maximum(lo - pts, pts - hi), 0.0).T)
@@ -92,7 +92,9 @@ class ObstaclePredictor:
     is known to be less predictable (see :func:`steady_motion_horizons`).
     ``region``: ``(low (2,), high (2,))`` [m], a box holding every point that will be asked
     about; shapes that cannot come within it before the horizon (their reach circle swept
-    along their velocity) are left out, which changes no answer and saves their cost.
+    along their velocity) are left out. That changes no answer of :meth:`free` for points at
+    least the safe distance inside the box (the planners pad their box so that all theirs
+    are); :meth:`clearance` near the box's edge may then exceed the true one.
     """
 
     def __init__(self, snapshot: Snapshot, horizon: float = np.inf, moving_only: bool = False,

@@ -202,8 +202,22 @@ class PeriodAwarePlanner(_Planner):
 
         t = time.perf_counter()
         committed, committed_period = self._committed(start)
-        rollouts = self._rollouts(snapshot, start, search_body, committed)
-        period = self.choose_period(snapshot, rollouts, info, committed_period)
+        # Algorithm 1 asks whether the robot can go on now at full stride (Fig. 2: the next node at
+        # Max_step_size); only if no period in [T0, T_n] lets it is the same search repeated with
+        # walks that slow down or first step in place (let the obstacle pass).
+        rollouts = self._rollouts(snapshot, start, search_body, committed, wait_steps=(0,), fractions=(1.0,),
+                                  committed_body=body)
+        period, found = self.choose_period(snapshot, rollouts, info, committed_period)
+        ps = cfg.period_search
+        waits = tuple(int(w) for w in ps.rollout_wait_steps if w > 0)
+        info["waiting_walks"] = False
+        if not found and (waits or any(f < 1.0 for f in ps.rollout_stride_fractions)):
+            later = self._rollouts(snapshot, start, search_body, committed, wait_steps=(0, *waits),
+                                   fractions=tuple(ps.rollout_stride_fractions), committed_body=body)
+            later_period, later_found = self.choose_period(snapshot, later, {}, committed_period)
+            if later_found:
+                period, rollouts = later_period, later
+                info.update(waiting_walks=True, period_search=later_period)
         window = self._stride_window(snapshot, period)
         info["time_period_search_ms"] = 1e3 * (time.perf_counter() - t)
 
@@ -242,15 +256,18 @@ class PeriodAwarePlanner(_Planner):
         return (nodes, headings), period
 
     def _rollouts(self, snapshot: Snapshot, start, body: BodyModel,
-                  committed: tuple[np.ndarray, np.ndarray] | None = None) -> GoalRollouts:
+                  committed: tuple[np.ndarray, np.ndarray] | None = None,
+                  wait_steps: tuple[int, ...] = (0,), fractions: tuple[float, ...] = (1.0,),
+                  committed_body: BodyModel | None = None) -> GoalRollouts:
         cfg = self.config
         ps = cfg.period_search
         return GoalRollouts(
             body, self.robot, start, snapshot.goal, snapshot.goal_tolerance, horizon=cfg.prediction.horizon_s,
             step_size=cfg.rrt.step_size_m, lane_offsets=ps.rollout_lane_offsets_m,
-            stride_fractions=ps.rollout_stride_fractions, lookahead=ps.rollout_lookahead_m,
-            edge_samples=cfg.prediction.edge_samples, wait_steps=ps.rollout_wait_steps,
-            first_stride=lambda T: self._stride_window(snapshot, T), committed=committed)
+            stride_fractions=fractions, lookahead=ps.rollout_lookahead_m,
+            edge_samples=cfg.prediction.edge_samples, wait_steps=wait_steps,
+            first_stride=lambda T: self._stride_window(snapshot, T), committed=committed,
+            committed_body=committed_body)
 
     def _stride_window(self, snapshot: Snapshot, period: float) -> tuple[float, float] | None:
         """Front strides the LIPM accepts for the first step at ``period`` (see :func:`stride_window`)."""
@@ -258,17 +275,20 @@ class PeriodAwarePlanner(_Planner):
                              self.config.rrt.step_size_m, self.config.period_search.stride_grid)
 
     def choose_period(self, snapshot: Snapshot, collides: GoalRollouts, info: dict[str, Any],
-                      committed_period: float | None = None) -> float:
+                      committed_period: float | None = None) -> tuple[float, bool]:
         """Stage 1: the longest collision-free period (Algorithm 1), from the shortest reachable one.
 
         If the previous step's plan still holds at its period, that period is known to be
-        free and becomes the search's lower end (so the result is never shorter).
+        free and becomes the search's lower end (so the result is never shorter). Returns
+        the period [s] and whether any period was free. The fixed-period planner keeps T_n.
         """
         robot, ps = self.robot, self.config.period_search
         t_n = robot.nominal_period
         if not self.vary_period:
-            info.update(period_search=t_n, period_floor=t_n, nominal_free=None, search_evaluations=0)
-            return t_n
+            free = bool(collides.free_walks(t_n, 1))
+            info.update(period_search=t_n, period_floor=t_n, nominal_free=free, search_evaluations=1,
+                        plan_kept=committed_period is not None and collides.committed_free(t_n))
+            return t_n, free
         strides = (float(snapshot.previous_command[0]), self.config.rrt.step_size_m)
         floor = shortest_feasible_period(robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side,
                                          strides, min(ps.t0_s, t_n), t_n, ps.floor_grid)
@@ -277,7 +297,7 @@ class PeriodAwarePlanner(_Planner):
         result = longest_free_period(collides, committed_period if kept else floor, t_n, ps.iterations)
         info.update(period_search=result.period, period_floor=floor, nominal_free=result.nominal_free,
                     search_evaluations=result.evaluations, plan_kept=kept)
-        return result.period
+        return result.period, result.any_free
 
     def command_from_path(self, snapshot: Snapshot, path, period: float,
                           window: tuple[float, float] | None = None) -> np.ndarray:

@@ -450,3 +450,32 @@ def test_door_without_drum_has_no_drum_walls():
     names = {v.name for v in views}
     assert not any(n.startswith("drum_") for n in names)
     assert names == {"door", "wall_bottom", "wall_top_left", "wall_top_right"}
+
+
+@pytest.mark.parametrize("env_id", ["FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0"])
+def test_nearest_agrees_with_pymunk_point_query(env_id):
+    """``World.nearest`` (plain arithmetic) gives pymunk's own ``Space.point_query`` answer."""
+    import pymunk
+
+    from footstep_gym.world import _OBSTACLE_FILTER
+
+    env = gym.make(env_id)
+    env.reset(seed=1)
+    for _ in range(3):  # obstacles moved and turned
+        env.step(env.unwrapped.robot.nominal_command)
+    world = env.unwrapped.world
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        p = tuple(rng.uniform(-2.0, 2.0, 2))
+        mine = world.nearest(p, 50, 1.5)
+        assert [e[0] for e in mine] == sorted(e[0] for e in mine)
+        ref = {}
+        for info in world.space.point_query(p, 1.5, _OBSTACLE_FILTER):
+            body = info.shape.body
+            v = body.velocity_at_world_point(info.point) if body.body_type != pymunk.Body.STATIC else (0.0, 0.0)
+            ref[info.shape] = (info.distance, tuple(info.point), tuple(v))
+        assert {e[3].shape for e in mine} == set(ref)
+        for dist, point, vel, obstacle in mine:
+            np.testing.assert_allclose([dist, *point, *vel], [ref[obstacle.shape][0], *ref[obstacle.shape][1],
+                                                              *ref[obstacle.shape][2]], atol=1e-9)
+        assert len(world.nearest(p, 2, 1.5)) == min(2, len(ref))

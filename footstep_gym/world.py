@@ -82,6 +82,15 @@ class World:
         self.robot_shape.filter = pymunk.ShapeFilter(categories=_ROBOT, mask=0)
         self.space.add(self.robot_body, self.robot_shape)
 
+    def clear_moving(self) -> None:
+        """Remove every obstacle that is not static and set the clock back to 0 (walls stay)."""
+        for o in self._moving:
+            self.space.remove(o.body, o.shape)
+            del self._by_shape[o.shape]
+        self.obstacles = [o for o in self.obstacles if o not in self._moving]
+        self._moving = []
+        self.time = 0.0
+
     # ------------------------------------------------------------ building
     def _add(self, name: str, kind: str, body: pymunk.Body, shape: pymunk.Shape,
              a: tuple[float, float], b: tuple[float, float], radius: float) -> Obstacle:

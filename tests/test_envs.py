@@ -629,3 +629,35 @@ def test_snapshot_holds_no_future_of_the_crowd():
     assert not np.allclose(p1 + v1 * period, p2, atol=1e-4)
     names = {f.name for f in dataclasses.fields(snap1)}
     assert not any("scenario" in n or "world" in n or "future" in n for n in names)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_reset_after_another_episode_replays_a_fresh_env(env_id):
+    """The walls kept across resets change nothing: a used env replays a fresh one bit for bit."""
+    def rollout(env, seed):
+        obs, _ = env.reset(seed=seed)
+        out = [obs]
+        env.action_space.seed(seed)
+        for _ in range(6):
+            obs, reward, terminated, truncated, info = env.step(env.unwrapped.robot.nominal_command)
+            out.append(np.append(obs, [reward, info["time"]]))
+            if terminated or truncated:
+                break
+        return out
+
+    fresh = gym.make(env_id)
+    used = gym.make(env_id)
+    rollout(used, 11)
+    for a, b in zip(rollout(fresh, 3), rollout(used, 3), strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert sorted(o.name for o in fresh.unwrapped.world.obstacles) == sorted(o.name for o in used.unwrapped.world.obstacles)
+
+
+def test_randomized_geometry_rebuilds_the_walls():
+    env = gym.make("FootstepDoor-v0", randomize={"door_radius": [0.45, 0.5]})
+    env.reset(seed=0)
+    ends = {o.name: tuple(o.shape.a) for o in env.unwrapped.world.obstacles if o.name == "wall_top_right"}
+    env.reset(seed=1)
+    again = {o.name: tuple(o.shape.a) for o in env.unwrapped.world.obstacles if o.name == "wall_top_right"}
+    assert ends != again  # the upper wall's end follows the drawn door radius
+    assert len([o for o in env.unwrapped.world.obstacles if o.name == "wall_top_right"]) == 1

@@ -49,7 +49,8 @@ class ScenarioConfig:
 class Scenario:
     """A scene: builds its obstacles into a :class:`World` and moves them each footstep.
 
-    Subclasses set ``config_file`` / ``Config`` and fill :meth:`build` (and
+    Subclasses set ``config_file`` / ``Config`` and fill :meth:`build` (:meth:`build_static`
+    for walls, and
     :meth:`before_step` when obstacles change velocity over time). One instance serves one
     episode; it may keep per-episode random draws from ``rng``.
     """
@@ -65,8 +66,12 @@ class Scenario:
     def load_config(cls, overrides: dict[str, Any] | None = None) -> Any:
         return config.load(cls.Config, cls.config_file, overrides)
 
+    def build_static(self, world: World) -> None:
+        """Add what never moves (walls). Must not draw from ``rng``: the env keeps these shapes
+        across resets while the episode's config is unchanged."""
+
     def build(self, world: World) -> None:
-        """Add walls and obstacles at time 0."""
+        """Add the moving obstacles at time 0 (drawing from ``rng`` as needed)."""
         raise NotImplementedError
 
     def before_step(self, world: World, t: float, duration: float) -> None:

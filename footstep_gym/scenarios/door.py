@@ -65,11 +65,14 @@ class Door(Scenario):
 
     def build(self, world: World) -> None:
         c = self.cfg
-        cx, cy = c.door_centre
         angle = math.radians(c.door_start_angle + self.rng.uniform(-1.0, 1.0) * c.door_angle_jitter)
         r = c.door_radius
-        world.add_rod("door", (cx, cy), (-r, 0.0), (r, 0.0), c.door_thickness, angle=angle,
+        world.add_rod("door", tuple(c.door_centre), (-r, 0.0), (r, 0.0), c.door_thickness, angle=angle,
                       angular_velocity=-math.radians(c.door_speed))
+
+    def build_static(self, world: World) -> None:
+        c = self.cfg
+        cx, cy = c.door_centre
         x0, x1 = c.corridor_x
         bottom, top = c.corridor_y
         edge = c.drum_radius

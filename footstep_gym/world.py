@@ -38,14 +38,11 @@ class Obstacle:
     local_a: tuple[float, float]
     local_b: tuple[float, float]
     radius: float
+    static: bool = False  # on the space's static body (never moves)
 
     @property
     def body(self) -> pymunk.Body:
         return self.shape.body
-
-    @property
-    def static(self) -> bool:
-        return self.shape.body.body_type == pymunk.Body.STATIC
 
     def reach(self) -> float:
         """Farthest distance of the shape's surface from its body's origin [m]."""
@@ -99,7 +96,7 @@ class World:
             self.space.add(shape)
         else:
             self.space.add(body, shape)
-        obstacle = Obstacle(name, kind, shape, a, b, radius)
+        obstacle = Obstacle(name, kind, shape, a, b, radius, static=body.body_type == pymunk.Body.STATIC)
         self.obstacles.append(obstacle)
         self._by_shape[shape] = obstacle
         if body.body_type != pymunk.Body.STATIC:

@@ -11,6 +11,7 @@ wrong, as it would be on a robot).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
 
@@ -75,6 +76,23 @@ class _Bodies:
         return pos + rotate(local, self.angle + self.angular_velocity * dt)
 
 
+def _shapes(circles: _Bodies, segments: _Bodies, dt: float) -> Shapes:
+    """The shapes of two groups ``dt`` [s] ahead at constant (angular) velocity, world frame."""
+    return Shapes(
+        circle_centres=circles.world(circles.a, dt),
+        circle_radii=circles.radius,
+        segment_a=segments.world(segments.a, dt),
+        segment_b=segments.world(segments.b, dt),
+        segment_radii=segments.radius,
+    )
+
+
+def shapes_of(views: Sequence[ObstacleView]) -> Shapes:
+    """The shapes of ``views`` as they stand now, world frame."""
+    return _shapes(_Bodies.of([v for v in views if v.kind == "circle"]),
+                   _Bodies.of([v for v in views if v.kind == "segment"]), 0.0)
+
+
 @dataclass(frozen=True)
 class Snapshot:
     """The read-only state a planner may use. Poses are ``(x, y, yaw)`` [m, m, rad], world frame.
@@ -115,14 +133,7 @@ class Snapshot:
 
     def shapes_at(self, dt: float = 0.0) -> Shapes:
         """Obstacle shapes predicted ``dt`` [s] ahead at constant (angular) velocity."""
-        c, s = self._circles, self._segments
-        return Shapes(
-            circle_centres=c.world(c.a, dt),
-            circle_radii=c.radius,
-            segment_a=s.world(s.a, dt),
-            segment_b=s.world(s.b, dt),
-            segment_radii=s.radius,
-        )
+        return _shapes(self._circles, self._segments, dt)
 
     def max_obstacle_speed(self) -> float:
         """Largest speed [m/s] of any point of any obstacle (``|v| + |omega| * reach``)."""

@@ -17,35 +17,10 @@ from typing import Sequence
 
 import numpy as np
 
-from footstep_gym.sensing import ObstacleView
+from footstep_gym.sensing import ObstacleView, shapes_of
 
-
-def _segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray, radius: np.ndarray) -> np.ndarray:
-    """Distances ``(N,)`` [m] from complex ``points`` to the nearest of thick segments ``a-b`` (complex, ``(S,)``)."""
-    if a.size == 0:
-        return np.full(points.shape, np.inf)
-    out = np.full(points.shape, np.inf)
-    ab = b - a
-    ab2 = np.where(np.abs(ab) > 0, np.abs(ab) ** 2, 1.0)
-    for lo in range(0, points.size, 8192):  # bounded temporaries: (8192, S)
-        p = points[lo:lo + 8192, None] - a[None, :]
-        u = np.clip((p * ab.conj()).real / ab2, 0.0, 1.0)
-        out[lo:lo + 8192] = (np.abs(p - u * ab) - radius).min(axis=1)
-    return out
-
-
-def static_geometry(views: Sequence[ObstacleView]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """World-frame endpoints ``a, b`` (complex) and radii of the static shapes among ``views``."""
-    a, b, r = [], [], []
-    for v in views:
-        if not v.static:
-            continue
-        rot = complex(math.cos(v.angle), math.sin(v.angle))
-        pos = complex(*v.position)
-        a.append(pos + rot * complex(*v.a))
-        b.append(pos + rot * complex(*(v.b if v.kind == "segment" else v.a)))
-        r.append(v.radius)
-    return np.array(a, dtype=complex), np.array(b, dtype=complex), np.array(r, dtype=float)
+#: Grid nodes measured per batch: bounds the (nodes, shapes) temporaries of the distance maths.
+_CHUNK = 8192
 
 
 class StaticDistanceField:
@@ -57,16 +32,16 @@ class StaticDistanceField:
             raise ValueError(f"resolution must be > 0, got {resolution}")
         self.resolution = float(resolution)
         self.key = self.geometry_key(views)
-        self._a, self._b, self._r = static_geometry(views)
+        self._shapes = shapes_of([v for v in views if v.static])
         lo, hi = (np.asarray(v, dtype=float) for v in box)
         self.low = lo
         self.shape = tuple(int(n) + 1 for n in np.ceil((hi - lo) / self.resolution))  # (nx, ny)
         self.high = lo + self.resolution * (np.array(self.shape) - 1)
         xs = lo[0] + self.resolution * np.arange(self.shape[0])
         ys = lo[1] + self.resolution * np.arange(self.shape[1])
-        nodes = (xs[:, None] + 1j * ys[None, :]).ravel()
-        exact = _segment_distance(nodes, self._a, self._b, self._r).reshape(self.shape)
-        self._grid = exact - self.resolution / math.sqrt(2.0)
+        nodes = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
+        exact = np.concatenate([self._shapes.clearance(nodes[i:i + _CHUNK]) for i in range(0, len(nodes), _CHUNK)])
+        self._grid = exact.reshape(self.shape) - self.resolution / math.sqrt(2.0)
 
     @staticmethod
     def geometry_key(views: Sequence[ObstacleView]) -> tuple:
@@ -86,6 +61,5 @@ class StaticDistanceField:
         out = np.empty(len(pts))
         out[inside] = self._grid[idx[inside, 0], idx[inside, 1]]
         if not inside.all():
-            outside = pts[~inside]
-            out[~inside] = _segment_distance(outside[:, 0] + 1j * outside[:, 1], self._a, self._b, self._r)
+            out[~inside] = self._shapes.clearance(pts[~inside])
         return out

@@ -72,7 +72,6 @@ class World:
         self.obstacles: list[Obstacle] = []
         self._by_shape: dict[pymunk.Shape, Obstacle] = {}
         self._moving: list[Obstacle] = []
-        self._ends: dict[str, tuple[float, float, float, float]] = {}
         self.time = 0.0
         self.robot_body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self.robot_shape = pymunk.Circle(self.robot_body, robot_radius)
@@ -156,8 +155,8 @@ class World:
         px, py = point
         found = []
         for o in self.obstacles:
-            if o.static:
-                ax, ay, bx, by = self._static_ends(o)
+            if o.static:  # on the space's static body, at the origin: its frame is the world's
+                (ax, ay), (bx, by) = o.local_a, o.local_b
                 ox = oy = w = 0.0
             else:
                 body = o.body
@@ -185,14 +184,6 @@ class World:
             found.append((d - o.radius, cp, v, o))
         found.sort(key=lambda e: e[0])
         return found[:k]
-
-    def _static_ends(self, o: Obstacle) -> tuple[float, float, float, float]:
-        """World endpoints of a static shape (cached: they never move)."""
-        ends = self._ends.get(o.name)
-        if ends is None:
-            ends = self._ends[o.name] = (*o.shape.a, *o.shape.b) if o.kind == "segment" else (
-                *o.shape.offset, *o.shape.offset)
-        return ends
 
     def views(self) -> tuple[ObstacleView, ...]:
         """Every obstacle as the sensing snapshot reports it (current state only)."""

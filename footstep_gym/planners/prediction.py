@@ -129,7 +129,6 @@ class ObstaclePredictor:
         self._ab = cplx([v.b if v.kind == "segment" else v.a for v in views]) - self._a  # 0 for a circle
         self._ab2 = np.abs(self._ab) ** 2
         self._radius = col([v.radius for v in views])
-        self._moving = np.array([_moves(v) for v in views], dtype=bool).reshape(n)
         # free() and clearance() measure these shapes exactly; the static ones come from the field if any.
         self._exact = (np.flatnonzero([not v.static for v in views]) if static_field is not None
                        else np.arange(n))
@@ -248,22 +247,25 @@ class BodyModel:
         toward, away = sway_band(self.robot, round(period, 4))
         return 0.5 * (toward - away), 0.5 * (toward + away)
 
+    def _body(self, points: np.ndarray, support_normals: np.ndarray, period: float) -> tuple[np.ndarray, float]:
+        """Body centres ``(N, 2)`` shifted by the sway, and the clearance [m] each one needs."""
+        shift, grow = self.sway(period)
+        pts = np.asarray(points, dtype=float).reshape(-1, 2) + shift * np.asarray(support_normals).reshape(-1, 2)
+        return pts, self.robot.body_radius + self.margin + grow
+
     def free(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray, period: float) -> np.ndarray:
         """Whether the body centred near ``points`` at ``times`` clears every obstacle, ``(N,)`` bool.
 
         ``support_normals (N, 2)``: unit vectors from the centre line towards the support
         foot of the step each point belongs to (zero vectors: no sway shift).
         """
-        shift, grow = self.sway(period)
-        pts = np.asarray(points, dtype=float).reshape(-1, 2) + shift * np.asarray(support_normals).reshape(-1, 2)
-        return self.predictor.free(pts, times, self.robot.body_radius + self.margin + grow)
-
+        pts, needed = self._body(points, support_normals, period)
+        return self.predictor.free(pts, times, needed)
 
     def slack(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray, period: float) -> np.ndarray:
         """Clearance [m] beyond what :meth:`free` requires at each point, ``(N,)`` (negative: not free)."""
-        shift, grow = self.sway(period)
-        pts = np.asarray(points, dtype=float).reshape(-1, 2) + shift * np.asarray(support_normals).reshape(-1, 2)
-        return self.predictor.clearance(pts, times) - (self.robot.body_radius + self.margin + grow)
+        pts, needed = self._body(points, support_normals, period)
+        return self.predictor.clearance(pts, times) - needed
 
 
 def support_normal(heading: np.ndarray, side: np.ndarray) -> np.ndarray:

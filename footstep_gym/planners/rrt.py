@@ -39,9 +39,9 @@ short edges (small steps) let it wait for an obstacle to pass.
 * ``first_stride``: the first step's length is kept inside the strides the LIPM accepts
   from the current CoM state (at a short period the robot cannot stop in one step);
 * :meth:`ModifiedRRT.best_partial_path`: when no path reaches the goal, the branch to
-  the node closest to the goal *where the robot could then keep stepping in place
-  until the prediction horizon*, so that the greedy planner advances as far as it
-  safely can and waits there instead of walking into a closing gap.
+  the node where stepping in place would stay free longest (to the prediction horizon
+  if any can), then the roomiest, then the nearest the goal, so that the greedy planner
+  advances as far as it safely can and waits there instead of walking into a closing gap.
 
 **Vectorised.** Samples are drawn ``batch_size`` at a time, each extended from its
 nearest node in the tree as it was at the start of the batch, and all the batch's
@@ -320,17 +320,12 @@ class ModifiedRRT:
 
     def _insert_chain(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray,
                       length: np.ndarray) -> None:
-        """:meth:`_insert` for nodes each of which may be the parent of the next (a seeded walk)."""
+        """:meth:`_insert` for a walk from the root whose nodes are each the parent of the next."""
         tree = self.tree
         k = len(parents)
-        sl = slice(tree.n, tree.n + k)
-        tree.xy[sl], tree.heading[sl], tree.parent[sl] = new_xy, heading, parents
-        tree.side[sl] = -tree.side[0] * (-1) ** np.arange(k)
-        tree.depth[sl] = np.arange(1, k + 1)
-        tree.cost[sl] = np.cumsum(length + self.step_cost)
-        tree.body[sl] = 0.5 * (np.concatenate([tree.xy[:1], new_xy[:-1]]) + new_xy)
-        self.goal_nodes.extend((tree.n + np.flatnonzero(self._in_goal(new_xy))).tolist())
-        tree.n += k
+        self._append(parents, new_xy, heading, side=-tree.side[0] * (-1) ** np.arange(k),
+                     cost=np.cumsum(length + self.step_cost), depth=np.arange(1, k + 1),
+                     body=0.5 * (np.concatenate([tree.xy[:1], new_xy[:-1]]) + new_xy))
 
     def _in_goal(self, xy: np.ndarray) -> np.ndarray:
         return np.linalg.norm(xy - self._goal, axis=1) <= self._goal_radius
@@ -339,14 +334,16 @@ class ModifiedRRT:
                 length: np.ndarray) -> None:
         """Steps 12-16: append the nodes, with cumulative length as cost; note goal nodes."""
         tree = self.tree
-        k = len(parents)
-        sl = slice(tree.n, tree.n + k)
-        tree.xy[sl] = new_xy
-        tree.heading[sl] = heading
-        tree.side[sl] = -tree.side[parents]
-        tree.parent[sl] = parents
-        tree.cost[sl] = tree.cost[parents] + length + self.step_cost
-        tree.depth[sl] = tree.depth[parents] + 1
-        tree.body[sl] = 0.5 * (tree.xy[parents] + new_xy)
+        self._append(parents, new_xy, heading, side=-tree.side[parents],
+                     cost=tree.cost[parents] + length + self.step_cost, depth=tree.depth[parents] + 1,
+                     body=0.5 * (tree.xy[parents] + new_xy))
+
+    def _append(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray, *, side: np.ndarray,
+                cost: np.ndarray, depth: np.ndarray, body: np.ndarray) -> None:
+        """Write the new nodes after the last one and remember those in the goal region."""
+        tree = self.tree
+        sl = slice(tree.n, tree.n + len(parents))
+        tree.xy[sl], tree.heading[sl], tree.parent[sl] = new_xy, heading, parents
+        tree.side[sl], tree.cost[sl], tree.depth[sl], tree.body[sl] = side, cost, depth, body
         self.goal_nodes.extend((tree.n + np.flatnonzero(self._in_goal(new_xy))).tolist())
-        tree.n += k
+        tree.n += len(parents)

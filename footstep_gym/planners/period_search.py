@@ -166,7 +166,6 @@ class GoalRollouts:
         self.goal = np.asarray(goal, dtype=float)
         self.goal_radius = goal_radius
         self.horizon = horizon
-        self.step_size = step_size
         self.lookahead = lookahead
         self.edge_samples = edge_samples
         self.first_stride = first_stride

@@ -18,7 +18,10 @@ ignore ``observation``; a learned agent reads ``observation`` and ignores the sn
 step), DESIGN §5:
 
 1. walking period ``T`` by binary search (:mod:`.period_search`) between the shortest
-   period reachable in one step and ``T_n``, collision predicate :class:`GoalRollouts`;
+   period reachable in one step and ``T_n``, collision predicate :class:`GoalRollouts`
+   (walks at full stride; only if no period is free, again with walks that slow down or
+   first step in place). The previous step's plan, while still free, is one of the walks
+   and bounds the search from below;
 2. modified RRT (:mod:`.rrt`) at that period, time-aware; its first node, via the
    footstep convention (:func:`footstep.foot_from_node` then
    :func:`footstep.command_between`), gives ``(S, L, θ)``; ``T_SS = T - nominal T_DS``,

@@ -88,9 +88,11 @@ class FootstepEnv(gym.Env):
     | 4 | T_DS | double-support time | s | [0.1, 0.3] |
 
     θ's limits depend on the swinging foot: turning away from the support foot is allowed
-    up to ``turn_outer`` (0.4), towards it up to ``turn_inner`` (0.2). A finite command
-    outside the box is clipped (``info["clipped"]``); NaN/inf or a wrong shape raises
-    ``ValueError``. A command outside the turn limits, with overlapping feet, or whose ZMP
+    up to ``turn_outer`` (0.4), towards it up to ``turn_inner`` (0.2). An action is read
+    in its own dtype: a float32 action at a float32-rounded limit (the box's bounds, the
+    turn limits) is that limit exactly, so what SB3 sends at the box's edge is the command
+    it rounds from. A finite command outside the box is clipped (``info["clipped"]``);
+    NaN/inf or a wrong shape raises ``ValueError``. A command outside the turn limits, with overlapping feet, or whose ZMP
     leaves the stable region ends the episode as a fall.
 
     ## Observation Space
@@ -181,8 +183,13 @@ class FootstepEnv(gym.Env):
         self.action_space = spaces.Box(
             self.robot.command_low.astype(np.float32), self.robot.command_high.astype(np.float32), dtype=np.float32
         )
-        self._low64 = self.action_space.low.astype(np.float64)
-        self._high64 = self.action_space.high.astype(np.float64)
+        # The robot's limits exactly (float64); the float32 box's bounds round them.
+        self._low64 = self.robot.command_low
+        self._high64 = self.robot.command_high
+        # Every value a field can be pinned at: box bounds and, for theta, the side-dependent turn limits.
+        turns = (-self.robot.turn_outer, -self.robot.turn_inner, self.robot.turn_inner, self.robot.turn_outer)
+        self._limits64 = [np.array(sorted({lo, hi, *(turns if i == 2 else ())}))
+                          for i, (lo, hi) in enumerate(zip(self._low64, self._high64))]
         n_obs = 12 + 5 * self.config.n_obstacles_observed
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
 
@@ -261,8 +268,15 @@ class FootstepEnv(gym.Env):
         return self._observation(), info
 
     def _validate_action(self, action: Any) -> tuple[np.ndarray, bool]:
+        """The command (float64) an action stands for, and whether it lay outside the box.
+
+        An action is read in its own precision: a float32 action equal to a limit rounded to
+        float32 (``float32(0.6) = 0.6000000238``, what SB3 sends at the box's upper T_SS
+        bound) is that limit, not a hair beyond it. Each field is then clipped to the box.
+        """
         try:
-            a = np.asarray(action, dtype=np.float64)
+            raw = np.asarray(action)
+            a = raw.astype(np.float64)
         except (TypeError, ValueError) as exc:
             raise ActionError(f"action must be 5 numbers [S, L, theta, T_SS, T_DS], got {action!r}") from exc
         if a.shape != (5,):
@@ -270,8 +284,14 @@ class FootstepEnv(gym.Env):
         bad = [f"{name}={v}" for name, v in zip(COMMAND_FIELDS, a) if not math.isfinite(v)]
         if bad:
             raise ActionError(f"action has non-finite field(s): {', '.join(bad)}")
-        clipped = np.clip(a, self._low64, self._high64)
-        return clipped, bool(np.any(clipped != a))
+        own = raw.dtype if raw.dtype.kind == "f" and raw.dtype.itemsize < 8 else None
+        if own is not None:
+            for i, limits in enumerate(self._limits64):
+                hit = limits.astype(own) == raw[i]
+                if hit.any():
+                    a[i] = limits[np.argmax(hit)]
+        command = np.clip(a, self._low64, self._high64)
+        return command, bool(np.any(command != a))
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self.world is None:

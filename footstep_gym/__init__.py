@@ -1,8 +1,8 @@
 """footstep_gym: Gymnasium environments for humanoid footstep planning with the walking period.
 
-``import footstep_gym`` registers ``FootstepDoor-v0``, ``FootstepCrossing-v0`` and
-``FootstepCrowd-v0``; ``gymnasium.make("footstep_gym:FootstepDoor-v0")`` does it without a
-prior import.
+``import footstep_gym`` registers ``FootstepDoor-v0``, ``FootstepCrossing-v0``,
+``FootstepCrowd-v0`` and ``FootstepMix-v0`` (each episode one of the three scenes);
+``gymnasium.make("footstep_gym:FootstepDoor-v0")`` does it without a prior import.
 """
 
 from gymnasium.envs.registration import register, registry
@@ -17,4 +17,9 @@ for _scenario, _env_id in ENV_IDS.items():
     if _env_id not in registry:
         register(id=_env_id, entry_point="footstep_gym.env:FootstepEnv", kwargs={"scenario": _scenario})
 
-__all__ = ["ENV_IDS", "ActionError", "ConfigError", "FootstepGymError", "__version__"]
+#: The env whose every episode draws one of the three scenes (``footstep_gym.mix``).
+MIX_ENV_ID = "FootstepMix-v0"
+if MIX_ENV_ID not in registry:
+    register(id=MIX_ENV_ID, entry_point="footstep_gym.mix:FootstepMixEnv")
+
+__all__ = ["ENV_IDS", "MIX_ENV_ID", "ActionError", "ConfigError", "FootstepGymError", "__version__"]

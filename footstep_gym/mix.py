@@ -1,0 +1,125 @@
+"""``FootstepMix-v0``: one env whose every episode is one of the three scenes, drawn at reset.
+
+The door, crossing and crowd envs share their action and observation layout, so one agent
+can be trained across them (the ``ppo-all`` baseline). Each scene keeps its own settings:
+``gymnasium.make("FootstepMix-v0", door={"randomize": {"door_speed": [5, 20]}}, crowd={...})``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import gymnasium as gym
+import numpy as np
+
+from footstep_gym.env import FootstepEnv
+from footstep_gym.errors import ConfigError
+
+SCENES = ("door", "crossing", "crowd")
+
+
+class FootstepMixEnv(gym.Env):
+    r"""The three footstep scenes in one env: each episode draws its scene, then runs it unchanged.
+
+    ## Description
+    At every ``reset`` the scene is drawn from ``scenes`` with probabilities ``weights``
+    using the env's seeded generator, then that scene's :class:`~footstep_gym.env.FootstepEnv`
+    is reset with a seed drawn from the same generator. ``reset(seed=s)`` therefore fixes
+    the scene and the episode; resets without a seed continue the stream.
+
+    ## Action and Observation Spaces
+    Those of :class:`~footstep_gym.env.FootstepEnv` (identical for the three scenes).
+
+    ## Info
+    The scene env's info plus ``scene`` (``"door"``, ``"crossing"`` or ``"crowd"``).
+
+    ## Arguments
+    * ``scenes``: the scenes to draw from (default all three);
+    * ``weights``: their probabilities (default uniform);
+    * ``door``, ``crossing``, ``crowd``: keyword overrides of that scene's env (any key
+      ``gymnasium.make("FootstepDoor-v0", ...)`` takes, ``randomize`` included);
+    * ``render_mode``: as :class:`~footstep_gym.env.FootstepEnv`.
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    metadata = FootstepEnv.metadata
+
+    def __init__(self, scenes: tuple[str, ...] | list[str] = SCENES, weights: list[float] | None = None,
+                 render_mode: str | None = None, door: Mapping[str, Any] | None = None,
+                 crossing: Mapping[str, Any] | None = None, crowd: Mapping[str, Any] | None = None) -> None:
+        scenes = tuple(scenes)
+        unknown = [s for s in scenes if s not in SCENES]
+        if not scenes or unknown:
+            raise ConfigError(f"scenes must be a non-empty subset of {SCENES}, got {scenes!r}")
+        if len(set(scenes)) != len(scenes):
+            raise ConfigError(f"scenes must not repeat, got {scenes!r}")
+        if weights is None:
+            probs = np.full(len(scenes), 1.0 / len(scenes))
+        else:
+            probs = np.asarray(weights, dtype=float)
+            if probs.shape != (len(scenes),) or not np.all(np.isfinite(probs)) or np.any(probs < 0) or probs.sum() <= 0:
+                raise ConfigError(f"weights must be {len(scenes)} finite numbers >= 0, not all 0; got {weights!r}")
+            probs = probs / probs.sum()
+        overrides = {"door": door, "crossing": crossing, "crowd": crowd}
+        for name, value in overrides.items():
+            if value is not None and not isinstance(value, Mapping):
+                raise ConfigError(f"{name} must be a mapping of that scene's env keywords, got {value!r}")
+        self.scenes = scenes
+        self.weights = probs
+        self.render_mode = render_mode
+        self.envs = {s: FootstepEnv(scenario=s, render_mode=render_mode, **dict(overrides[s] or {})) for s in scenes}
+        first = self.envs[scenes[0]]
+        for name, env in self.envs.items():
+            if env.action_space != first.action_space or env.observation_space != first.observation_space:
+                raise ConfigError(f"scene {name!r} has other spaces than {scenes[0]!r}; "
+                                  "robot and n_obstacles_observed must agree across scenes")
+        self.action_space = first.action_space
+        self.observation_space = first.observation_space
+        self.scene = scenes[0]
+
+    @property
+    def current(self) -> FootstepEnv:
+        """The scene env of the episode under way."""
+        return self.envs[self.scene]
+
+    # What evaluation and planners read off an env, taken from the scene under way.
+    @property
+    def robot(self) -> Any:
+        return self.current.robot
+
+    @property
+    def history(self) -> dict[str, list]:
+        return self.current.history
+
+    @property
+    def episode_config(self) -> Any:
+        return self.current.episode_config
+
+    @property
+    def scenario_name(self) -> str:
+        return self.scene
+
+    def sensing(self) -> Any:
+        return self.current.sensing()
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        self.scene = self.scenes[int(self.np_random.choice(len(self.scenes), p=self.weights))]
+        obs, info = self.current.reset(seed=int(self.np_random.integers(2**31 - 1)), options=options)
+        info["scene"] = self.scene
+        return obs, info
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.current.step(action)
+        info["scene"] = self.scene
+        return obs, reward, terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:
+        return self.current.render()
+
+    def close(self) -> None:
+        for env in self.envs.values():
+            env.close()

@@ -24,12 +24,21 @@ T = TypeVar("T")
 
 
 def config_dir() -> Path:
-    """The folder holding the YAML files (``$FOOTSTEP_GYM_CONFIG_DIR`` or the repo's ``configs/``)."""
+    """The folder holding the YAML files.
+
+    ``$FOOTSTEP_GYM_CONFIG_DIR`` if set; else ``footstep_gym/configs/`` of an installed
+    package (``pip install .`` maps the repo's ``configs/`` there); else the repo's
+    top-level ``configs/`` (a source checkout or an editable install).
+    """
     env = os.environ.get(_CONFIG_ENV_VAR)
-    path = Path(env) if env else Path(__file__).resolve().parent.parent / "configs"
-    if not path.is_dir():
-        raise ConfigError(f"config folder {str(path)!r} not found (set ${_CONFIG_ENV_VAR})")
-    return path
+    here = Path(__file__).resolve().parent
+    candidates = [Path(env)] if env else [here / "configs", here.parent / "configs"]
+    for path in candidates:
+        if path.is_dir():
+            return path
+    tried = ", ".join(repr(str(p)) for p in candidates)
+    raise ConfigError(f"config folder not found (tried {tried}); set ${_CONFIG_ENV_VAR} to the folder "
+                      "holding robot.yaml, env.yaml and scenarios/")
 
 
 def read_yaml(relative: str) -> dict[str, Any]:

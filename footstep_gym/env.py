@@ -43,6 +43,7 @@ class EnvConfig:
     reward_fall: float = plain()
     render_pixels_per_metre: float = positive()
     render_size: tuple[float, float] = config.pair()  # [px] width, height
+    video_fps: float = positive()  # [frames per simulated second] of render_mode="rgb_array_list"
 
     def validate(self) -> None:
         if not all(v >= 1 and float(v).is_integer() for v in self.render_size):
@@ -142,6 +143,10 @@ class FootstepEnv(gym.Env):
     ``foot_pose`` (x, y, yaw of the foot just placed), ``zmp`` (world x, y of the
     single-support ZMP), ``com``/``com_vel`` (world, end of the step), ``rewards``,
     ``command`` (the command applied, after clipping), ``zmp_offset`` (local, m),
+    ``zmp_margin`` (m: distance of the ZMP from the stable region's nearest edge, negative
+    outside), ``clearance`` (m: the smallest gap between the body circle and any obstacle at
+    the step's collision checks, negative on a collision, ``inf`` where no obstacle came
+    within reach in the step, NaN on a fall),
     ``obstacle`` (name of the shape hit, or ``None``), ``steps``.
     ``reset`` returns ``com``, ``com_vel``, ``support_foot``, ``foot_pose`` and ``time``.
 
@@ -151,7 +156,10 @@ class FootstepEnv(gym.Env):
     ``crowd_speed``, ``goal``, ``randomize={"door_speed": [8, 17]}``), any key of
     ``configs/env.yaml`` (e.g. ``reward_time=-0.2``), and ``robot={...}`` for keys of
     ``configs/robot.yaml``. Unknown keys raise ``ValueError`` naming them.
-    ``render_mode``: ``"rgb_array"`` (an ``(H, W, 3)`` uint8 frame) or ``"human"``.
+    ``render_mode``: ``"rgb_array"`` (an ``(H, W, 3)`` uint8 frame of the present),
+    ``"rgb_array_list"`` (every frame since the last ``render()``, drawn inside the steps at
+    ``video_fps`` frames per simulated second, so a video at ``metadata["render_fps"]`` plays
+    in real time; :class:`footstep_gym.wrappers.RecordVideo` records them all) or ``"human"``.
 
     A planner reads :meth:`sensing`: a read-only snapshot of what a robot could sense now.
 
@@ -159,7 +167,7 @@ class FootstepEnv(gym.Env):
     * v0: initial release.
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 4}
+    metadata = {"render_modes": ["human", "rgb_array", "rgb_array_list"], "render_fps": 4}
 
     def __init__(self, scenario: str = "door", render_mode: str | None = None, **overrides: Any) -> None:
         if scenario not in SCENARIOS:
@@ -179,6 +187,9 @@ class FootstepEnv(gym.Env):
         self.scenario_config = self._scenario_cls.load_config(groups["scenario"])
         self.config: EnvConfig = config.load(EnvConfig, "env.yaml", groups["env"])
         self.render_mode = render_mode
+        if render_mode == "rgb_array_list":  # frames from inside the steps, evenly spaced in simulated time
+            self.metadata = {**self.metadata, "render_fps": self.config.video_fps}
+        self._frames: list[np.ndarray] = []
 
         self.action_space = spaces.Box(
             self.robot.command_low.astype(np.float32), self.robot.command_high.astype(np.float32), dtype=np.float32
@@ -265,6 +276,8 @@ class FootstepEnv(gym.Env):
         }
         if self.render_mode == "human":
             self.render()
+        elif self.render_mode == "rgb_array_list":
+            self._frames = [self._draw()]
         return self._observation(), info
 
     def _validate_action(self, action: Any) -> tuple[np.ndarray, bool]:
@@ -313,7 +326,10 @@ class FootstepEnv(gym.Env):
                    "goal": 0.0, "collision": 0.0, "fall": 0.0}
         termination = None
         collided, hit = False, None
+        clearance = math.nan
         feasible = kin_ok and zmp_ok
+        zmp_hx, zmp_hy = robot.zmp_half_extent
+        zmp_margin = min(zmp_hx - abs(p.real), zmp_hy - abs(p.imag))
         if not feasible:
             termination = "fall"
             rewards["fall"] = env_cfg.reward_fall
@@ -328,7 +344,9 @@ class FootstepEnv(gym.Env):
                 return _pair(origin + traj.state(t)[0] * rot)
 
             result = self.world.sweep(path, period, traj.speed_bound())
-            elapsed = result.time
+            elapsed, clearance = result.time, result.clearance
+            if self.render_mode == "rgb_array_list":
+                self._frames.extend(self._step_frames(elapsed, origin, rot, traj))
             self.history["zmp"].append(_pair(zmp_world))
             if result.collided:
                 collided, hit = True, result.obstacle
@@ -370,6 +388,8 @@ class FootstepEnv(gym.Env):
             "foot_pose": new_foot,
             "zmp": _pair(zmp_world),
             "zmp_offset": _pair(p),
+            "zmp_margin": zmp_margin,
+            "clearance": clearance,
             "com": _pair(self.com),
             "com_vel": _pair(self.com_vel),
             "rewards": rewards,
@@ -428,11 +448,34 @@ class FootstepEnv(gym.Env):
             return None
         if self.world is None:
             raise gym.error.ResetNeeded("call reset() before render()")
+        if self.render_mode == "rgb_array_list":
+            frames, self._frames = self._frames, []
+            return frames
+        return self._draw()
+
+    def _draw(self, **state: Any) -> np.ndarray | None:
         if self._renderer is None:
             from footstep_gym.render import Renderer
 
             self._renderer = Renderer(self, self.render_mode)
-        return self._renderer.draw()
+        return self._renderer.draw(**state)
+
+    def _step_frames(self, elapsed: float, origin: complex, rot: complex, traj: lipm.StepTrajectory
+                     ) -> list[np.ndarray]:
+        """Frames at the multiples of ``1 / video_fps`` of simulated time inside the step just swept.
+
+        The world is at the step's end (``elapsed`` [s] after its start); obstacles kept one
+        velocity through the step, so each frame draws them moved back by the time left.
+        """
+        dt = 1.0 / self.config.video_fps
+        frames = []
+        k = math.floor(self.time / dt + 1e-9) + 1
+        while k * dt <= self.time + elapsed + 1e-9:
+            t = k * dt - self.time
+            com = origin + traj.state(min(t, elapsed))[0] * rot
+            frames.append(self._draw(com=com, back=elapsed - t, time=self.time + t))
+            k += 1
+        return frames
 
     def close(self) -> None:
         if self._renderer is not None:

@@ -27,7 +27,13 @@ class Renderer:
     """Draws obstacles, goal, both feet's footprints (blue left, red right), CoM path and ZMP points."""
 
     def __init__(self, env: "FootstepEnv", mode: str) -> None:
-        import pygame
+        try:
+            import pygame
+        except ImportError as exc:
+            from gymnasium.error import DependencyNotInstalled
+
+            raise DependencyNotInstalled(
+                'rendering needs pygame-ce: pip install "footstep_gym[render]" (or pip install pygame-ce)') from exc
 
         self.pygame = pygame
         self.env = env
@@ -59,7 +65,10 @@ class Renderer:
             pts.append(self.to_px(x + c * lx - s * ly, y + s * lx + c * ly))
         return pts
 
-    def draw(self) -> np.ndarray | None:
+    def draw(self, com: complex | None = None, back: float = 0.0, time: float | None = None) -> np.ndarray | None:
+        """Draw the env now, or inside the step under way: the robot's CoM at ``com`` (world),
+        every moving obstacle ``back`` [s] before its present pose (obstacles keep one velocity
+        through a step), the clock at ``time`` [s]."""
         pg, env, surf = self.pygame, self.env, self.surface
         surf.fill(BACKGROUND)
         goal = env.episode_config.goal
@@ -68,13 +77,21 @@ class Renderer:
         for o in env.world.obstacles:
             body = o.body
             colour = WALL if o.static else OBSTACLE
+            (px, py), angle = body.position, body.angle
+            if back and not o.static:
+                px, py = px - back * body.velocity.x, py - back * body.velocity.y
+                angle -= back * body.angular_velocity
+            c, s = math.cos(angle), math.sin(angle)
+
+            def to_world(q: tuple[float, float]) -> tuple[float, float]:
+                return (px + c * q[0] - s * q[1], py + s * q[0] + c * q[1])
+
             if o.kind == "circle":
-                centre = body.local_to_world(o.local_a)
-                pg.draw.circle(surf, colour, self.to_px(centre.x, centre.y), max(1, int(o.radius * self.scale)))
+                pg.draw.circle(surf, colour, self.to_px(*to_world(o.local_a)), max(1, int(o.radius * self.scale)))
             else:
-                a, b = body.local_to_world(o.local_a), body.local_to_world(o.local_b)
+                a, b = to_world(o.local_a), to_world(o.local_b)
                 w = max(2, int(2 * o.radius * self.scale))
-                pa, pb = self.to_px(a.x, a.y), self.to_px(b.x, b.y)
+                pa, pb = self.to_px(*a), self.to_px(*b)
                 pg.draw.line(surf, colour, pa, pb, w)
                 for p in (pa, pb):
                     pg.draw.circle(surf, colour, p, w // 2)
@@ -85,14 +102,15 @@ class Renderer:
         for side, pose in env.feet.items():
             pg.draw.polygon(surf, LEFT_FOOT if side > 0 else RIGHT_FOOT,
                             self._rect(pose, robot.foot_length, robot.foot_width))
-        com = env.history["com"]
-        if len(com) > 1:
-            pg.draw.lines(surf, COM_PATH, False, [self.to_px(*p) for p in com], 2)
+        com_path = env.history["com"]
+        if len(com_path) > 1:
+            pg.draw.lines(surf, COM_PATH, False, [self.to_px(*p) for p in com_path], 2)
         for z in env.history["zmp"]:
             pg.draw.circle(surf, ZMP, self.to_px(*z), 3)
-        cx, cy = env.com.real, env.com.imag
-        pg.draw.circle(surf, BODY, self.to_px(cx, cy), max(2, int(robot.body_radius * self.scale)), 1)
-        label = (f"{env.scenario_name}  t={env.time:5.2f} s  steps={env.steps}  "
+        if com is None:
+            com = env.com
+        pg.draw.circle(surf, BODY, self.to_px(com.real, com.imag), max(2, int(robot.body_radius * self.scale)), 1)
+        label = (f"{env.scenario_name}  t={env.time if time is None else time:5.2f} s  steps={env.steps}  "
                  f"T={float(env.previous_command[3] + env.previous_command[4]):.2f} s")
         surf.blit(self.font.render(label, True, TEXT), (8, 8))
         if self.mode == "human":

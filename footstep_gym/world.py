@@ -51,12 +51,20 @@ class Obstacle:
 
 @dataclass(frozen=True)
 class SweepResult:
-    """Outcome of one footstep's sweep: ``collided``, its time [s] from the step start, the shape's name."""
+    """Outcome of one footstep's sweep: ``collided``, its time [s] from the step start, the shape's name.
+
+    ``clearance`` [m] is the smallest gap between the robot's circle and any obstacle at the
+    sweep's checks (negative on a collision; ``inf`` if no obstacle came within reach of the
+    robot during the step). The checks are spaced so that nothing can touch between them,
+    not to find the exact minimum: between two checks the gap can dip below both by up to
+    half the distance the bodies close in that interval.
+    """
 
     collided: bool
     time: float
     obstacle: str | None
     checks: int
+    clearance: float
 
 
 class World:
@@ -217,15 +225,17 @@ class World:
         fine = self.max_check_interval
         if speed > 0:
             fine = min(fine, self.motion_fraction * radius / speed)
-        t, checks = 0.0, 0
+        t, checks, nearest = 0.0, 0, math.inf
         while True:
             point = path(t)
             horizon = radius + speed * (duration - t) + 1e-9
             dist, hit = self.clearance(point, horizon)
             checks += 1
+            if hit is not None:
+                nearest = min(nearest, dist)
             if hit is not None and dist < radius:
                 self.robot_body.position = point
-                return SweepResult(True, t, hit.name, checks)
+                return SweepResult(True, t, hit.name, checks, dist - radius)
             if t >= duration:
                 break
             remaining = duration - t
@@ -233,4 +243,4 @@ class World:
             self.advance(dt)
             t = duration if dt >= remaining else t + dt
         self.robot_body.position = path(duration)
-        return SweepResult(False, duration, None, checks)
+        return SweepResult(False, duration, None, checks, nearest - radius)

@@ -1,4 +1,4 @@
-"""baselines/eval_planner.py: statistics, recording, figures and tables, and the CLI end to end.
+"""footstep_gym.evaluation and baselines/eval_planner.py: statistics, recording, figures and tables, the CLI.
 
 The CLI runs in a subprocess exactly as a user runs it. The in-process tests drive the
 episode runner with a stand-in policy (walk straight at the nominal period), so they
@@ -17,13 +17,13 @@ import matplotlib.image
 import numpy as np
 import pytest
 
+from footstep_gym.evaluation import figures as eval_report
+from footstep_gym.evaluation.runner import Cell, Task, planner_notes, run_episode
+from footstep_gym.evaluation.stats import OUTCOMES, TIMING_FIELDS, EpisodeResult, cell_record, wilson_interval
+
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "baselines" / "eval_planner.py"
-sys.path.insert(0, str(REPO / "baselines"))
-
-import eval_report  # noqa: E402
-from eval_episode import Cell, Task, planner_notes, run_episode  # noqa: E402
-from eval_stats import OUTCOMES, TIMING_FIELDS, EpisodeResult, cell_record, wilson_interval  # noqa: E402
+FIRST_TEST_SEED = 20000  # configs/eval.yaml: the test split's first seed
 
 FASTEST_POLICY = "fixed-period"  # no period search; the quickest of the three per footstep
 REQUIRED_KEYS = {
@@ -60,7 +60,7 @@ class StraightAhead:
         return self.command.copy()
 
 
-def stand_in(name, robot, seed):
+def stand_in(cell, robot, seed):
     return StraightAhead(robot, seed)
 
 
@@ -202,7 +202,7 @@ def test_cli_one_episode_per_env(tmp_path):
         ("FootstepDoor-v0", {"door_speed": 17.0}), ("FootstepCrossing-v0", {}), ("FootstepCrowd-v0", {})]
     for r in records:
         check_record(r)
-        assert r["policy"] == FASTEST_POLICY and r["seeds"] == [0]
+        assert r["policy"] == FASTEST_POLICY and r["seeds"] == [FIRST_TEST_SEED]
 
     with (out / "results.csv").open() as f:
         rows = list(csv.DictReader(f))
@@ -216,11 +216,12 @@ def test_cli_one_episode_per_env(tmp_path):
         png = out / "figures" / f"{name}.png"
         assert png.exists() and png.stat().st_size > 20_000, name
     tables = sorted(p.name for p in (out / "tables").glob("*.md"))
-    assert tables == [f"crowd_{FASTEST_POLICY}_seed0.md", f"door_17_{FASTEST_POLICY}_seed0.md"]
+    assert tables == [f"crowd_{FASTEST_POLICY}_seed{FIRST_TEST_SEED}.md",
+                      f"door_17_{FASTEST_POLICY}_seed{FIRST_TEST_SEED}.md"]
     assert "| Steps | S (cm) |" in (out / "tables" / tables[1]).read_text()
     summary = (out / "summary.md").read_text()
     assert "results.json" in summary and "figures/door_17.png" in summary
-    assert json.loads((out / "run.json").read_text())["seeds"] == [0]
+    assert json.loads((out / "run.json").read_text())["seeds"] == [FIRST_TEST_SEED]
 
 
 def _without_timing(records: list[dict]) -> list[dict]:
@@ -236,7 +237,7 @@ def test_workers_do_not_change_results(tmp_path):
         proc = run_cli(*common, "--out", str(out), "--workers", workers)
         assert proc.returncode == 0, proc.stderr
         outs.append(json.loads((out / "results.json").read_text()))
-    assert outs[0][0]["seeds"] == [7, 8]
+    assert outs[0][0]["seeds"] == [FIRST_TEST_SEED + 7, FIRST_TEST_SEED + 8]
     assert _without_timing(outs[0]) == _without_timing(outs[1])
 
 

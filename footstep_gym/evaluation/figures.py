@@ -1,7 +1,7 @@
 """Figures (in the spirit of the paper's Fig. 8-10) and command tables (Tables 2 and 4) from traces.
 
-Everything here reads :class:`eval_episode.Trace` objects only; nothing runs an env.
-Matplotlib is used with the Agg backend (no display needed).
+Everything here reads :class:`~footstep_gym.evaluation.runner.Trace` objects only; nothing
+runs an env. Matplotlib is used with the Agg backend (no display needed).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import matplotlib.ticker  # noqa: E402
 from matplotlib.collections import PatchCollection  # noqa: E402
 from matplotlib.patches import Circle, Polygon  # noqa: E402
 
-from eval_episode import Trace  # noqa: E402
+from footstep_gym.evaluation.runner import Trace  # noqa: E402
 
 LEFT_COLOUR = "#3166d6"
 RIGHT_COLOUR = "#d6453b"
@@ -46,7 +46,7 @@ def outcome_text(trace: Trace) -> str:
 
 
 def params_text(params: dict[str, float]) -> str:
-    units = {"door_speed": "deg/s"}
+    units = {"door_speed": "deg/s", "crowd_speed": "m/s", "obstacle_speed": "m/s"}
     return ", ".join(f"{k} = {v:g} {units.get(k, '')}".strip() for k, v in params.items())
 
 

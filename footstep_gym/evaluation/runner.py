@@ -1,40 +1,49 @@
-"""Running one evaluation episode (in the main process or a worker) and recording it.
+"""Running evaluation episodes (in this process, in worker processes or as Ray tasks) and recording them.
 
-:func:`run_episode` is what the worker processes of ``eval_planner.py`` execute: it builds a
-fresh env and policy, seeds both with the episode's seed (``env.reset(seed=s)``,
-``policy.reset(seed=s)``), so an episode's result does not depend on which process ran it
-or what ran before, and returns an :class:`~eval_stats.EpisodeResult`. With
-``record=True`` it also returns a :class:`Trace`: everything the figures and command
-tables need, taken from what the env records (``env.unwrapped.history``, the ``info`` of
-each step) and from ``sensing()`` before every footstep and once after the last one
-(obstacle poses, CoM, robot centre).
+:func:`run_episode` builds a fresh env and policy, seeds both with the episode's seed
+(``env.reset(seed=s)``, ``policy.reset(seed=s)``), so an episode's result does not depend
+on which process ran it or what ran before, and returns an
+:class:`~footstep_gym.evaluation.stats.EpisodeResult`. With ``record=True`` it also returns
+a :class:`Trace`: everything the figures and command tables need, taken from what the env
+records (``env.unwrapped.history``, the ``info`` of each step) and from ``sensing()``
+before every footstep and once after the last one (obstacle poses, CoM, robot centre).
+
+:func:`run_tasks` runs many episodes on a backend (``"local"``: worker processes on this
+machine; ``"ray"``: Ray tasks on a local Ray or a cluster), with a progress bar that moves
+as episodes finish; the results are the same whatever the backend.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from pathlib import Path
+from typing import Any, Callable, Iterator
 
 import gymnasium as gym
 import numpy as np
 
 import footstep_gym  # noqa: F401  (registers the envs)
-from eval_stats import EpisodeResult
+from footstep_gym.evaluation.stats import EpisodeResult
 
-#: ``factory(name, robot, seed) -> policy`` with ``reset(seed=...)`` and ``act(obs, snapshot)``.
+#: ``factory(cell, robot, seed) -> policy`` with ``reset(seed=...)`` and ``act(obs, snapshot)``.
 PolicyFactory = Callable[..., Any]
+
+BACKENDS = ("local", "ray")
 
 
 @dataclass(frozen=True)
 class Cell:
-    """One evaluation cell: an env id, a policy name and env keyword arguments (``params``)."""
+    """One evaluation cell: an env id, a policy name, env keyword arguments (``params``) and,
+    for a trained agent, the training run evaluated (a folder in the zoo's layout)."""
 
     env_id: str
     scenario: str  # door / crossing / crowd
     policy: str
     params: tuple[tuple[str, float], ...] = ()  # sorted (key, value) pairs: hashable and ordered
+    run: str | None = None  # agents: path of the training run; planners: None
 
     @property
     def params_dict(self) -> dict[str, float]:
@@ -44,6 +53,11 @@ class Cell:
     def setting(self) -> str:
         """Short name of the env and its parameters, e.g. ``door_17`` (file names, figure titles)."""
         return "_".join([self.scenario] + [f"{v:g}" for _, v in self.params])
+
+    @property
+    def run_name(self) -> str | None:
+        """The training run's folder name (``FootstepDoor-v0_1``), or None for a planner."""
+        return None if self.run is None else Path(self.run).name
 
 
 @dataclass(frozen=True)
@@ -125,15 +139,22 @@ def planner_notes(policy: Any) -> tuple[np.ndarray | None, bool | None]:
 
 
 # ---------------------------------------------------------------- running
-def default_factory(name: str, robot: Any, seed: int) -> Any:
-    """The real planners' registry (imported here so workers resolve it themselves)."""
-    from footstep_gym.planners import make_policy
+def default_factory(cell: Cell, robot: Any, seed: int) -> Any:
+    """The policy registry (imported here so workers resolve it themselves)."""
+    from footstep_gym.evaluation.policies import make_policy
 
-    return make_policy(name, robot, seed=seed)
+    return make_policy(cell.policy, robot, seed=seed, run=cell.run)
 
 
 def _poses(snapshot: Any) -> np.ndarray:
     return np.array([(o.position[0], o.position[1], o.angle) for o in snapshot.obstacles], dtype=float).reshape(-1, 3)
+
+
+def _finite_min(values: list[float]) -> float | None:
+    """Smallest value, NaN (no measure) skipped; None if nothing was measured or nothing came near (inf)."""
+    finite = [v for v in values if not math.isnan(v)]
+    best = min(finite, default=math.inf)
+    return None if math.isinf(best) else best
 
 
 def _polyline_length(points: np.ndarray) -> float:
@@ -148,8 +169,9 @@ def run_episode(task: Task, factory: PolicyFactory = default_factory) -> Episode
     try:
         return _run(task, factory)
     except Exception as exc:  # name the episode: a worker's traceback alone does not
+        run = f" run={cell.run_name}" if cell.run else ""
         raise RuntimeError(f"episode failed: env={cell.env_id} params={cell.params_dict} "
-                           f"policy={cell.policy} seed={seed}: {type(exc).__name__}: {exc}") from exc
+                           f"policy={cell.policy}{run} seed={seed}: {type(exc).__name__}: {exc}") from exc
 
 
 def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
@@ -157,7 +179,7 @@ def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
     env = gym.make(cell.env_id, **cell.params_dict)
     try:
         base = env.unwrapped
-        policy = factory(cell.policy, base.robot, seed)
+        policy = factory(cell, base.robot, seed)
         obs, _ = env.reset(seed=seed)
         policy.reset(seed=seed)
         snapshot = base.sensing()
@@ -165,6 +187,8 @@ def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
         plan_ms: list[float] = []
         periods: list[float] = []
         pso_ran: list[bool | None] = []
+        clearance: list[float] = []
+        zmp_margin: list[float] = []
         applied, planned, pre_pso = [], [], []
         info: dict[str, Any] = {}
         terminated = truncated = False
@@ -179,6 +203,8 @@ def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
             pre_pso.append(pre if pre is not None else np.full(5, np.nan))
             pso_ran.append(ran)
             periods.append(float(info["period"]))
+            clearance.append(float(info["clearance"]))
+            zmp_margin.append(float(info["zmp_margin"]))
             snapshot = base.sensing()
             snaps.append(snapshot)
         outcome = info["termination"] if terminated else "timeout"
@@ -188,7 +214,7 @@ def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
             cell_index=task.cell_index, seed=seed, outcome=outcome, steps=int(info["steps"]),
             time=float(info["time"]), path_length=_polyline_length(centre),
             com_path_length=_polyline_length(com_path), plan_ms=plan_ms, periods=periods, pso_ran=pso_ran,
-            obstacle=info.get("obstacle"),
+            obstacle=info.get("obstacle"), min_clearance=_finite_min(clearance), min_zmp_margin=min(zmp_margin),
         )
         if task.record:
             cfg = base.episode_config
@@ -217,3 +243,104 @@ def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
         return result
     finally:
         env.close()
+
+
+# ---------------------------------------------------------------- many episodes
+def _local(tasks: list[Task], workers: int) -> Iterator[EpisodeResult]:
+    if workers <= 1:
+        for task in tasks:
+            yield run_episode(task)
+        return
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from multiprocessing import get_context
+
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")  # one process per core; no nested BLAS threads
+    # "spawn": each worker imports the package afresh (no state inherited from this process).
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+    try:
+        pending = {pool.submit(run_episode, task) for task in tasks}
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                yield fut.result()  # re-raises an episode's error (it names the episode)
+    finally:  # on an error or Ctrl-C, drop the queued episodes instead of running them
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _ray(tasks: list[Task], workers: int, address: str | None) -> Iterator[EpisodeResult]:
+    try:
+        import ray
+    except ImportError as exc:
+        raise RuntimeError('--backend ray needs Ray: pip install "footstep_gym[ray]"') from exc
+    started = not ray.is_initialized()
+    if started:
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:  # a local Ray for this run, one CPU per worker
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+    try:
+        remote = ray.remote(num_cpus=1)(run_episode)
+        pending = [remote.remote(task) for task in tasks]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            try:
+                yield ray.get(done[0])
+            except ray.exceptions.RayTaskError as exc:  # the episode's own error (it names the episode)
+                raise exc.as_instanceof_cause() from None
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def run_tasks(tasks: list[Task], workers: int = 1, backend: str = "local", address: str | None = None,
+              progress: bool = True) -> list[EpisodeResult]:
+    """Run every task; results sorted by (cell, seed), the same for every backend and worker count.
+
+    ``backend="local"``: ``workers`` spawned processes (this process if 1); ``"ray"``: Ray
+    tasks on the cluster at ``address`` (a local Ray of ``workers`` CPUs if None). The
+    progress bar moves as each episode finishes.
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
+    if backend == "local" and address is not None:
+        raise ValueError("address applies to backend='ray' only")
+    from tqdm import tqdm
+
+    stream = _ray(tasks, workers, address) if backend == "ray" else _local(tasks, workers)
+    results: list[EpisodeResult] = []
+    with tqdm(total=len(tasks), desc="episodes", unit="ep", dynamic_ncols=True, disable=not progress) as bar:
+        for result in stream:
+            results.append(result)
+            bar.update()
+    results.sort(key=lambda r: (r.cell_index, r.seed))
+    return results
+
+
+def record_video(cell: Cell, seed: int, folder: str | Path, name: str | None = None) -> Path:
+    """Play one episode of ``cell`` at ``seed`` and save it as ``<folder>/<name>.mp4`` (real time).
+
+    The env draws frames inside every footstep (``render_mode="rgb_array_list"``), so the
+    video plays at the env's ``video_fps`` in simulated time. Needs pygame-ce and moviepy.
+    """
+    from footstep_gym.wrappers import RecordVideo
+
+    folder = Path(folder)
+    name = name or f"{cell.setting}_{cell.policy}"
+    env = gym.make(cell.env_id, render_mode="rgb_array_list", **cell.params_dict)
+    env = RecordVideo(env, str(folder), name_prefix=name, episode_trigger=lambda _: True, disable_logger=True)
+    try:
+        policy = default_factory(cell, env.unwrapped.robot, seed)
+        obs, _ = env.reset(seed=seed)
+        policy.reset(seed=seed)
+        terminated = truncated = False
+        while not (terminated or truncated):
+            obs, _, terminated, truncated, _ = env.step(policy.act(obs, env.unwrapped.sensing()))
+    finally:
+        env.close()
+    path = folder / f"{name}-episode-0.mp4"
+    if not path.is_file():
+        raise RuntimeError(f"RecordVideo wrote no {path.name} in {folder}")
+    final = folder / f"{name}.mp4"
+    path.replace(final)
+    return final

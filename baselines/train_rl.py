@@ -1,0 +1,139 @@
+"""Train the RL baselines with rl_zoo3, several seeds in a row, and ship them with a manifest and learning curves.
+
+Usage::
+
+    python baselines/train_rl.py --algo ppo --env door --seeds 1 2 3     # train, ship, plot
+    python baselines/train_rl.py --algo ppo --env all --seeds 1          # ppo-all: FootstepMix-v0
+    python baselines/train_rl.py --algo sac --env door --seeds 1 --timesteps 20000
+    python baselines/train_rl.py --ship runs/rl/ppo/FootstepDoor-v0_1 --wall-time 1500   # ship a finished zoo run
+    python baselines/train_rl.py --curves                                # learning curves of every shipped agent
+
+Each seed is one ``python -m rl_zoo3.train`` run (hyperparameters: ``configs/rl/<algo>.yml``,
+one torch thread) into ``--log-folder``; the run's small files are then copied to
+``--agents-dir/<algo>/<EnvId>_<seed>/`` in the zoo's layout with a ``manifest.json`` (wall
+time, env steps per second), and the learning curves (the zoo's periodic deterministic
+evaluation, success from ``info["is_success"]``) are drawn to
+``baselines/results/learning_curves/<algo>_<EnvId>.png`` with the planners' success on the
+same env as reference lines when an evaluation's ``results.json`` is given or shipped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Sequence
+
+import footstep_gym
+from footstep_gym import training
+
+REPO = Path(__file__).resolve().parent.parent
+DEFAULT_AGENTS = REPO / "baselines" / "agents"
+DEFAULT_CURVES = REPO / "baselines" / "results" / "learning_curves"
+DEFAULT_REFERENCE = REPO / "baselines" / "results" / "agents" / "results.json"
+REFERENCE_PLANNERS = ("period-aware", "fixed-period")
+
+
+def env_id_of(name: str) -> str:
+    """``door``/``crossing``/``crowd``/``all`` or a registered id -> the env id."""
+    key = name.strip().lower()
+    if key in footstep_gym.ENV_IDS:
+        return footstep_gym.ENV_IDS[key]
+    if key in ("all", "mix"):
+        return footstep_gym.MIX_ENV_ID
+    for env_id in (*footstep_gym.ENV_IDS.values(), footstep_gym.MIX_ENV_ID):
+        if key == env_id.lower():
+            return env_id
+    raise argparse.ArgumentTypeError(f"unknown env {name!r}; choose door, crossing, crowd, all or an env id")
+
+
+def planner_reference(results: Path, env_id: str) -> dict[str, float]:
+    """Each reference planner's success rate on ``env_id`` pooled over the settings of an evaluation."""
+    if not results.is_file():
+        return {}
+    records = json.loads(results.read_text(encoding="utf-8"))
+    envs = set(footstep_gym.ENV_IDS.values()) if env_id == footstep_gym.MIX_ENV_ID else {env_id}
+    out = {}
+    for planner in REFERENCE_PLANNERS:
+        rows = [r for r in records if r["env"] in envs and r["policy"] == planner]
+        if rows:
+            n = sum(r["episodes"] for r in rows)
+            out[f"{planner} (test split)"] = sum(r["successes"] for r in rows) / n
+    return out
+
+
+def draw_curves(agents_dir: Path, out_dir: Path, reference: Path, only: tuple[str, str] | None = None) -> list[Path]:
+    """One learning-curve PNG per (algo, env) of the shipped agents."""
+    groups: dict[tuple[str, str], list[Path]] = {}
+    for manifest in sorted(agents_dir.glob("*/*/manifest.json")):
+        m = json.loads(manifest.read_text(encoding="utf-8"))
+        groups.setdefault((m["algorithm"], m["env_id"]), []).append(manifest.parent)
+    written = []
+    for (algo, env_id), runs in sorted(groups.items()):
+        if only is not None and (algo, env_id) != only:
+            continue
+        title = f"{algo.upper()} on {env_id}: success of the periodic evaluation ({len(runs)} training seed(s))"
+        written.append(training.learning_curves(runs, out_dir / f"{algo}_{env_id}.png", title,
+                                                planner_reference(reference, env_id)))
+    return written
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="train_rl.py", description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    mode = parser.add_mutually_exclusive_group()
+    mode.add_argument("--ship", type=Path, metavar="RUN", help="ship a finished zoo run folder instead of training")
+    mode.add_argument("--curves", action="store_true", help="only draw the learning curves of the shipped agents")
+    parser.add_argument("--algo", choices=("ppo", "sac"), help="algorithm (a section of configs/rl/<algo>.yml)")
+    parser.add_argument("--env", type=env_id_of, help="door, crossing, crowd, all (FootstepMix-v0) or an env id")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1], metavar="S", help="training seeds (default 1)")
+    parser.add_argument("--timesteps", type=int, metavar="N", help="override the config's n_timesteps")
+    parser.add_argument("--eval-freq", type=int, default=25_000, metavar="N",
+                        help="env steps between the zoo's evaluations (default 25000)")
+    parser.add_argument("--eval-episodes", type=int, default=20, metavar="N", help="episodes per evaluation")
+    parser.add_argument("--log-folder", type=Path, default=REPO / "runs" / "rl", help="the zoo's log folder")
+    parser.add_argument("--agents-dir", type=Path, default=DEFAULT_AGENTS, help="where agents ship")
+    parser.add_argument("--curves-dir", type=Path, default=DEFAULT_CURVES, help="where learning curves go")
+    parser.add_argument("--reference", type=Path, default=DEFAULT_REFERENCE,
+                        help="an evaluation's results.json for the planners' reference lines")
+    parser.add_argument("--wall-time", type=float, metavar="S", help="with --ship: the run's measured wall time [s]")
+    parser.add_argument("--no-ship", action="store_true", help="train only; leave the runs in --log-folder")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.curves:
+        for path in draw_curves(args.agents_dir, args.curves_dir, args.reference):
+            print(path)
+        return 0
+    if args.ship is not None:
+        if args.wall_time is None or args.wall_time <= 0:
+            parser.error("--ship needs --wall-time S (> 0): the run's measured wall time")
+        dest = training.ship(args.ship, args.agents_dir, args.wall_time)
+        print(dest)
+        return 0
+    if args.algo is None or args.env is None:
+        parser.error("training needs --algo and --env (or use --ship / --curves)")
+    if args.timesteps is not None and args.timesteps < 1:
+        parser.error("--timesteps must be >= 1")
+    runs = []
+    for seed in args.seeds:
+        print(f"training {args.algo} on {args.env}, seed {seed} -> {args.log_folder}", file=sys.stderr)
+        run, wall = training.train(args.algo, args.env, seed, args.log_folder / f"seed{seed}",
+                                   timesteps=args.timesteps, eval_freq=args.eval_freq,
+                                   eval_episodes=args.eval_episodes)
+        print(f"  {run} in {wall:.0f} s", file=sys.stderr)
+        if not args.no_ship:
+            runs.append(training.ship(run, args.agents_dir, wall, seed=seed))
+            print(f"  shipped to {runs[-1]}", file=sys.stderr)
+    if runs:
+        for path in draw_curves(args.agents_dir, args.curves_dir, args.reference, only=(args.algo, args.env)):
+            print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -263,3 +263,92 @@ def test_quick_default_runs(tmp_path):
     assert {r["scenario"] for r in records} == {"door", "crossing", "crowd"}
     for r in records:
         check_record(r)
+
+
+# ---------------------------------------------------------------- splits, statistics over training runs
+def test_seed_splits_are_disjoint_and_bounded():
+    from footstep_gym.evaluation.splits import SPLITS, split_seeds
+
+    ranges = sorted(SPLITS.values())
+    assert all(a1 <= b0 for (_, a1), (b0, _) in zip(ranges, ranges[1:]))
+    assert {"train", "validation", "test"} <= set(SPLITS)
+    first, end = SPLITS["test"]
+    assert split_seeds("test", 3) == [first, first + 1, first + 2]
+    assert split_seeds("test", 2, offset=5) == [first + 5, first + 6]
+    with pytest.raises(ValueError, match="goes past its end"):
+        split_seeds("validation", 2, offset=SPLITS["validation"][1] - SPLITS["validation"][0] - 1)
+    with pytest.raises(ValueError, match="unknown split"):
+        split_seeds("holdout", 1)
+
+
+def _run_record(run: str, outcomes: list[str]) -> dict:
+    eps = [_episode(i, o, 10, 5.0, 1.0) for i, o in enumerate(outcomes)]
+    return cell_record("FootstepDoor-v0", "door", "ppo", {"door_speed": 8.0}, eps, run=run)
+
+
+def test_over_runs_pools_episodes_and_gives_an_iqm_over_training_seeds():
+    from footstep_gym.evaluation.stats import iqm_interval, over_runs
+
+    runs = [_run_record("FootstepDoor-v0_1", ["goal"] * 4),
+            _run_record("FootstepDoor-v0_2", ["goal", "goal", "collision", "fall"]),
+            _run_record("FootstepDoor-v0_3", ["collision"] * 4)]
+    planner = cell_record("FootstepDoor-v0", "door", "period-aware", {"door_speed": 8.0}, [_episode(0, "goal", 9, 4, 1)])
+    out = over_runs(runs + [planner])
+    assert len(out) == 2 and out[1] is planner
+    pooled = out[0]
+    assert (pooled["episodes"], pooled["successes"], pooled["success_rate"]) == (12, 6, 0.5)
+    assert pooled["collision_rate"] == pytest.approx(5 / 12) and pooled["fall_rate"] == pytest.approx(1 / 12)
+    assert pooled["success_ci95"] == list(wilson_interval(6, 12))
+    assert pooled["run_success_rates"] == [1.0, 0.5, 0.0] and pooled["runs"][0] == "FootstepDoor-v0_1"
+    # IQM of three runs trims nothing (0.25 * 3 < 1): the mean; the bootstrap interval spans the runs.
+    assert pooled["success_iqm"] == pytest.approx(0.5)
+    lo, hi = pooled["success_iqm_ci95"]
+    assert 0.0 <= lo < 0.5 < hi <= 1.0
+    # With eight runs the IQM drops the best two and the worst two.
+    iqm, lo, hi = iqm_interval([0.0, 0.1, 0.5, 0.5, 0.6, 0.6, 0.9, 1.0])
+    assert iqm == pytest.approx(np.mean([0.5, 0.5, 0.6, 0.6])) and lo <= iqm <= hi
+
+
+# ---------------------------------------------------------------- more of the CLI
+def test_crowd_speed_cells_and_a_clean_output_folder(tmp_path):
+    out = tmp_path / "eval"
+    (out / "figures").mkdir(parents=True)
+    (out / "figures" / "stale.png").write_bytes(b"old")
+    (out / "run.json").write_text("{}")
+    proc = run_cli("--env", "crowd", "--crowd-speed", "0.2", "--crowd-speed", "0.12", "--policy", FASTEST_POLICY,
+                   "--episodes", "1", "--workers", "1", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    records = json.loads((out / "results.json").read_text())
+    assert [r["params"] for r in records] == [{"crowd_speed": 0.2}, {"crowd_speed": 0.12}]
+    assert not (out / "figures" / "stale.png").exists()  # an earlier run's figures are not left behind
+    assert (out / "figures" / "crowd_0.2.png").is_file()
+    for r in records:
+        assert r["min_zmp_margin_median"] is not None
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("keep")
+    proc = run_cli("--env", "crowd", "--policy", FASTEST_POLICY, "--episodes", "1", "--out", str(tmp_path / "mine"))
+    assert proc.returncode != 0 and "not empty" in proc.stderr
+    assert (tmp_path / "mine" / "notes.txt").read_text() == "keep"
+
+
+def test_ray_backend_gives_the_local_results(tmp_path):
+    pytest.importorskip("ray")
+    from footstep_gym.evaluation.runner import run_tasks
+
+    cells = [Cell("FootstepCrossing-v0", "crossing", FASTEST_POLICY), Cell("FootstepCrowd-v0", "crowd", FASTEST_POLICY)]
+    tasks = [Task(i, c, s) for i, c in enumerate(cells) for s in (20000, 20001)]
+    local = run_tasks(tasks, workers=1, progress=False)
+    remote = run_tasks(tasks, workers=2, backend="ray", progress=False)
+    strip = lambda rs: [(r.cell_index, r.seed, r.outcome, r.steps, r.time, r.path_length, r.min_clearance)  # noqa: E731
+                        for r in rs]
+    assert strip(local) == strip(remote)
+    with pytest.raises(ValueError, match="unknown backend"):
+        run_tasks(tasks, backend="spark")
+
+
+def test_help_lists_every_policy():
+    proc = run_cli("--help", timeout=60)
+    assert proc.returncode == 0
+    for name in ("period-aware", "fixed-period", "pso-only", "ppo", "ppo-all", "sac", "--crowd-speed", "--video",
+                 "--agent", "--split"):
+        assert name in proc.stdout, name

@@ -145,3 +145,67 @@ def test_close_then_render_again():
         warnings.simplefilter("error")
         again = env.render()  # a closed env may be drawn again: the renderer is rebuilt
     assert np.array_equal(first, again)
+
+
+# ---------------------------------------------------------------- frames inside a step, videos
+def test_rgb_array_list_hands_over_frames_evenly_spaced_in_simulated_time():
+    env = gym.make("FootstepCrossing-v0", render_mode="rgb_array_list", **FREE)
+    fps = env.metadata["render_fps"]
+    with open(config_dir() / "env.yaml", encoding="utf-8") as fh:
+        assert fps == yaml.safe_load(fh)["video_fps"]
+    env.reset(seed=2)
+    frames = env.render()
+    assert len(frames) == 1 and frames[0].shape == (*render_size()[::-1], 3)
+    assert env.render() == []  # handed over once
+    total, t_end = 1, 0.0
+    for command in (NOMINAL, [0.05, 0.08, 0.0, 0.3, 0.15], [0.05, 0.08, 0.0, 0.25, 0.1]):
+        *_, info = env.step(np.asarray(command, dtype=np.float32))
+        frames = env.render()
+        # A frame at every multiple of 1/fps in (t_before, t_after]: a 0.8 s step at 20 fps gives 16.
+        expected = int(np.floor(info["time"] * fps + 1e-6)) - int(np.floor(t_end * fps + 1e-6))
+        assert len(frames) == expected, (command, len(frames), expected)
+        total += len(frames)
+        t_end = info["time"]
+        assert not np.array_equal(frames[0], frames[-1])  # the robot moved inside the step
+    assert total == 1 + int(np.floor(t_end * fps + 1e-6))
+    env.close()
+
+
+def test_in_step_frames_show_the_obstacles_where_they_were():
+    """The last frame of a step is drawn at the step's end: the same obstacles as rgb_array after the step."""
+    listed = gym.make("FootstepCrowd-v0", render_mode="rgb_array_list")
+    single = gym.make("FootstepCrowd-v0", render_mode="rgb_array")
+    listed.reset(seed=4)
+    single.reset(seed=4)
+    listed.render()
+    first = single.render()
+    listed.step(NOMINAL)
+    single.step(NOMINAL)
+    frames = listed.render()
+    after = single.render()
+    grey = lambda f: np.all(np.abs(f.astype(int) - (120, 130, 150)) < 3, axis=-1)  # noqa: E731 (obstacle colour)
+    assert grey(frames[-1]).sum() > 100
+    assert np.array_equal(grey(frames[-1]), grey(after))  # obstacles drawn at the step's end
+    assert not np.array_equal(grey(frames[0]), grey(first))  # and 1/fps into the step, they had moved on
+    listed.close()
+    single.close()
+
+
+def test_record_video_writes_a_real_time_video(tmp_path):
+    moviepy = pytest.importorskip("moviepy")
+    from footstep_gym.wrappers import RecordVideo
+
+    env = RecordVideo(gym.make("FootstepCrossing-v0", render_mode="rgb_array_list", **FREE), str(tmp_path / "v"),
+                      episode_trigger=lambda e: e == 0, disable_logger=True)
+    env.reset(seed=0)
+    for _ in range(5):
+        *_, info = env.step(NOMINAL)
+    env.close()
+    videos = list((tmp_path / "v").glob("*.mp4"))
+    assert len(videos) == 1
+    clip = moviepy.VideoFileClip(str(videos[0]))
+    try:
+        assert clip.fps == pytest.approx(env.metadata["render_fps"])
+        assert clip.duration == pytest.approx(info["time"], abs=0.15)  # 4 s simulated, 4 s of video
+    finally:
+        clip.close()

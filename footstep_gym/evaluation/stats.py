@@ -162,7 +162,7 @@ def iqm_interval(rates: list[float], reps: int = 2000, seed: int = 0) -> tuple[f
 
     scores = {"agent": np.asarray(rates, dtype=float).reshape(-1, 1)}  # (runs, tasks)
     point, interval = rly.get_interval_estimates(
-        scores, lambda x: np.array([metrics.aggregate_iqm(x)]), reps=reps, random_state=seed)
+        scores, lambda x: np.array([metrics.aggregate_iqm(x)]), reps=reps, random_state=np.random.RandomState(seed))
     return float(point["agent"][0]), float(interval["agent"][0, 0]), float(interval["agent"][1, 0])
 
 

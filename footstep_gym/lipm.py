@@ -1,4 +1,4 @@
-"""LIPM walking-pattern generator and its ZMP feasibility check (DESIGN.md §3).
+"""LIPM walking-pattern generator and its ZMP feasibility check (docs/model.md §3).
 
 Per horizontal axis the linear inverted pendulum is ``c'' = omega^2 (c - p)``. Its
 closed forms are written here in the divergent / convergent components
@@ -8,8 +8,8 @@ closed forms are written here in the divergent / convergent components
 * ZMP ramp ``p(t) = pa + pdot t``: ``xi(t) = p(t) + pdot/omega + (xi0 - pa - pdot/omega) e^{omega t}``
   (``eta``: ``omega -> -omega``)
 
-which are DESIGN's ``c(t) = p + (c0 - p) cosh + (v0/omega) sinh`` forms re-arranged
-(:func:`constant_zmp` and :func:`ramp_zmp` give those directly). A horizontal 2D vector
+which are the ``c(t) = p + (c0 - p) cosh + (v0/omega) sinh`` forms of docs/model.md §3
+re-arranged (:func:`constant_zmp` and :func:`ramp_zmp` give those directly). A horizontal 2D vector
 ``(x, y)`` is held as the complex number ``x + iy``, so rotating a frame by ``theta`` is a
 multiplication by ``e^{-i theta}`` and both axes go through one expression.
 
@@ -29,7 +29,8 @@ is repeated forever. Because the feet alternate, that gait is periodic over two 
     two steps: s = r^2 a^2 s + r^2 a beta_side + r beta_other  ->  s = (...) / (1 - r^2 a^2)
 
 with ``a = e^{omega T}`` for ``xi`` and ``e^{-omega T}`` for ``eta``. With ``theta = 0``
-this is DESIGN's ``x* = (I - A)^-1 b`` sagittally and ``y* = -(I + A)^-1 b`` laterally.
+this is the per-axis ``x* = (I - A)^-1 b`` sagittally and ``y* = -(I + A)^-1 b`` laterally
+(docs/model.md §3).
 A command is feasible iff that ``p`` lies in the stable ZMP rectangle (the foot scaled
 by ``zmp_region_scale``) and the command is inside the kinematic limits.
 
@@ -53,7 +54,7 @@ from footstep_gym.robot import Robot
 
 # ------------------------------------------------------------------ closed forms (one axis)
 def constant_zmp(c0: Any, v0: Any, p: Any, t: Any, omega: float) -> tuple[Any, Any]:
-    """CoM position and velocity after ``t`` [s] with the ZMP held at ``p`` (DESIGN §3)."""
+    """CoM position and velocity after ``t`` [s] with the ZMP held at ``p`` (docs/model.md §3)."""
     ch, sh = np.cosh(omega * t), np.sinh(omega * t)
     return p + (c0 - p) * ch + (v0 / omega) * sh, (c0 - p) * omega * sh + v0 * ch
 

@@ -1,9 +1,9 @@
 """The three registered envs (footstep_gym/env.py, scenarios/, sensing.py) over the registry.
 
 Gymnasium's and SB3's checkers, vectorisation, pickling, seeded replay, the info
-contract, physics read off the env (DESIGN.md §3 figures), goal and truncation, bad
-actions, and the read-only sensing snapshot. References are the YAML files read
-directly, hand geometry and DESIGN's quoted numbers, never the code under test.
+contract, physics read off the env (the figures of docs/model.md §3), goal and truncation,
+bad actions, and the read-only sensing snapshot. References are the YAML files read
+directly, hand geometry and the numbers quoted in docs/model.md, never the code under test.
 """
 
 from __future__ import annotations
@@ -343,7 +343,7 @@ def test_stepping_in_place_needs_no_zmp_offset():
 
 @pytest.mark.parametrize("t_ss, survives", [(0.2, True), (0.1, False)])
 def test_abrupt_period_cut_after_steady_steps(t_ss, survives):
-    """DESIGN §3: cutting T_SS 0.6 -> 0.2 s in one step at 5 cm strides is feasible, -> 0.1 s a fall."""
+    """Cutting T_SS 0.6 -> 0.2 s in one step at 5 cm strides is feasible, -> 0.1 s a fall (docs/model.md §3)."""
     env = gym.make("FootstepCrossing-v0", **FREE)
     env.reset(seed=0)
     for action in strides(0.02, 0.035, 0.05, 0.05, 0.05):  # reach a steady 5 cm gait
@@ -470,7 +470,7 @@ def test_float32_action_at_the_inner_turn_limit_is_that_limit():
 
 
 def test_foot_pose_follows_the_footstep_convention():
-    """Each placed foot is the command applied to the previous support foot (DESIGN §2)."""
+    """Each placed foot is the command applied to the previous support foot (docs/model.md §2)."""
     env = gym.make("FootstepCrossing-v0", **FREE)
     _, info = env.reset(seed=3)
     support, side = info["foot_pose"], RIGHT

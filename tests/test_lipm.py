@@ -1,8 +1,8 @@
 """The LIPM pattern generator (footstep_gym/lipm.py) against independent references.
 
 Every closed form is checked against scipy's numerical integration of the pendulum
-``c'' = omega^2 (c - p(t))`` (DESIGN.md §3), the steady gait against DESIGN's per-axis
-2x2 fixed-point formulas, and the generator's verdicts against DESIGN's quoted figures.
+``c'' = omega^2 (c - p(t))`` (docs/model.md §3), the steady gait against the per-axis
+2x2 fixed-point formulas, and the generator's verdicts against the figures of docs/model.md §3.
 """
 
 from __future__ import annotations
@@ -290,9 +290,9 @@ def test_steady_state_is_two_step_periodic_by_ode(robot):
         assert abs(c2 - com0) < 1e-8 and abs(v2 - vel0) < 1e-7
 
 
-# ------------------------------------------------------------------ 5. DESIGN's 2x2 fixed points
+# ------------------------------------------------------------------ 5. the per-axis 2x2 fixed points
 def _two_by_two(robot, d, t_ss, t_ds):
-    """A and b of DESIGN §3 for a foot displacement d along one axis, b by ODE integration."""
+    """A and b of docs/model.md §3 for a foot displacement d along one axis, b by ODE integration."""
     w, T = robot.omega, t_ss + t_ds
     A = np.array([[math.cosh(w * T), math.sinh(w * T) / w], [w * math.sinh(w * T), math.cosh(w * T)]])
     zmp = lambda t: 0.0 if t <= t_ss else d * (t - t_ss) / t_ds  # noqa: E731
@@ -309,7 +309,7 @@ def _two_by_two(robot, d, t_ss, t_ds):
     [-0.04, 0.07, 0.0, 0.35, 0.3], [0.07, 0.1, 0.0, 0.2, 0.15],
 ])
 @pytest.mark.parametrize("side", [1, -1])
-def test_steady_state_matches_design_fixed_points(robot, cmd, side):
+def test_steady_state_matches_per_axis_fixed_points(robot, cmd, side):
     S, L, _, t_ss, t_ds = cmd
     I2 = np.eye(2)
     A, b_x = _two_by_two(robot, S, t_ss, t_ds)
@@ -325,7 +325,7 @@ def test_steady_state_matches_design_fixed_points(robot, cmd, side):
     assert abs(com.imag) < L / 2
 
 
-# ------------------------------------------------------------------ 6. DESIGN §3 figures
+# ------------------------------------------------------------------ 6. the figures of docs/model.md §3
 def _walk(robot, com, vel, side, commands):
     ps, ok = [], []
     for cmd in commands:
@@ -336,7 +336,7 @@ def _walk(robot, com, vel, side, commands):
     return ps, ok
 
 
-def test_design_defaults(robot):
+def test_robot_defaults(robot):
     assert robot.com_height == pytest.approx(0.23)
     assert robot.omega == pytest.approx(math.sqrt(9.81 / 0.23))
     assert robot.zmp_half_extent == pytest.approx((0.25 * 0.104, 0.25 * 0.066))
@@ -350,7 +350,7 @@ def test_cutting_single_support_time(robot, side):
     (p,), (ok,) = _walk(robot, com, vel, side, [[0.05, 0.08, 0.0, 0.2, 0.2]])
     assert ok
     assert 8e-3 < abs(p.real) < 10e-3
-    # to 0.1 s in one step: infeasible (DESIGN: p_x about -25 mm)
+    # to 0.1 s in one step: infeasible (docs/model.md §3: p_x about -25 mm)
     (p,), (ok,) = _walk(robot, com, vel, side, [[0.05, 0.08, 0.0, 0.1, 0.2]])
     assert not ok
     assert 23e-3 < abs(p.real) < 27e-3
@@ -363,7 +363,7 @@ def test_cutting_single_support_time(robot, side):
         assert all(ok), (sched, ps)
     ps, _ = _walk(robot, com, vel, side,
                   [[0.05, 0.08, 0.0, t, 0.2] for t in 0.6 * (0.1 / 0.6) ** (np.arange(1, 7) / 6)])
-    assert max(max(abs(p.real), abs(p.imag)) for p in ps) < 11e-3  # DESIGN: six steps under 11 mm
+    assert max(max(abs(p.real), abs(p.imag)) for p in ps) < 11e-3  # docs/model.md §3: six steps under 11 mm
 
 
 @pytest.mark.parametrize("side", [1, -1])

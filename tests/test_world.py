@@ -207,7 +207,7 @@ def lipm_com_path(starts, feet, first_support, t_ss, t_ds, omega, dt=2e-4):
     is unstable, so each step is integrated from the state the env reports rather than
     open loop over many steps). ZMP at the support foot's centre during single support,
     moving linearly to the other foot's centre during double support (the nominal
-    schedule, DESIGN.md §3). Returns ``(t, c)`` with c of shape (N, 2).
+    schedule, docs/model.md §3). Returns ``(t, c)`` with c of shape (N, 2).
     """
     def rhs(_t, y, pa, pb, t0, tau):
         p = pa + (pb - pa) * (_t - t0) / tau if tau else pa

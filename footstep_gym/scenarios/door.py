@@ -8,7 +8,7 @@ half drum (a polygon of ``drum_segments`` walls just outside the tip's circle) c
 the upper half, as a revolving door's enclosure does, so the co-rotating half is a dead
 end rather than a way round. A
 straight crossing at the nominal period's top speed (12.5 cm/s) finds a gap at 8 deg/s
-but not at 14 or 17; quicker steps find one (DESIGN.md §4).
+but not at 14 or 17; quicker steps find one (docs/model.md §4).
 """
 
 from __future__ import annotations

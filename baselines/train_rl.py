@@ -7,6 +7,7 @@ Usage::
     python baselines/train_rl.py --algo sac --env door --seeds 1 --timesteps 20000
     python baselines/train_rl.py --ship runs/rl/ppo/FootstepDoor-v0_1 --wall-time 1500   # ship a finished zoo run
     python baselines/train_rl.py --curves                                # learning curves of every shipped agent
+    python baselines/train_rl.py --throughput                            # PPO env steps/s with 1 and 2 envs
 
 Each seed is one ``python -m rl_zoo3.train`` run (hyperparameters: ``configs/rl/<algo>.yml``,
 one torch thread) into ``--log-folder``; the run's small files are then copied to
@@ -79,12 +80,32 @@ def draw_curves(agents_dir: Path, out_dir: Path, reference: Path, only: tuple[st
     return written
 
 
+def throughput_table(timesteps: int, rounds: int = 3) -> str:
+    """Median over ``rounds`` of PPO's env steps/s with 1 and 2 envs (configs/rl/ppo.yml hyperparameters)."""
+    import statistics
+
+    envs = [(e, None) for e in footstep_gym.ENV_IDS.values()] + [("CartPole-v1", "FootstepDoor-v0")]
+    lines = ["| env | PPO steps/s, 1 env | PPO steps/s, 2 envs |", "|---|---:|---:|"]
+    for env_id, hyper in envs:
+        cells = []
+        for n in (1, 2):
+            rates = [training.ppo_throughput(env_id, n, timesteps, hyperparams_of=hyper) for _ in range(rounds)]
+            cells.append(f"{statistics.median(rates):.0f} ({min(rates):.0f}-{max(rates):.0f})")
+        name = env_id + (" (door's hyperparameters; the ceiling)" if hyper else "")
+        lines.append(f"| {name} | {cells[0]} | {cells[1]} |")
+        print(lines[-1], file=sys.stderr)
+    return "\n".join(lines)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="train_rl.py", description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--ship", type=Path, metavar="RUN", help="ship a finished zoo run folder instead of training")
     mode.add_argument("--curves", action="store_true", help="only draw the learning curves of the shipped agents")
+    mode.add_argument("--throughput", action="store_true",
+                      help="measure PPO's env steps/s inside learn() with 1 and 2 envs on each env, CartPole-v1 "
+                           "as the ceiling; prints a markdown table (a measurement: run it on an idle machine)")
     parser.add_argument("--algo", choices=("ppo", "sac"), help="algorithm (a section of configs/rl/<algo>.yml)")
     parser.add_argument("--env", type=env_id_of, help="door, crossing, crowd, all (FootstepMix-v0) or an env id")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1], metavar="S", help="training seeds (default 1)")
@@ -108,6 +129,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.curves:
         for path in draw_curves(args.agents_dir, args.curves_dir, args.reference):
             print(path)
+        return 0
+    if args.throughput:
+        print(throughput_table(args.timesteps or 8192))
         return 0
     if args.ship is not None:
         if args.wall_time is None or args.wall_time <= 0:

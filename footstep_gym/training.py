@@ -203,3 +203,50 @@ def learning_curves(runs: Sequence[str | Path], out: str | Path, title: str,
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return out
+
+
+def _zoo_entry(algo: str, env_id: str) -> dict[str, Any]:
+    """The hyperparameter entry of ``env_id`` in ``configs/rl/<algo>.yml``, anchors resolved."""
+    data = yaml.safe_load((config_dir() / "rl" / f"{algo}.yml").read_text(encoding="utf-8"))
+    if env_id not in data:
+        raise KeyError(f"configs/rl/{algo}.yml has no entry for {env_id}")
+    return dict(data[env_id])
+
+
+def ppo_throughput(env_id: str, n_envs: int, timesteps: int = 8192, hyperparams_of: str | None = None) -> float:
+    """Env steps per second inside ``PPO.learn`` (rollouts and updates), one torch thread.
+
+    The model, wrappers and normalisation are those of ``configs/rl/ppo.yml``'s entry for
+    ``hyperparams_of`` (default ``env_id``) with ``n_envs`` envs in a ``DummyVecEnv``; a
+    first short ``learn`` warms up before the timed one. For an env with a discrete action
+    space (CartPole, the ceiling) the action rescaling is left out.
+    """
+    import gymnasium as gym
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    torch.set_num_threads(1)
+    entry = _zoo_entry("ppo", hyperparams_of or env_id)
+    env_kwargs = entry.get("env_kwargs", {}) if hyperparams_of is None else {}
+    discrete = isinstance(gym.make(env_id).action_space, gym.spaces.Discrete)
+
+    def wrap(env: gym.Env) -> gym.Env:
+        return env if discrete else gym.wrappers.RescaleAction(env, -1.0, 1.0)
+
+    venv = VecNormalize(make_vec_env(env_id, n_envs=n_envs, seed=0, env_kwargs=env_kwargs, wrapper_class=wrap),
+                        norm_obs=True, norm_reward=False)
+    keys = ("n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "learning_rate", "clip_range", "ent_coef")
+    kwargs = {k: entry[k] for k in keys if k in entry}
+    policy_kwargs = eval(entry["policy_kwargs"]) if isinstance(entry.get("policy_kwargs"), str) else {}  # zoo format
+    if discrete:
+        policy_kwargs.pop("log_std_init", None)
+    model = PPO(entry.get("policy", "MlpPolicy"), venv, policy_kwargs=policy_kwargs, seed=0, device="cpu", **kwargs)
+    model.learn(kwargs.get("n_steps", 512) * n_envs)  # warm-up: imports, first allocations
+    t0 = time.perf_counter()
+    model.learn(timesteps, reset_num_timesteps=False)
+    wall = time.perf_counter() - t0
+    done = model.num_timesteps - kwargs.get("n_steps", 512) * n_envs
+    venv.close()
+    return done / wall

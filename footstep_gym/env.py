@@ -35,6 +35,7 @@ class EnvConfig:
     collision_slop: float = positive()  # [m]
     max_check_interval: float = positive()  # [s]
     collision_motion_fraction: float = positive()
+    max_sweep_checks: int = positive()  # collision checks per footstep at most (bounds a step's cost)
     reward_progress: float = plain()  # per m
     reward_time: float = plain()  # per s
     reward_step: float = plain()  # per footstep
@@ -154,6 +155,14 @@ class FootstepEnv(gym.Env):
     ``crowd_speed``, ``goal``, ``randomize={"door_speed": [8, 17]}``), any key of
     ``configs/env.yaml`` (e.g. ``reward_time=-0.2``), and ``robot={...}`` for keys of
     ``configs/robot.yaml``. Unknown keys raise ``ValueError`` naming them.
+    Speeds and scales the collision sweep's cost grows with have upper bounds, keys of the
+    scenario's YAML: ``door_speed <= max_door_speed`` (360 deg/s), ``door_radius <=
+    max_door_radius`` (2 m), ``obstacle_speed <= max_obstacle_speed`` (5 m/s),
+    ``arrival_speed <= max_arrival_speed`` (2 m/s), ``crowd_speed <= max_crowd_speed``
+    (2 m/s), ``2 pi breathing_amplitude / breathing_period[0] <= max_breathing_speed``
+    (1 m/s); a value or ``randomize`` range above its bound raises ``ConfigError`` naming
+    both keys. Whatever the settings, a footstep makes at most ``max_sweep_checks``
+    (``configs/env.yaml``) collision checks.
     ``render_mode``: ``"rgb_array"`` (an ``(H, W, 3)`` uint8 frame) or ``"human"``.
 
     A planner reads :meth:`sensing`: a read-only snapshot of what a robot could sense now.
@@ -252,7 +261,7 @@ class FootstepEnv(gym.Env):
             self.world.clear_moving()  # the walls of the last episode are this one's
         else:
             self.world = World(self.robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
-                               env_cfg.collision_motion_fraction)
+                               env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks)
             self.scenario.build_static(self.world)
             self._static_config = cfg
         self.scenario.build(self.world)

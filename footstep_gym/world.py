@@ -11,11 +11,19 @@ robot and obstacles moving no faster than ``V`` between checks, nothing can touc
 ``d / V`` seconds, so the next check is that far ahead; where contact is possible the
 checks are never further apart than ``max_check_interval`` nor than the time in which
 anything moves ``collision_motion_fraction`` of the robot radius.
+
+A footstep's checks are capped at ``max_checks`` (``max_sweep_checks`` in ``configs/env.yaml``)
+whatever the speeds: where the rule above would space them closer than
+``duration / max_checks`` they are spaced that far apart instead (so a contact may be found
+late or missed), :attr:`SweepResult.capped` says so and a ``RuntimeWarning`` is issued once
+per world. Within the scenarios' ``max_*`` speed bounds the cap is never reached and the
+checks are exactly those of the rule.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Callable
 
@@ -51,24 +59,30 @@ class Obstacle:
 
 @dataclass(frozen=True)
 class SweepResult:
-    """Outcome of one footstep's sweep: ``collided``, its time [s] from the step start, the shape's name."""
+    """Outcome of one footstep's sweep: ``collided``, its time [s] from the step start, the shape's name,
+    the number of checks, and whether ``max_checks`` spaced them wider than the rule (``capped``)."""
 
     collided: bool
     time: float
     obstacle: str | None
     checks: int
+    capped: bool = False
 
 
 class World:
     """A pymunk space holding the obstacles and the robot's body circle."""
 
     def __init__(self, robot_radius: float, collision_slop: float, max_check_interval: float,
-                 motion_fraction: float) -> None:
+                 motion_fraction: float, max_checks: int) -> None:
+        if not (isinstance(max_checks, int) and max_checks >= 1):
+            raise ValueError(f"max_checks must be an integer >= 1, got {max_checks!r}")
         self.space = pymunk.Space()
         self.space.collision_slop = collision_slop
         self.robot_radius = robot_radius
         self.max_check_interval = max_check_interval
         self.motion_fraction = motion_fraction
+        self.max_checks = max_checks
+        self._warned_cap = False
         self.obstacles: list[Obstacle] = []
         self._by_shape: dict[pymunk.Shape, Obstacle] = {}
         self._moving: list[Obstacle] = []
@@ -210,13 +224,29 @@ class World:
         """Advance the world by ``duration`` [s] while the robot's centre follows ``path(t)``.
 
         Stops at the first contact (the world is then at that time). ``robot_speed_bound``
-        [m/s] must bound the robot's speed over the step.
+        [m/s] must bound the robot's speed over the step. At most ``max_checks`` + 1 checks
+        (see the module's docstring).
         """
         radius = self.robot_radius
         speed = robot_speed_bound + self.max_obstacle_speed()
+        if not math.isfinite(speed):
+            raise ValueError(f"sweep: robot speed bound {robot_speed_bound!r} m/s + obstacles' "
+                             f"{self.max_obstacle_speed()!r} m/s is not finite")
         fine = self.max_check_interval
         if speed > 0:
             fine = min(fine, self.motion_fraction * radius / speed)
+        floor = duration / self.max_checks
+        capped = fine < floor
+        if capped:
+            if not self._warned_cap:
+                self._warned_cap = True
+                warnings.warn(
+                    f"World.sweep: a {duration:.3g} s footstep with things moving up to {speed:.3g} m/s (body "
+                    f"radius {radius:g} m) needs checks {fine:.3g} s apart, more than max_sweep_checks="
+                    f"{self.max_checks}; they are spaced {floor:.3g} s apart instead, so a contact may be found "
+                    "late or missed. Keep speeds within the scenario's max_* bounds for exact collisions.",
+                    RuntimeWarning, stacklevel=2)
+            fine = floor
         t, checks = 0.0, 0
         while True:
             point = path(t)
@@ -225,7 +255,7 @@ class World:
             checks += 1
             if hit is not None and dist < radius:
                 self.robot_body.position = point
-                return SweepResult(True, t, hit.name, checks)
+                return SweepResult(True, t, hit.name, checks, capped)
             if t >= duration:
                 break
             remaining = duration - t
@@ -233,4 +263,4 @@ class World:
             self.advance(dt)
             t = duration if dt >= remaining else t + dt
         self.robot_body.position = path(duration)
-        return SweepResult(False, duration, None, checks)
+        return SweepResult(False, duration, None, checks, capped)

@@ -235,7 +235,7 @@ class World:
         fine = self.max_check_interval
         if speed > 0:
             fine = min(fine, self.motion_fraction * radius / speed)
-        floor = duration / self.max_checks
+        floor = duration / self.max_checks * (1.0 + 1e-9)  # the slack absorbs rounding in the sum of the steps
         capped = fine < floor
         if capped:
             if not self._warned_cap:

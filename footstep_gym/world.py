@@ -57,6 +57,10 @@ class Obstacle:
         return max(math.hypot(*self.local_a), math.hypot(*self.local_b)) + self.radius
 
 
+def _first(entry: tuple) -> float:
+    return entry[0]
+
+
 @dataclass(frozen=True)
 class SweepResult:
     """Outcome of one footstep's sweep: ``collided``, its time [s] from the step start, the shape's name,
@@ -83,6 +87,7 @@ class World:
         self.motion_fraction = motion_fraction
         self.max_checks = max_checks
         self._warned_cap = False
+        self._geometry_cache: list | None = None  # see _geometry()
         self.obstacles: list[Obstacle] = []
         self._by_shape: dict[pymunk.Shape, Obstacle] = {}
         self._moving: list[Obstacle] = []
@@ -98,6 +103,7 @@ class World:
             self.space.remove(o.body, o.shape)
             del self._by_shape[o.shape]
         self.obstacles = [o for o in self.obstacles if o not in self._moving]
+        self._geometry_cache = None
         self._moving = []
         self.time = 0.0
 
@@ -111,6 +117,7 @@ class World:
             self.space.add(body, shape)
         obstacle = Obstacle(name, kind, shape, a, b, radius, static=body.body_type == pymunk.Body.STATIC)
         self.obstacles.append(obstacle)
+        self._geometry_cache = None
         self._by_shape[shape] = obstacle
         if body.body_type != pymunk.Body.STATIC:
             self._moving.append(obstacle)
@@ -168,36 +175,55 @@ class World:
         """
         px, py = point
         found = []
-        for o in self.obstacles:
-            if o.static:  # on the space's static body, at the origin: its frame is the world's
-                (ax, ay), (bx, by) = o.local_a, o.local_b
-                ox = oy = w = 0.0
+        hypot = math.hypot
+        for o, static in self._geometry():
+            radius = o.radius
+            if static is not None:  # on the space's static body: its frame is the world's, its numbers fixed
+                ax, ay, dx, dy, L2 = static
             else:
                 body = o.body
-                (ox, oy), angle, w = body.position, body.angle, body.angular_velocity
+                (ox, oy), angle = body.position, body.angle
                 c, s = math.cos(angle), math.sin(angle)
                 ax, ay = ox + c * o.local_a[0] - s * o.local_a[1], oy + s * o.local_a[0] + c * o.local_a[1]
                 bx, by = ox + c * o.local_b[0] - s * o.local_b[1], oy + s * o.local_b[0] + c * o.local_b[1]
-            dx, dy = bx - ax, by - ay
-            L2 = dx * dx + dy * dy
+                dx, dy = bx - ax, by - ay
+                L2 = dx * dx + dy * dy
             u = 0.0 if L2 == 0.0 else min(max(((px - ax) * dx + (py - ay) * dy) / L2, 0.0), 1.0)
             qx, qy = ax + u * dx, ay + u * dy  # nearest point of the centre line
             nx, ny = px - qx, py - qy
-            d = math.hypot(nx, ny)
-            if d - o.radius > max_distance:
+            d = hypot(nx, ny)
+            if d - radius > max_distance:
                 continue
             if d > 0.0:
-                cp = (qx + o.radius * nx / d, qy + o.radius * ny / d)
+                cp = (qx + radius * nx / d, qy + radius * ny / d)
             else:  # the point lies on the centre line: any normal will do
-                cp = (qx, qy + o.radius)
-            if o.static:
+                cp = (qx, qy + radius)
+            if static is not None:
                 v = (0.0, 0.0)
             else:
-                vx, vy = o.body.velocity
+                w = body.angular_velocity
+                vx, vy = body.velocity
                 v = (vx - w * (cp[1] - oy), vy + w * (cp[0] - ox))
-            found.append((d - o.radius, cp, v, o))
-        found.sort(key=lambda e: e[0])
+            found.append((d - radius, cp, v, o))
+        found.sort(key=_first)
         return found[:k]
+
+    def _geometry(self) -> list[tuple[Obstacle, tuple[float, float, float, float, float] | None]]:
+        """Every obstacle with, for a static one, its centre line's fixed numbers ``(ax, ay, dx, dy, |d|^2)``.
+
+        Rebuilt after the obstacles change (:meth:`_add`, :meth:`clear_moving`).
+        """
+        if self._geometry_cache is None:
+            rows = []
+            for o in self.obstacles:
+                static = None
+                if o.static:
+                    (ax, ay), (bx, by) = o.local_a, o.local_b
+                    dx, dy = bx - ax, by - ay
+                    static = (ax, ay, dx, dy, dx * dx + dy * dy)
+                rows.append((o, static))
+            self._geometry_cache = rows
+        return self._geometry_cache
 
     def views(self) -> tuple[ObstacleView, ...]:
         """Every obstacle as the sensing snapshot reports it (current state only)."""

@@ -35,6 +35,7 @@ class EnvConfig:
     collision_slop: float = positive()  # [m]
     max_check_interval: float = positive()  # [s]
     collision_motion_fraction: float = positive()
+    max_sweep_checks: int = positive()  # collision checks per footstep at most (bounds a step's cost)
     reward_progress: float = plain()  # per m
     reward_time: float = plain()  # per s
     reward_step: float = plain()  # per footstep
@@ -93,7 +94,8 @@ class FootstepEnv(gym.Env):
     in its own dtype: a float32 action at a float32-rounded limit (the box's bounds, the
     turn limits) is that limit exactly, so what SB3 sends at the box's edge is the command
     it rounds from. A finite command outside the box is clipped (``info["clipped"]``);
-    NaN/inf or a wrong shape raises ``ValueError``. A command outside the turn limits, with overlapping feet, or whose ZMP
+    NaN/inf or a wrong shape raises :class:`~footstep_gym.errors.ActionError` (a ``ValueError``)
+    naming the env and the bad field. A command outside the turn limits, with overlapping feet, or whose ZMP
     leaves the stable region ends the episode as a fall.
 
     ## Observation Space
@@ -134,7 +136,9 @@ class FootstepEnv(gym.Env):
     ## Episode End
     Terminated on ``"goal"`` (robot centre within ``goal_tolerance``), ``"collision"`` (the
     body circle touches an obstacle at any time of a step) or ``"fall"`` (infeasible step).
-    Truncated after ``max_steps`` footsteps or ``time_limit`` simulated seconds.
+    Truncated after ``max_steps`` footsteps or ``time_limit`` simulated seconds. ``step``
+    after the episode ended (terminated or truncated) raises ``gymnasium.error.ResetNeeded``
+    naming how and when it ended; call ``reset()`` first (vector envs and SB3 do).
 
     ## Info
     Every step: ``is_success``, ``termination`` (one of ``"goal"``, ``"collision"``,
@@ -156,6 +160,14 @@ class FootstepEnv(gym.Env):
     ``crowd_speed``, ``goal``, ``randomize={"door_speed": [8, 17]}``), any key of
     ``configs/env.yaml`` (e.g. ``reward_time=-0.2``), and ``robot={...}`` for keys of
     ``configs/robot.yaml``. Unknown keys raise ``ValueError`` naming them.
+    Speeds and scales the collision sweep's cost grows with have upper bounds, keys of the
+    scenario's YAML: ``door_speed <= max_door_speed`` (360 deg/s), ``door_radius <=
+    max_door_radius`` (2 m), ``obstacle_speed <= max_obstacle_speed`` (5 m/s),
+    ``arrival_speed <= max_arrival_speed`` (2 m/s), ``crowd_speed <= max_crowd_speed``
+    (2 m/s), ``2 pi breathing_amplitude / breathing_period[0] <= max_breathing_speed``
+    (1 m/s); a value or ``randomize`` range above its bound raises ``ConfigError`` naming
+    both keys. Whatever the settings, a footstep makes at most ``max_sweep_checks``
+    (``configs/env.yaml``) collision checks.
     ``render_mode``: ``"rgb_array"`` (an ``(H, W, 3)`` uint8 frame of the present),
     ``"rgb_array_list"`` (every frame since the last ``render()``, drawn inside the steps at
     ``video_fps`` frames per simulated second, so a video at ``metadata["render_fps"]`` plays
@@ -190,6 +202,8 @@ class FootstepEnv(gym.Env):
         if render_mode == "rgb_array_list":  # frames from inside the steps, evenly spaced in simulated time
             self.metadata = {**self.metadata, "render_fps": self.config.video_fps}
         self._frames: list[np.ndarray] = []
+        #: Overrides :attr:`env_name` (an owner such as ``FootstepMixEnv`` names its scene envs).
+        self.display_name: str | None = None
 
         self.action_space = spaces.Box(
             self.robot.command_low.astype(np.float32), self.robot.command_high.astype(np.float32), dtype=np.float32
@@ -221,7 +235,16 @@ class FootstepEnv(gym.Env):
         self.com_vel = 0j
         self.previous_command = self.robot.nominal_command.copy()
         self.terminated = False
+        self.ended: str | None = None  # why the episode ended ("fall", "truncated: max_steps=200"), None while under way
         self.history: dict[str, list] = {"footprints": [], "com": [], "zmp": []}
+
+    @property
+    def env_name(self) -> str:
+        """How this env names itself in error messages: ``display_name``, its registered id, or its scenario."""
+        if self.display_name is not None:
+            return self.display_name
+        spec = self.spec
+        return spec.id if spec is not None else f"FootstepEnv(scenario={self.scenario_name!r})"
 
     def _local_com(self) -> tuple[complex, complex]:
         support = self.feet[self.support_side]
@@ -249,7 +272,7 @@ class FootstepEnv(gym.Env):
             self.world.clear_moving()  # the walls of the last episode are this one's
         else:
             self.world = World(self.robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
-                               env_cfg.collision_motion_fraction)
+                               env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks)
             self.scenario.build_static(self.world)
             self._static_config = cfg
         self.scenario.build(self.world)
@@ -291,12 +314,13 @@ class FootstepEnv(gym.Env):
             raw = np.asarray(action)
             a = raw.astype(np.float64)
         except (TypeError, ValueError) as exc:
-            raise ActionError(f"action must be 5 numbers [S, L, theta, T_SS, T_DS], got {action!r}") from exc
+            raise ActionError(f"{self.env_name}: action must be 5 numbers [S, L, theta, T_SS, T_DS], "
+                              f"got {action!r}") from exc
         if a.shape != (5,):
-            raise ActionError(f"action shape={a.shape} but expected (5,) = [S, L, theta, T_SS, T_DS]")
+            raise ActionError(f"{self.env_name}: action shape={a.shape} but expected (5,) = [S, L, theta, T_SS, T_DS]")
         bad = [f"{name}={v}" for name, v in zip(COMMAND_FIELDS, a) if not math.isfinite(v)]
         if bad:
-            raise ActionError(f"action has non-finite field(s): {', '.join(bad)}")
+            raise ActionError(f"{self.env_name}: action has non-finite field(s): {', '.join(bad)}")
         own = raw.dtype if raw.dtype.kind == "f" and raw.dtype.itemsize < 8 else None
         if own is not None:
             for i, limits in enumerate(self._limits64):
@@ -308,7 +332,10 @@ class FootstepEnv(gym.Env):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self.world is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
+            raise gym.error.ResetNeeded(f"{self.env_name}: call reset() before step()")
+        if self.ended is not None:
+            raise gym.error.ResetNeeded(
+                f"{self.env_name}: episode ended ({self.ended}) at step {self.steps}; call reset() before step()")
         command, clipped = self._validate_action(action)
         robot, env_cfg, cfg = self.robot, self.config, self.episode_config
         S, L, theta, t_ss, t_ds = (float(v) for v in command)
@@ -373,6 +400,11 @@ class FootstepEnv(gym.Env):
         terminated = termination is not None
         truncated = not terminated and (self.steps >= cfg.max_steps or self.time >= cfg.time_limit)
         self.terminated = terminated
+        if terminated:
+            self.ended = termination
+        elif truncated:
+            self.ended = (f"truncated: max_steps={cfg.max_steps} reached" if self.steps >= cfg.max_steps
+                          else f"truncated: time_limit={cfg.time_limit} s reached")
         info = {
             "is_success": termination == "goal",
             "termination": termination,
@@ -422,7 +454,7 @@ class FootstepEnv(gym.Env):
     def sensing(self) -> Snapshot:
         """What a robot could sense now (read-only): feet, CoM, goal, obstacles' shapes and velocities."""
         if self.world is None:
-            raise gym.error.ResetNeeded("call reset() before sensing()")
+            raise gym.error.ResetNeeded(f"{self.env_name}: call reset() before sensing()")
         com_local, vel_local = self._local_com()
         cfg = self.episode_config
         return Snapshot(
@@ -447,7 +479,7 @@ class FootstepEnv(gym.Env):
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
             return None
         if self.world is None:
-            raise gym.error.ResetNeeded("call reset() before render()")
+            raise gym.error.ResetNeeded(f"{self.env_name}: call reset() before render()")
         if self.render_mode == "rgb_array_list":
             frames, self._frames = self._frames, []
             return frames

@@ -33,6 +33,11 @@ class FootstepMixEnv(gym.Env):
     ## Info
     The scene env's info plus ``scene`` (``"door"``, ``"crossing"`` or ``"crowd"``).
 
+    ## Errors
+    Those of the scene env, named ``"FootstepMix-v0 (scene 'door')"``: a bad action raises
+    ``ActionError``; ``step`` before ``reset`` or after the episode ended raises
+    ``gymnasium.error.ResetNeeded``.
+
     ## Arguments
     * ``scenes``: the scenes to draw from (default all three);
     * ``weights``: their probabilities (default uniform);
@@ -70,6 +75,8 @@ class FootstepMixEnv(gym.Env):
         self.weights = probs
         self.render_mode = render_mode
         self.envs = {s: FootstepEnv(scenario=s, render_mode=render_mode, **dict(overrides[s] or {})) for s in scenes}
+        for name, env in self.envs.items():
+            env.display_name = f"{type(self).__name__} (scene {name!r})"  # reset() puts the registered id in
         first = self.envs[scenes[0]]
         for name, env in self.envs.items():
             if env.action_space != first.action_space or env.observation_space != first.observation_space:
@@ -108,6 +115,8 @@ class FootstepMixEnv(gym.Env):
               ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         self.scene = self.scenes[int(self.np_random.choice(len(self.scenes), p=self.weights))]
+        own = self.spec.id if self.spec is not None else type(self).__name__
+        self.current.display_name = f"{own} (scene {self.scene!r})"  # errors name the mix and the scene
         obs, info = self.current.reset(seed=int(self.np_random.integers(2**31 - 1)), options=options)
         info["scene"] = self.scene
         return obs, info

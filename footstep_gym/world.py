@@ -11,11 +11,19 @@ robot and obstacles moving no faster than ``V`` between checks, nothing can touc
 ``d / V`` seconds, so the next check is that far ahead; where contact is possible the
 checks are never further apart than ``max_check_interval`` nor than the time in which
 anything moves ``collision_motion_fraction`` of the robot radius.
+
+A footstep's checks are capped at ``max_checks`` (``max_sweep_checks`` in ``configs/env.yaml``)
+whatever the speeds: where the rule above would space them closer than
+``duration / max_checks`` they are spaced that far apart instead (so a contact may be found
+late or missed), :attr:`SweepResult.capped` says so and a ``RuntimeWarning`` is issued once
+per world. Within the scenarios' ``max_*`` speed bounds the cap is never reached and the
+checks are exactly those of the rule.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from typing import Callable
 
@@ -49,9 +57,14 @@ class Obstacle:
         return max(math.hypot(*self.local_a), math.hypot(*self.local_b)) + self.radius
 
 
+def _first(entry: tuple) -> float:
+    return entry[0]
+
+
 @dataclass(frozen=True)
 class SweepResult:
-    """Outcome of one footstep's sweep: ``collided``, its time [s] from the step start, the shape's name.
+    """Outcome of one footstep's sweep: ``collided``, its time [s] from the step start, the shape's name,
+    the number of checks, and whether ``max_checks`` spaced them wider than the rule (``capped``).
 
     ``clearance`` [m] is the smallest gap between the robot's circle and any obstacle at the
     sweep's checks (negative on a collision; ``inf`` if no obstacle came within reach of the
@@ -65,18 +78,24 @@ class SweepResult:
     obstacle: str | None
     checks: int
     clearance: float
+    capped: bool = False
 
 
 class World:
     """A pymunk space holding the obstacles and the robot's body circle."""
 
     def __init__(self, robot_radius: float, collision_slop: float, max_check_interval: float,
-                 motion_fraction: float) -> None:
+                 motion_fraction: float, max_checks: int) -> None:
+        if not (isinstance(max_checks, int) and max_checks >= 1):
+            raise ValueError(f"max_checks must be an integer >= 1, got {max_checks!r}")
         self.space = pymunk.Space()
         self.space.collision_slop = collision_slop
         self.robot_radius = robot_radius
         self.max_check_interval = max_check_interval
         self.motion_fraction = motion_fraction
+        self.max_checks = max_checks
+        self._warned_cap = False
+        self._geometry_cache: list | None = None  # see _geometry()
         self.obstacles: list[Obstacle] = []
         self._by_shape: dict[pymunk.Shape, Obstacle] = {}
         self._moving: list[Obstacle] = []
@@ -92,6 +111,7 @@ class World:
             self.space.remove(o.body, o.shape)
             del self._by_shape[o.shape]
         self.obstacles = [o for o in self.obstacles if o not in self._moving]
+        self._geometry_cache = None
         self._moving = []
         self.time = 0.0
 
@@ -105,6 +125,7 @@ class World:
             self.space.add(body, shape)
         obstacle = Obstacle(name, kind, shape, a, b, radius, static=body.body_type == pymunk.Body.STATIC)
         self.obstacles.append(obstacle)
+        self._geometry_cache = None
         self._by_shape[shape] = obstacle
         if body.body_type != pymunk.Body.STATIC:
             self._moving.append(obstacle)
@@ -162,36 +183,55 @@ class World:
         """
         px, py = point
         found = []
-        for o in self.obstacles:
-            if o.static:  # on the space's static body, at the origin: its frame is the world's
-                (ax, ay), (bx, by) = o.local_a, o.local_b
-                ox = oy = w = 0.0
+        hypot = math.hypot
+        for o, static in self._geometry():
+            radius = o.radius
+            if static is not None:  # on the space's static body: its frame is the world's, its numbers fixed
+                ax, ay, dx, dy, L2 = static
             else:
                 body = o.body
-                (ox, oy), angle, w = body.position, body.angle, body.angular_velocity
+                (ox, oy), angle = body.position, body.angle
                 c, s = math.cos(angle), math.sin(angle)
                 ax, ay = ox + c * o.local_a[0] - s * o.local_a[1], oy + s * o.local_a[0] + c * o.local_a[1]
                 bx, by = ox + c * o.local_b[0] - s * o.local_b[1], oy + s * o.local_b[0] + c * o.local_b[1]
-            dx, dy = bx - ax, by - ay
-            L2 = dx * dx + dy * dy
+                dx, dy = bx - ax, by - ay
+                L2 = dx * dx + dy * dy
             u = 0.0 if L2 == 0.0 else min(max(((px - ax) * dx + (py - ay) * dy) / L2, 0.0), 1.0)
             qx, qy = ax + u * dx, ay + u * dy  # nearest point of the centre line
             nx, ny = px - qx, py - qy
-            d = math.hypot(nx, ny)
-            if d - o.radius > max_distance:
+            d = hypot(nx, ny)
+            if d - radius > max_distance:
                 continue
             if d > 0.0:
-                cp = (qx + o.radius * nx / d, qy + o.radius * ny / d)
+                cp = (qx + radius * nx / d, qy + radius * ny / d)
             else:  # the point lies on the centre line: any normal will do
-                cp = (qx, qy + o.radius)
-            if o.static:
+                cp = (qx, qy + radius)
+            if static is not None:
                 v = (0.0, 0.0)
             else:
-                vx, vy = o.body.velocity
+                w = body.angular_velocity
+                vx, vy = body.velocity
                 v = (vx - w * (cp[1] - oy), vy + w * (cp[0] - ox))
-            found.append((d - o.radius, cp, v, o))
-        found.sort(key=lambda e: e[0])
+            found.append((d - radius, cp, v, o))
+        found.sort(key=_first)
         return found[:k]
+
+    def _geometry(self) -> list[tuple[Obstacle, tuple[float, float, float, float, float] | None]]:
+        """Every obstacle with, for a static one, its centre line's fixed numbers ``(ax, ay, dx, dy, |d|^2)``.
+
+        Rebuilt after the obstacles change (:meth:`_add`, :meth:`clear_moving`).
+        """
+        if self._geometry_cache is None:
+            rows = []
+            for o in self.obstacles:
+                static = None
+                if o.static:
+                    (ax, ay), (bx, by) = o.local_a, o.local_b
+                    dx, dy = bx - ax, by - ay
+                    static = (ax, ay, dx, dy, dx * dx + dy * dy)
+                rows.append((o, static))
+            self._geometry_cache = rows
+        return self._geometry_cache
 
     def views(self) -> tuple[ObstacleView, ...]:
         """Every obstacle as the sensing snapshot reports it (current state only)."""
@@ -218,13 +258,29 @@ class World:
         """Advance the world by ``duration`` [s] while the robot's centre follows ``path(t)``.
 
         Stops at the first contact (the world is then at that time). ``robot_speed_bound``
-        [m/s] must bound the robot's speed over the step.
+        [m/s] must bound the robot's speed over the step. At most ``max_checks`` + 1 checks
+        (see the module's docstring).
         """
         radius = self.robot_radius
         speed = robot_speed_bound + self.max_obstacle_speed()
+        if not math.isfinite(speed):
+            raise ValueError(f"sweep: robot speed bound {robot_speed_bound!r} m/s + obstacles' "
+                             f"{self.max_obstacle_speed()!r} m/s is not finite")
         fine = self.max_check_interval
         if speed > 0:
             fine = min(fine, self.motion_fraction * radius / speed)
+        floor = duration / self.max_checks * (1.0 + 1e-9)  # the slack absorbs rounding in the sum of the steps
+        capped = fine < floor
+        if capped:
+            if not self._warned_cap:
+                self._warned_cap = True
+                warnings.warn(
+                    f"World.sweep: a {duration:.3g} s footstep with things moving up to {speed:.3g} m/s (body "
+                    f"radius {radius:g} m) needs checks {fine:.3g} s apart, more than max_sweep_checks="
+                    f"{self.max_checks}; they are spaced {floor:.3g} s apart instead, so a contact may be found "
+                    "late or missed. Keep speeds within the scenario's max_* bounds for exact collisions.",
+                    RuntimeWarning, stacklevel=2)
+            fine = floor
         t, checks, nearest = 0.0, 0, math.inf
         while True:
             point = path(t)
@@ -235,7 +291,7 @@ class World:
                 nearest = min(nearest, dist)
             if hit is not None and dist < radius:
                 self.robot_body.position = point
-                return SweepResult(True, t, hit.name, checks, dist - radius)
+                return SweepResult(True, t, hit.name, checks, dist - radius, capped)
             if t >= duration:
                 break
             remaining = duration - t
@@ -243,4 +299,4 @@ class World:
             self.advance(dt)
             t = duration if dt >= remaining else t + dt
         self.robot_body.position = path(duration)
-        return SweepResult(False, duration, None, checks, nearest - radius)
+        return SweepResult(False, duration, None, checks, nearest - radius, capped)

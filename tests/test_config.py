@@ -272,3 +272,65 @@ def test_integers_given_as_whole_floats_are_accepted():
     env = gym.make("FootstepDoor-v0", max_steps=3.0)
     assert env.unwrapped.scenario_config.max_steps == 3
     assert type(env.unwrapped.scenario_config.max_steps) is int
+
+
+# ------------------------------------------------------------------ upper bounds of speeds and scales
+BOUNDED = [  # (env id, key, bound key, a value above the YAML's bound, extra settings that keep the rest valid)
+    ("FootstepDoor-v0", "door_speed", "max_door_speed", 1e9, {}),
+    ("FootstepDoor-v0", "door_radius", "max_door_radius", 3.0, dict(corridor_y=[-3.1, 0.0], drum_segments=60)),
+    ("FootstepCrossing-v0", "obstacle_speed", "max_obstacle_speed", 6.0, {}),
+    ("FootstepCrossing-v0", "arrival_speed", "max_arrival_speed", 2.5, {}),
+    ("FootstepCrowd-v0", "crowd_speed", "max_crowd_speed", 3.0, {}),
+]
+
+
+@pytest.mark.parametrize("env_id, key, bound, value, extra", BOUNDED, ids=[b[1] for b in BOUNDED])
+def test_speed_above_its_bound_is_rejected_by_name(env_id, key, bound, value, extra):
+    data = read_yaml(f"scenarios/{SCENARIO_FILES[env_id]}.yaml")
+    limit = data[bound]
+    assert value > limit
+    with pytest.raises(ConfigError) as exc:
+        gym.make(env_id, **{key: value, **extra})
+    message = str(exc.value)
+    assert f"{key}={value:g}" in message and f"{bound}={limit:g}" in message
+    # A randomize range reaching above the bound is rejected at construction, not at a later reset.
+    with pytest.raises(ConfigError) as exc:
+        gym.make(env_id, randomize={key: [0.5 * limit, value]}, **extra)
+    assert f"randomize.{key} reaches {value:g}" in str(exc.value) and bound in str(exc.value)
+    # The bound itself is accepted, and raising the bound lets the value through.
+    gym.make(env_id, **{key: limit, **extra}).reset(seed=0)
+    env = gym.make(env_id, **{key: value, bound: 2 * value, **extra}).unwrapped
+    assert getattr(env.scenario_config, key) == value
+
+
+def test_door_speed_bound_is_checked_in_the_mix_env_too():
+    with pytest.raises(ConfigError, match="door_speed=1e\\+09.*max_door_speed=360"):
+        gym.make("FootstepMix-v0", door={"door_speed": 1e9})
+
+
+@pytest.mark.parametrize("kwargs", [
+    dict(breathing_amplitude=0.2, breathing_period=[1.0, 2.0], ring_radius=0.5),       # 2 pi 0.2 / 1 = 1.26 m/s
+    dict(breathing_amplitude=0.04, breathing_period=[0.1, 2.0]),                        # 2.5 m/s
+    dict(randomize={"breathing_amplitude": [0.0, 0.2]}, breathing_period=[1.0, 2.0], ring_radius=0.5),
+])
+def test_crowd_breathing_speed_above_its_bound_is_rejected_by_name(kwargs):
+    limit = read_yaml("scenarios/crowd.yaml")["max_breathing_speed"]
+    with pytest.raises(ConfigError) as exc:
+        gym.make("FootstepCrowd-v0", **kwargs)
+    message = str(exc.value)
+    assert "breathing_amplitude" in message and "breathing_period" in message
+    assert f"max_breathing_speed={limit:g}" in message
+    gym.make("FootstepCrowd-v0", max_breathing_speed=10.0, **kwargs).reset(seed=0)
+
+
+@pytest.mark.parametrize("bound", ["max_door_speed", "max_door_radius"])
+def test_a_bound_cannot_be_randomized(bound):
+    with pytest.raises(ConfigError, match=f"randomize: '{bound}' is not a numeric key"):
+        gym.make("FootstepDoor-v0", randomize={bound: [10.0, 20.0]})
+
+
+@pytest.mark.parametrize("bound", ["max_door_speed", "max_obstacle_speed", "max_sweep_checks"])
+def test_bounds_must_be_positive(bound):
+    env_id = "FootstepCrossing-v0" if bound == "max_obstacle_speed" else "FootstepDoor-v0"
+    with pytest.raises(ConfigError, match=bound):
+        gym.make(env_id, **{bound: 0})

@@ -727,3 +727,147 @@ def test_randomized_geometry_rebuilds_the_walls():
     again = {o.name: tuple(o.shape.a) for o in env.unwrapped.world.obstacles if o.name == "wall_top_right"}
     assert ends != again  # the upper wall's end follows the drawn door radius
     assert len([o for o in env.unwrapped.world.obstacles if o.name == "wall_top_right"]) == 1
+
+
+# ------------------------------------------------------------------ stepping after the end
+def end_episode(env, how):
+    """Step ``env`` (reset at seed 0) until its episode ends the way ``how`` names; the last step's flags."""
+    if how == "fall":  # -0.3 rad turns the left foot towards the right one: beyond turn_inner (0.2)
+        actions = [np.array([0.0, 0.10, -0.3, 0.6, 0.2])]
+    elif how == "collision":  # stepping in place while the car's side passes 8 cm from the CoM
+        actions = [NOMINAL] * 10
+    elif how == "goal":
+        actions = strides(0.02, 0.04, 0.06, 0.08) + strides(*([0.10] * 30))
+    else:
+        actions = [NOMINAL] * 10
+    env.reset(seed=0)
+    for n, action in enumerate(actions, start=1):
+        _, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            return n, terminated, truncated, info
+    raise AssertionError(f"the episode did not end by {how}")
+
+
+END_SETTINGS = {
+    "fall": ({}, "fall"),
+    "collision": (dict(crossing_x=0.2, timing_jitter=0.0), "collision"),
+    "goal": ({}, "goal"),
+    "max_steps": (dict(max_steps=3), "truncated: max_steps=3 reached"),
+    "time_limit": (dict(time_limit=2.0), "truncated: time_limit=2.0 s reached"),
+}
+
+
+@pytest.mark.parametrize("how", list(END_SETTINGS))
+def test_step_after_the_episode_ended_raises_reset_needed(how):
+    kwargs, words = END_SETTINGS[how]
+    env = gym.make("FootstepCrossing-v0", **{**FREE, **kwargs})
+    n, terminated, truncated, info = end_episode(env, how)
+    assert (terminated, truncated) == ((False, True) if how in ("max_steps", "time_limit") else (True, False))
+    if terminated:
+        assert info["termination"] == how
+    state = (env.unwrapped.time, env.unwrapped.steps, env.unwrapped.com)
+    for action in (NOMINAL, np.array([0.0, 0.10, -0.3, 0.6, 0.2])):
+        with pytest.raises(gym.error.ResetNeeded) as exc:
+            env.step(action)
+        message = str(exc.value)
+        assert f"episode ended ({words}) at step {n}" in message and "reset()" in message
+        assert message.startswith("FootstepCrossing-v0:")
+    assert (env.unwrapped.time, env.unwrapped.steps, env.unwrapped.com) == state  # nothing moved on
+    env.reset(seed=1)  # a reset starts a new episode that steps as usual
+    _, _, _, _, info = env.step(NOMINAL)
+    assert info["steps"] == 1 and info["time"] > 0.0
+
+
+def test_step_after_the_end_raises_on_the_unwrapped_env_and_its_sensing_still_works():
+    env = gym.make("FootstepDoor-v0").unwrapped
+    n, *_ = end_episode(env, "fall")
+    with pytest.raises(gym.error.ResetNeeded, match=r"FootstepDoor-v0: episode ended \(fall\) at step 1"):
+        env.step(NOMINAL)
+    assert env.sensing().time == 0.0  # what a planner reads after the end is still there
+    direct = footstep_gym.env.FootstepEnv(scenario="crowd")
+    with pytest.raises(gym.error.ResetNeeded, match=r"FootstepEnv\(scenario='crowd'\): call reset\(\) before step"):
+        direct.step(NOMINAL)
+
+
+def test_mix_env_after_the_end_raises_naming_the_mix_and_the_scene():
+    env = gym.make("FootstepMix-v0", scenes=["crossing", "door"], crossing=dict(max_steps=2, **FREE),
+                   door=dict(max_steps=2))
+    with pytest.raises(gym.error.ResetNeeded, match="reset"):
+        env.step(NOMINAL)
+    with pytest.raises(gym.error.ResetNeeded, match=r"FootstepMixEnv \(scene 'crossing'\): call reset\(\) before step"):
+        env.unwrapped.step(NOMINAL)
+    for seed in range(4):
+        _, info = env.reset(seed=seed)
+        scene = info["scene"]
+        env.step(NOMINAL)
+        _, _, terminated, truncated, _ = env.step(NOMINAL)
+        assert truncated and not terminated
+        with pytest.raises(gym.error.ResetNeeded) as exc:
+            env.step(NOMINAL)
+        assert str(exc.value).startswith(f"FootstepMix-v0 (scene '{scene}'): episode ended (truncated: max_steps=2 reached) at step 2")
+    bad = NOMINAL.copy()
+    bad[3] = np.nan
+    env.reset(seed=0)
+    with pytest.raises(footstep_gym.ActionError, match=r"FootstepMix-v0 \(scene '\w+'\): .*t_ss=nan"):
+        env.step(bad)
+
+
+@pytest.mark.parametrize("mode", ["sync", "async"])
+@pytest.mark.parametrize("env_id", ["FootstepCrossing-v0", "FootstepMix-v0"])
+def test_vector_envs_reset_ended_episodes_by_themselves(env_id, mode):
+    """Gymnasium's NEXT_STEP autoreset: the step after an end resets that sub-env, so nothing raises."""
+    envs = gym.make_vec(env_id, num_envs=2, vectorization_mode=mode,
+                        vector_kwargs={"autoreset_mode": gym.vector.AutoresetMode.NEXT_STEP})
+    try:
+        envs.reset(seed=0)
+        envs.action_space.seed(0)
+        ended = 0
+        for _ in range(30):  # random commands fall within a few steps
+            _, reward, terminated, truncated, _ = envs.step(envs.action_space.sample())
+            ended += int(np.sum(terminated | truncated))
+            assert np.all(np.isfinite(reward))
+        assert ended >= 4
+    finally:
+        envs.close()
+
+
+@pytest.mark.parametrize("vec", ["dummy", "subproc"])
+def test_sb3_vec_envs_reset_ended_episodes_by_themselves(vec):
+    sb3_vec = pytest.importorskip("stable_baselines3.common.vec_env")
+    fns = [lambda: gym.make("FootstepDoor-v0") for _ in range(2)]
+    envs = sb3_vec.DummyVecEnv(fns) if vec == "dummy" else sb3_vec.SubprocVecEnv(fns, start_method="fork")
+    try:
+        envs.seed(0)
+        envs.reset()
+        rng = np.random.default_rng(0)
+        space = envs.action_space
+        dones = 0
+        for _ in range(30):
+            actions = rng.uniform(space.low, space.high, (2, 5)).astype(np.float32)
+            _, reward, done, _ = envs.step(actions)
+            dones += int(done.sum())
+            assert np.all(np.isfinite(reward))
+        assert dones >= 4
+    finally:
+        envs.close()
+
+
+# ------------------------------------------------------------------ errors from a vector env's workers
+@pytest.mark.parametrize("env_id, name", [("FootstepDoor-v0", "FootstepDoor-v0"),
+                                          ("FootstepMix-v0", r"FootstepMix-v0 \(scene '\w+'\)")])
+def test_async_worker_error_names_the_env_and_the_error(env_id, name):
+    envs = gym.make_vec(env_id, num_envs=2, vectorization_mode="async")
+    try:
+        envs.reset(seed=0)
+        actions = np.tile(NOMINAL.astype(np.float32), (2, 1))
+        actions[1, 3] = np.nan
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            with pytest.raises(footstep_gym.ActionError,
+                               match=rf"^{name}: action has non-finite field\(s\): t_ss=nan$"):
+                envs.step(actions)
+    finally:
+        envs.close(terminate=True)
+    # Gymnasium reports (as warnings) which worker failed, with the worker's traceback.
+    logged = "\n".join(str(w.message) for w in caught)
+    assert "Worker-1" in logged and "footstep_gym.errors.ActionError" in logged

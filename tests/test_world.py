@@ -9,6 +9,7 @@ sways as scipy's numerical integration of the LIPM says it should.
 from __future__ import annotations
 
 import math
+import warnings
 
 import gymnasium as gym
 import numpy as np
@@ -26,8 +27,9 @@ FRACTION = 0.25
 NOMINAL = np.array([0.0, 0.08, 0.0, 0.6, 0.2])
 
 
-def make_world(radius: float = R) -> World:
-    return World(radius, collision_slop=0.001, max_check_interval=MAX_CHECK, motion_fraction=FRACTION)
+def make_world(radius: float = R, max_checks: int = 10**9) -> World:
+    return World(radius, collision_slop=0.001, max_check_interval=MAX_CHECK, motion_fraction=FRACTION,
+                 max_checks=max_checks)
 
 
 def standing(x: float = 0.0, y: float = 0.0):
@@ -192,6 +194,110 @@ def test_max_obstacle_speed_counts_rotation():
     world.add_rod("rod", (0.0, 2.0), (-0.5, 0.0), (0.5, 0.0), 0.02, angular_velocity=-2.0)
     # Fastest point: the rod's tip surface, 0.51 m from its centre at 2 rad/s.
     assert world.max_obstacle_speed() == pytest.approx(max(0.5, 2.0 * 0.51))
+
+
+# ------------------------------------------------------------------ the cap on checks per footstep
+def test_sweep_checks_are_capped_whatever_the_speed():
+    """A ball at 1e6 m/s would need 0.025 m / 1e6 m/s = 25 ns between checks: 4e7 for a 1 s step."""
+    cap = 200
+    world = make_world(max_checks=cap)
+    world.add_circle("ball", (5.0, 3.0), 0.05, velocity=(1e6, 0.0))  # far away, moving further
+    world.add_wall("wall", (-5.0, 0.5), (5.0, 0.5), 0.02)  # 0.39 m of clearance: contact "possible"
+    with pytest.warns(RuntimeWarning, match=r"max_sweep_checks=200.*spaced 0.005 s apart"):
+        result = world.sweep(standing(), duration=1.0, robot_speed_bound=0.0)
+    assert result.capped and not result.collided and result.time == 1.0
+    assert cap // 2 < result.checks <= cap + 1
+    assert world.time == pytest.approx(1.0, abs=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # warned once per world
+        again = world.sweep(standing(), duration=0.5, robot_speed_bound=0.0)
+    assert again.capped and again.checks <= cap + 1
+
+
+def test_sweep_below_the_cap_is_exactly_the_uncapped_sweep():
+    """The cap changes nothing while the rule's spacing needs fewer checks than it allows."""
+    results = []
+    for cap in (10**9, 101):
+        world = make_world(max_checks=cap)
+        world.add_circle("ball", (2.0, 0.0), 0.05, velocity=(-2.0, 0.0))
+        # speed 2 m/s: checks 0.025 / 2 = 12.5 ms apart near contact: <= 80 in a 1 s step
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            results.append((world.sweep(standing(), duration=1.0, robot_speed_bound=0.0), world.time))
+    assert results[0] == results[1] and not results[0][0].capped
+    assert results[0][0].collided and results[0][0].checks <= 101
+
+
+def test_non_finite_speed_is_an_error_not_a_hang():
+    world = make_world()
+    with pytest.raises(ValueError, match="not finite"):
+        world.sweep(standing(), duration=1.0, robot_speed_bound=float("inf"))
+
+
+def _spy_on_sweeps(monkeypatch) -> list:
+    from footstep_gym import world as world_module
+
+    seen = []
+    original = world_module.World.sweep
+
+    def spy(self, *args, **kwargs):
+        result = original(self, *args, **kwargs)
+        seen.append(result)
+        return result
+
+    monkeypatch.setattr(world_module.World, "sweep", spy)
+    return seen
+
+
+AT_THE_BOUNDS = {  # every speed at its YAML bound; geometry moved where a bigger door needs it
+    "FootstepDoor-v0": lambda c: dict(door_speed=c["max_door_speed"], door_radius=c["max_door_radius"],
+                                      corridor_y=[-c["max_door_radius"] - 0.1, 0.0], drum_segments=40,
+                                      start=[-0.6, -0.2], goal=[1.3, -0.2]),
+    "FootstepCrossing-v0": lambda c: dict(obstacle_speed=c["max_obstacle_speed"], arrival_speed=c["max_arrival_speed"],
+                                          crossing_x=0.4, timing_jitter=0.5),
+    "FootstepCrowd-v0": lambda c: dict(crowd_speed=c["max_crowd_speed"], ring_radius=0.5, breathing_period=[2.0, 3.0],
+                                       breathing_amplitude=c["max_breathing_speed"] * 2.0 / (2 * math.pi)),
+}
+
+
+@pytest.mark.parametrize("env_id", list(AT_THE_BOUNDS))
+def test_at_the_speed_bounds_the_cap_is_never_reached(env_id, monkeypatch):
+    """Exact collision semantics within the bounds: random and nominal-ish steps, never capped, and the
+    same trace as with no cap at all."""
+    name = {"FootstepDoor-v0": "door", "FootstepCrossing-v0": "crossing", "FootstepCrowd-v0": "crowd"}[env_id]
+    kwargs = AT_THE_BOUNDS[env_id](_yaml(f"scenarios/{name}.yaml"))
+    seen = _spy_on_sweeps(monkeypatch)
+    rng = np.random.default_rng(0)
+    traces = []
+    for cap in (_yaml("env.yaml")["max_sweep_checks"], 10**9):
+        env = gym.make(env_id, max_sweep_checks=cap, **kwargs)
+        low, high = env.action_space.low.astype(float), env.action_space.high.astype(float)
+        rng = np.random.default_rng(0)
+        env.reset(seed=0)
+        trace = []
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)
+            for i in range(300):
+                action = rng.uniform(low, high) if i % 2 else NOMINAL + rng.uniform(-0.01, 0.01, 5)
+                obs, reward, terminated, truncated, info = env.step(action)
+                trace.append((obs.tobytes(), reward, info["time"], info["termination"]))
+                if terminated or truncated:
+                    env.reset()
+        traces.append(trace)
+    assert traces[0] == traces[1]
+    assert len(seen) > 100 and not any(r.capped for r in seen)
+    assert max(r.checks for r in seen) > 10  # the fast obstacles did come close
+
+
+def test_door_speed_past_its_bound_steps_in_bounded_time(monkeypatch):
+    """door_speed=1e9 deg/s with the bound raised past it: the first step returns, capped."""
+    cap = _yaml("env.yaml")["max_sweep_checks"]
+    seen = _spy_on_sweeps(monkeypatch)
+    env = gym.make("FootstepDoor-v0", door_speed=1e9, max_door_speed=1e12)
+    env.reset(seed=0)
+    with pytest.warns(RuntimeWarning, match=f"max_sweep_checks={cap}"):
+        env.step(NOMINAL)
+    assert seen[0].capped and seen[0].checks <= cap + 1
 
 
 # ------------------------------------------------------------------ the sweep inside the env

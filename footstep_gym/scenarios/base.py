@@ -29,15 +29,46 @@ class ScenarioConfig:
 
     def validate(self) -> None:
         fields = {f.name: str(f.type) for f in dataclasses.fields(self)}
+        bound_keys = set(self.upper_bounds().values())
         for key, bounds in self.randomize.items():
-            if key not in fields or fields[key] != "float":
-                numeric = sorted(k for k, t in fields.items() if t == "float")
+            if key not in fields or fields[key] != "float" or key in bound_keys:
+                numeric = sorted(k for k, t in fields.items() if t == "float" and k not in bound_keys)
                 raise ConfigError(f"randomize: {key!r} is not a numeric key of this scenario; use one of {numeric}")
             if not (isinstance(bounds, (list, tuple)) and len(bounds) == 2):
                 raise ConfigError(f"randomize.{key} must be [lo, hi], got {bounds!r}")
             lo, hi = (config._number(f"randomize.{key}", b) for b in bounds)
             if lo > hi:
                 raise ConfigError(f"randomize.{key} must have lo <= hi, got {bounds!r}")
+        self._check_upper_bounds()
+
+    # ------------------------------------------------------------ upper bounds of speeds and scales
+    @classmethod
+    def upper_bounds(cls) -> dict[str, str]:
+        """``{key: max_key}``: every key whose value (and ``randomize`` range) must stay <= the ``max_key``'s.
+
+        Declared on the field (``nonnegative(max_key="max_door_speed", unit="deg/s")``). These are
+        the speeds and scales the collision sweep's number of checks grows with.
+        """
+        return {f.name: f.metadata["max_key"] for f in dataclasses.fields(cls) if f.metadata.get("max_key")}
+
+    def largest(self, key: str) -> float:
+        """The largest value numeric ``key`` can take in an episode: its ``randomize`` upper end, else its value."""
+        if key in self.randomize:
+            return max(float(b) for b in self.randomize[key])
+        return float(getattr(self, key))
+
+    def _check_upper_bounds(self) -> None:
+        units = {f.name: f.metadata.get("unit", "") for f in dataclasses.fields(self)}
+        for key, max_key in self.upper_bounds().items():
+            limit = getattr(self, max_key)
+            value = self.largest(key)
+            if value > limit:
+                what = (f"randomize.{key} reaches {value:g}" if key in self.randomize
+                        else f"{key}={value:g}")
+                unit = f" {units[key]}" if units[key] else ""
+                raise ConfigError(
+                    f"{type(self).__name__}: {what}{unit} is above {max_key}={limit:g}{unit} (the collision "
+                    f"sweep's cost grows with it; raise {max_key} to allow more, at a cost per step)")
 
     def draw(self, rng: np.random.Generator) -> "ScenarioConfig":
         """This config with every ``randomize`` key drawn from its range (validated again)."""

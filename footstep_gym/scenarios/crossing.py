@@ -17,12 +17,14 @@ from footstep_gym.world import World
 
 @dataclass(frozen=True)
 class CrossingConfig(ScenarioConfig):
-    obstacle_speed: float = positive()  # [m/s] along +y
+    obstacle_speed: float = positive(max_key="max_obstacle_speed", unit="m/s")  # [m/s] along +y
     obstacle_length: float = positive()  # [m] along its motion
     obstacle_width: float = positive()  # [m] across it
     crossing_x: float = positive()  # [m] ahead of the start, where it crosses the straight path
-    arrival_speed: float = positive()  # [m/s] it meets a robot walking this fast
+    arrival_speed: float = positive(max_key="max_arrival_speed", unit="m/s")  # [m/s] it meets a robot walking this fast
     timing_jitter: float = nonnegative()  # [s] uniform +- on the meeting time per episode
+    max_obstacle_speed: float = positive()  # [m/s] largest obstacle_speed accepted (randomize ranges included)
+    max_arrival_speed: float = positive()  # [m/s] largest arrival_speed accepted
 
 
 class Crossing(Scenario):

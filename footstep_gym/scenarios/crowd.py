@@ -28,13 +28,15 @@ from footstep_gym.world import World
 @dataclass(frozen=True)
 class CrowdConfig(ScenarioConfig):
     crowd_size: int = positive()  # cylinders on the ring
-    crowd_speed: float = nonnegative()  # [m/s] mean speed along the start -> goal direction
+    crowd_speed: float = nonnegative(max_key="max_crowd_speed", unit="m/s")  # [m/s] mean speed along the start -> goal direction
     crowd_accel_time: float = positive()  # [s] to reach crowd_speed from rest (constant acceleration)
     ring_radius: float = positive()  # [m] member centres from the ring's centre
     member_radius: float = positive()  # [m]
     breathing_amplitude: float = nonnegative()  # [m] largest radial oscillation of a member
     breathing_period: tuple[float, float] = interval()  # [s] range each member's period is drawn from
     angle_jitter: float = nonnegative()  # [deg] uniform +- on each member's place on the ring
+    max_crowd_speed: float = positive()  # [m/s] largest crowd_speed accepted (randomize ranges included)
+    max_breathing_speed: float = positive()  # [m/s] largest radial breathing speed 2 pi amplitude / shortest period
 
     def validate(self) -> None:
         super().validate()
@@ -42,6 +44,12 @@ class CrowdConfig(ScenarioConfig):
             raise ConfigError(f"crowd: breathing_period must be > 0, got {self.breathing_period}")
         if self.ring_radius - self.breathing_amplitude <= self.member_radius:
             raise ConfigError("crowd: ring_radius - breathing_amplitude must exceed member_radius")
+        amplitude, period = self.largest("breathing_amplitude"), self.breathing_period[0]
+        if 2 * math.pi * amplitude / period > self.max_breathing_speed:
+            raise ConfigError(
+                f"CrowdConfig: breathing_amplitude={amplitude:g} m over breathing_period[0]={period:g} s moves a "
+                f"member radially at up to 2 pi A / T = {2 * math.pi * amplitude / period:g} m/s, above "
+                f"max_breathing_speed={self.max_breathing_speed:g} m/s (the collision sweep's cost grows with it)")
 
 
 class Crowd(Scenario):

@@ -24,8 +24,8 @@ from footstep_gym.world import World
 
 @dataclass(frozen=True)
 class DoorConfig(ScenarioConfig):
-    door_speed: float = nonnegative()  # [deg/s] clockwise
-    door_radius: float = positive()  # [m] wing length
+    door_speed: float = nonnegative(max_key="max_door_speed", unit="deg/s")  # [deg/s] clockwise
+    door_radius: float = positive(max_key="max_door_radius", unit="m")  # [m] wing length
     door_thickness: float = positive()  # [m] of the rod
     door_centre: tuple[float, float] = pair()  # [m]
     door_start_angle: float = plain()  # [deg] of the rod from +x, counter-clockwise (90 = vertical)
@@ -35,6 +35,8 @@ class DoorConfig(ScenarioConfig):
     wall_thickness: float = positive()  # [m]
     wall_gap: float = nonnegative()  # [m] between the rod's tip circle and the upper wall's ends
     drum_segments: int = nonnegative()  # walls of the half drum over the upper half (0: open, no drum)
+    max_door_speed: float = positive()  # [deg/s] largest door_speed accepted (randomize ranges included)
+    max_door_radius: float = positive()  # [m] largest door_radius accepted (the tip's speed grows with it)
 
     def validate(self) -> None:
         super().validate()

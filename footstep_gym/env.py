@@ -150,7 +150,7 @@ class FootstepEnv(gym.Env):
     ``zmp_margin`` (m: distance of the ZMP from the stable region's nearest edge, negative
     outside), ``clearance`` (m: the smallest gap between the body circle and any obstacle at
     the step's collision checks, negative on a collision, ``inf`` where no obstacle came
-    within reach in the step, NaN on a fall),
+    within reach in the step, ``None`` on a fall),
     ``obstacle`` (name of the shape hit, or ``None``), ``steps``.
     ``reset`` returns ``com``, ``com_vel``, ``support_foot``, ``foot_pose`` and ``time``.
 
@@ -353,7 +353,7 @@ class FootstepEnv(gym.Env):
                    "goal": 0.0, "collision": 0.0, "fall": 0.0}
         termination = None
         collided, hit = False, None
-        clearance = math.nan
+        clearance = None  # not measured: on a fall the robot does not move
         feasible = kin_ok and zmp_ok
         zmp_hx, zmp_hy = robot.zmp_half_extent
         zmp_margin = min(zmp_hx - abs(p.real), zmp_hy - abs(p.imag))

@@ -7,8 +7,10 @@ and random commands), a digest of each step's observation, reward, flags and eve
 
     PYTHONPATH=. python tests/test_replay_golden.py --record
 
-before the speed-ups of the env's step (issue 10 §1); the test replays the same episodes
-and requires every value to be identical. Floating-point results may differ on another
+before the speed-ups of the env's step (issue 10 §1), and recorded again when ``info``
+gained ``clearance`` and ``zmp_margin`` (checked first: without those two keys the env
+replayed the old trace exactly); the test replays the same episodes and requires every
+value to be identical. Floating-point results may differ on another
 CPU/libm or another numpy/pymunk version; the file records the versions it was made with,
 and the test is skipped (saying so) where they differ.
 """

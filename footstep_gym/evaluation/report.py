@@ -65,7 +65,8 @@ def csv_rows(records: list[dict[str, Any]]) -> tuple[list[str], list[dict[str, A
             else:
                 row[key] = "" if value is None else value
         rows.append(row)
-    return (list(rows[0]) if rows else []), rows
+    columns = list(dict.fromkeys(k for row in rows for k in row))  # agents' rows add the over-runs fields
+    return columns, [{k: row.get(k, "") for k in columns} for row in rows]
 
 
 def write_csv(path: Path, columns: list[str], rows: list[dict[str, Any]]) -> None:

@@ -151,9 +151,8 @@ def _poses(snapshot: Any) -> np.ndarray:
 
 
 def _finite_min(values: list[float]) -> float | None:
-    """Smallest value, NaN (no measure) skipped; None if nothing was measured or nothing came near (inf)."""
-    finite = [v for v in values if not math.isnan(v)]
-    best = min(finite, default=math.inf)
+    """Smallest value; None if nothing was measured or nothing ever came near (inf)."""
+    best = min(values, default=math.inf)
     return None if math.isinf(best) else best
 
 
@@ -203,7 +202,8 @@ def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
             pre_pso.append(pre if pre is not None else np.full(5, np.nan))
             pso_ran.append(ran)
             periods.append(float(info["period"]))
-            clearance.append(float(info["clearance"]))
+            if info["clearance"] is not None:
+                clearance.append(float(info["clearance"]))
             zmp_margin.append(float(info["zmp_margin"]))
             snapshot = base.sensing()
             snaps.append(snapshot)

@@ -4,6 +4,7 @@ Usage::
 
     python baselines/train_rl.py --algo ppo --env door --seeds 1 2 3     # train, ship, plot
     python baselines/train_rl.py --algo ppo --env all --seeds 1          # ppo-all: FootstepMix-v0
+    python baselines/train_rl.py --algo ppo sac --env door crowd --seeds 1 2 3 --backend ray   # a grid as Ray tasks
     python baselines/train_rl.py --algo sac --env door --seeds 1 --timesteps 20000
     python baselines/train_rl.py --ship runs/rl/ppo/FootstepDoor-v0_1 --wall-time 1500   # ship a finished zoo run
     python baselines/train_rl.py --curves                                # learning curves of every shipped agent
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
@@ -106,8 +108,10 @@ def build_parser() -> argparse.ArgumentParser:
     mode.add_argument("--throughput", action="store_true",
                       help="measure PPO's env steps/s inside learn() with 1 and 2 envs on each env, CartPole-v1 "
                            "as the ceiling; prints a markdown table (a measurement: run it on an idle machine)")
-    parser.add_argument("--algo", choices=("ppo", "sac"), help="algorithm (a section of configs/rl/<algo>.yml)")
-    parser.add_argument("--env", type=env_id_of, help="door, crossing, crowd, all (FootstepMix-v0) or an env id")
+    parser.add_argument("--algo", choices=("ppo", "sac"), nargs="+",
+                        help="algorithm(s) (configs/rl/<algo>.yml); several make a grid with --env and --seeds")
+    parser.add_argument("--env", type=env_id_of, nargs="+",
+                        help="door, crossing, crowd, all (FootstepMix-v0) or an env id; several make a grid")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1], metavar="S", help="training seeds (default 1)")
     parser.add_argument("--timesteps", type=int, metavar="N", help="override the config's n_timesteps")
     parser.add_argument("--eval-freq", type=int, default=25_000, metavar="N",
@@ -120,6 +124,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="an evaluation's results.json for the planners' reference lines")
     parser.add_argument("--wall-time", type=float, metavar="S", help="with --ship: the run's measured wall time [s]")
     parser.add_argument("--no-ship", action="store_true", help="train only; leave the runs in --log-folder")
+    parser.add_argument("--backend", choices=("local", "ray"), default="local",
+                        help="local: the runs one after the other; ray: each run a Ray task (one CPU)")
+    parser.add_argument("--ray-address", metavar="ADDR", help="an existing Ray cluster (default: a local Ray)")
+    parser.add_argument("--workers", type=int, default=2, metavar="N", help="CPUs of a local Ray (default 2)")
     return parser
 
 
@@ -139,25 +147,64 @@ def main(argv: Sequence[str] | None = None) -> int:
         dest = training.ship(args.ship, args.agents_dir, args.wall_time)
         print(dest)
         return 0
-    if args.algo is None or args.env is None:
-        parser.error("training needs --algo and --env (or use --ship / --curves)")
+    if not args.algo or not args.env:
+        parser.error("training needs --algo and --env (or use --ship / --curves / --throughput)")
     if args.timesteps is not None and args.timesteps < 1:
         parser.error("--timesteps must be >= 1")
-    runs = []
-    for seed in args.seeds:
-        print(f"training {args.algo} on {args.env}, seed {seed} -> {args.log_folder}", file=sys.stderr)
-        run, wall = training.train(args.algo, args.env, seed, args.log_folder / f"seed{seed}",
-                                   timesteps=args.timesteps, eval_freq=args.eval_freq,
-                                   eval_episodes=args.eval_episodes)
-        print(f"  {run} in {wall:.0f} s", file=sys.stderr)
-        if not args.no_ship:
-            runs.append(training.ship(run, args.agents_dir, wall, seed=seed))
-            print(f"  shipped to {runs[-1]}", file=sys.stderr)
-    if runs:
-        for path in draw_curves(args.agents_dir, args.curves_dir, args.reference, only=(args.algo, args.env)):
-            print(path)
+    if args.ray_address and args.backend != "ray":
+        parser.error("--ray-address needs --backend ray")
+    for algo in args.algo:
+        for env_id in args.env:
+            try:
+                training._zoo_entry(algo, env_id)
+            except KeyError as exc:
+                parser.error(str(exc.args[0]))
+    jobs = [Job(algo, env_id, seed) for algo in args.algo for env_id in args.env for seed in args.seeds]
+    options = dict(log_folder=str(args.log_folder), agents_dir=None if args.no_ship else str(args.agents_dir),
+                   timesteps=args.timesteps, eval_freq=args.eval_freq, eval_episodes=args.eval_episodes)
+    shipped = run_jobs(jobs, options, args.backend, args.ray_address, args.workers)
+    if shipped:
+        for algo, env_id in dict.fromkeys((j.algo, j.env_id) for j in jobs):
+            for path in draw_curves(args.agents_dir, args.curves_dir, args.reference, only=(algo, env_id)):
+                print(path)
     return 0
 
+
+@dataclass(frozen=True)
+class Job:
+    """One training run of the grid."""
+
+    algo: str
+    env_id: str
+    seed: int
+
+
+def train_and_ship(job: Job, log_folder: str, agents_dir: str | None, **kwargs: int | None) -> str:
+    """Train ``job`` with rl_zoo3 (its own log folder per seed) and ship it; the run's folder."""
+    run, wall = training.train(job.algo, job.env_id, job.seed, Path(log_folder) / f"seed{job.seed}", **kwargs)
+    print(f"  {job.algo} on {job.env_id}, seed {job.seed}: {run} in {wall:.0f} s", file=sys.stderr)
+    if agents_dir is None:
+        return str(run)
+    return str(training.ship(run, agents_dir, wall, seed=job.seed))
+
+
+def run_jobs(jobs: list[Job], options: dict, backend: str, address: str | None, workers: int) -> list[str]:
+    """Every job, one after the other or as Ray tasks (a local Ray of ``workers`` CPUs without ``address``)."""
+    print(f"{len(jobs)} training run(s) ({backend}): " + ", ".join(f"{j.algo}/{j.env_id}/{j.seed}" for j in jobs),
+          file=sys.stderr)
+    if backend == "local":
+        return [train_and_ship(job, **options) for job in jobs]
+    import ray
+
+    if address:
+        ray.init(address=address, log_to_driver=True)
+    else:
+        ray.init(num_cpus=workers, include_dashboard=False)
+    try:
+        remote = ray.remote(num_cpus=1)(train_and_ship)
+        return ray.get([remote.remote(job, **options) for job in jobs])
+    finally:
+        ray.shutdown()
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -121,3 +121,24 @@ def test_every_shipped_agent_is_registered_and_plays_one_episode():
             scenario = next(k for k, v in __import__("footstep_gym").ENV_IDS.items() if v == env_id)
             result = run_episode(Task(0, Cell(env_id, scenario, name, run=str(run)), 12345))
             assert result.steps >= 1 and result.outcome in ("goal", "collision", "fall", "timeout")
+
+
+def test_a_training_grid_runs_as_ray_tasks_and_ships_every_run(tmp_path):
+    pytest.importorskip("ray")
+    cmd = [sys.executable, str(REPO / "baselines" / "train_rl.py"), "--algo", "ppo", "--env", "crossing", "crowd",
+           "--seeds", "3", "--timesteps", "300", "--eval-freq", "100000", "--eval-episodes", "1",
+           "--backend", "ray", "--workers", "2", "--log-folder", str(tmp_path / "logs"),
+           "--agents-dir", str(tmp_path / "agents"), "--curves-dir", str(tmp_path / "curves"),
+           "--reference", str(tmp_path / "none.json")]
+    proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    for env_id in ("FootstepCrossing-v0", "FootstepCrowd-v0"):
+        m = json.loads((tmp_path / "agents" / "ppo" / f"{env_id}_3" / "manifest.json").read_text())
+        assert (m["env_id"], m["seed"], m["timesteps"]) == (env_id, 3, 300)
+
+
+def test_ppo_throughput_is_measured_inside_learn():
+    from footstep_gym.training import ppo_throughput
+
+    rate = ppo_throughput("FootstepCrossing-v0", 1, timesteps=512)
+    assert 10 < rate < 100_000

@@ -32,11 +32,11 @@ def markdown_table(records: list[dict[str, Any]]) -> str:
         lo, hi = r["success_ci95"]
         setting = ", ".join(f"{k}={v:g}" for k, v in r["params"].items()) or "–"
         pso = "–" if r["pso_step_rate"] is None else f"{100 * r['pso_step_rate']:.0f} %"
-        if r.get("success_iqm") is not None:
+        if r.get("success_iqm") is not None and len(r["runs"]) > 1:
             ilo, ihi = r["success_iqm_ci95"]
             iqm = f"{r['success_iqm']:.2f} [{ilo:.2f}, {ihi:.2f}] ({len(r['runs'])} runs)"
         else:
-            iqm = "–"
+            iqm = "– (1 run)" if r.get("runs") else "–"
         lines.append("| " + " | ".join([
             r["scenario"], setting, r["policy"], str(r["episodes"]),
             f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]", iqm, f"{r['collision_rate']:.2f}",

@@ -141,5 +141,6 @@ def test_fuzzed_actions_are_what_they_claim():
             a = np.asarray(action, dtype=np.float64)
             assert a.shape == (5,) and np.all(np.isfinite(a))
             command, was_clipped = env._validate_action(action)
+            command = np.asarray(command)
             assert was_clipped is clipped, (kind, action)
             assert not math.isnan(command.sum())

@@ -34,11 +34,12 @@ def tiny(tmp_path_factory):
                            "--out", str(out)], capture_output=True, text=True, timeout=1800, cwd=str(ROOT))
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     data = json.loads((out / "soak.json").read_text())
-    return data, (out / "soak.md").read_text(), proc.stderr
+    partial = {e: json.loads((out / "partial" / f"{e}.json").read_text()) for e in ENV_IDS}
+    return data, (out / "soak.md").read_text(), proc.stderr, partial
 
 
 def test_tiny_soak_passes_every_env(tiny):
-    data, md, stderr = tiny
+    data, md, stderr, partial = tiny
     assert data["passed"] is True
     assert [r["env_id"] for r in data["envs"]] == list(ENV_IDS)
     assert data["meta"]["steps_per_env"] == STEPS
@@ -66,6 +67,11 @@ def test_tiny_soak_passes_every_env(tiny):
     for env_id in ENV_IDS:
         assert env_id in md and env_id in stderr  # the table, and the progress bars
     assert "PASS" in md and "FAIL" not in md
+    # The figures so far, written while it ran, end close to the final ones.
+    for r in data["envs"]:
+        p = partial[r["env_id"]]
+        assert p["partial"] is True and p["passed"] is True
+        assert 0.9 * STEPS <= p["steps"] <= STEPS and p["episodes"] <= r["episodes"]
 
 
 class Broken(gym.Wrapper):

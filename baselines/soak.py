@@ -29,7 +29,9 @@ warm-up (``VmHWM``); "flat" means the end and the peak stay within ``--rss-toler
 of the warm-up figure.
 
 Writes ``<out>/soak.json`` and ``<out>/soak.md`` (steps/s, outcomes, exceptions by type,
-RSS figures); exits with status 1 if any env failed a check.
+RSS figures); exits with status 1 if any env failed a check. While it runs, each env's
+figures so far are in ``<out>/partial/<env id>.json`` (updated 20 times per env), so a run
+stopped early still says how far it got and what it saw.
 """
 
 from __future__ import annotations
@@ -192,8 +194,11 @@ def check_step(result: tuple, space: gym.spaces.Box, expect_clipped: bool | None
 
 # ------------------------------------------------------------------ one env
 def soak_env(env_id: str, steps: int, seed: int, make: Callable[[np.random.Generator], tuple[gym.Env, dict]] | None = None,
-             progress: bool = True) -> dict[str, Any]:
-    """Fuzz ``env_id`` for ``steps`` step calls; counts, failures and RSS figures as a dict."""
+             progress: bool = True, checkpoint: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+    """Fuzz ``env_id`` for ``steps`` step calls; counts, failures and RSS figures as a dict.
+
+    ``checkpoint``, if given, receives the figures so far (``"partial": True``) at every RSS sample.
+    """
     rng = np.random.default_rng(seed)
     make = make or (lambda r: make_fuzzed_env(env_id, r))
     styles = {name: (list(k), np.array(list(k.values())) / sum(k.values()))
@@ -232,6 +237,14 @@ def soak_env(env_id: str, steps: int, seed: int, make: Callable[[np.random.Gener
             randomize_seen.append(kwargs)
         robot = env.unwrapped.robot
         return env, robot.command_low, robot.command_high, robot.nominal_command
+
+    def summarise(wall: float, rss: dict[str, Any], partial: bool) -> dict[str, Any]:
+        return {
+            "env_id": env_id, "steps": n, "seed": seed, "wall_s": wall, "steps_per_s": n / wall if wall > 0 else None,
+            "episodes": episodes, "outcomes": dict(outcomes), "expected_errors": dict(expected),
+            "unexpected_errors": dict(unexpected), "unexpected_examples": examples, "check_failures": dict(failures),
+            "warnings": dict(warning_counts), "rss": rss, "randomize_examples": randomize_seen[:5], "partial": partial,
+        }
 
     warmup = max(1, int(WARMUP_FRACTION * steps))
     sample_every = max(1, (steps - warmup) // RSS_SAMPLES)
@@ -320,6 +333,9 @@ def soak_env(env_id: str, steps: int, seed: int, make: Callable[[np.random.Gener
                     rss["middle"], rss["middle_step"] = rss_bytes(), n
                 if (n - warmup) % sample_every == 0:
                     rss["samples"].append((n, peak.sample()))
+                    if checkpoint is not None:
+                        so_far = time.perf_counter() - t0
+                        checkpoint(summarise(so_far, {**rss, "end": rss_bytes(), "peak": peak.peak}, partial=True))
             if bar is not None and n - shown >= PROGRESS_EVERY:
                 bar.update(n - shown)
                 shown = n
@@ -334,12 +350,7 @@ def soak_env(env_id: str, steps: int, seed: int, make: Callable[[np.random.Gener
         rss["peak"] = peak.peak
         rss["peak_method"] = peak.method
         peak.close()
-    return {
-        "env_id": env_id, "steps": n, "seed": seed, "wall_s": wall, "steps_per_s": n / wall if wall > 0 else None,
-        "episodes": episodes, "outcomes": dict(outcomes), "expected_errors": dict(expected),
-        "unexpected_errors": dict(unexpected), "unexpected_examples": examples, "check_failures": dict(failures),
-        "warnings": dict(warning_counts), "rss": rss, "randomize_examples": randomize_seen[:5],
-    }
+    return summarise(wall, rss, partial=False)
 
 
 def verdict(res: dict[str, Any], tolerance_mib: float) -> dict[str, Any]:
@@ -418,7 +429,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     if args.child:
-        res = soak_env(args.child, args.steps, args.seed, progress=not args.no_progress)
+        def save(partial: dict[str, Any]) -> None:  # figures so far, in case the run is stopped early
+            path = args.out / "partial" / f"{args.child}.json"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(finite_json(verdict(partial, args.rss_tolerance_mib)), indent=1), encoding="utf-8")
+
+        res = soak_env(args.child, args.steps, args.seed, progress=not args.no_progress, checkpoint=save)
         args.json_path.write_text(json.dumps(finite_json(res)), encoding="utf-8")
         return 0
     env_ids = [e.strip() for e in args.envs.split(",") if e.strip()]
@@ -434,7 +450,8 @@ def main(argv: list[str] | None = None) -> int:
         for i, env_id in enumerate(env_ids):
             path = Path(tmp) / f"{i}.json"
             cmd = [sys.executable, str(Path(__file__).resolve()), "--_child", env_id, "--steps", str(args.steps),
-                   "--seed", str(args.seed + i), "--_json", str(path)] + (["--no-progress"] if args.no_progress else [])
+                   "--seed", str(args.seed + i), "--_json", str(path), "--out", str(args.out),
+                   "--rss-tolerance-mib", str(args.rss_tolerance_mib)] + (["--no-progress"] if args.no_progress else [])
             proc = subprocess.run(cmd, check=False)
             if proc.returncode != 0 or not path.exists():
                 res = {"env_id": env_id, "steps": 0, "steps_per_s": None, "episodes": 0, "outcomes": {},

@@ -234,16 +234,20 @@ class BodyModel:
     moves along the midpoints of consecutive nodes. The LIPM's lateral sway is folded in
     per period: the circle is shifted towards the support foot by ``(toward - away) / 2``
     and its radius grown by ``(toward + away) / 2`` (:func:`sway_band`), plus
-    ``margin`` [m] for everything else (prediction error, turning).
+    ``margin`` [m] for everything else (prediction error, turning). ``sway=False``: the
+    circle of ``body_radius + margin`` on the centre line (switch ``additions.com_sway``).
     """
 
-    def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float) -> None:
+    def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float, sway: bool = True) -> None:
         self.predictor = predictor
         self.robot = robot
         self.margin = margin
+        self.with_sway = sway
 
     def sway(self, period: float) -> tuple[float, float]:
         """``(shift towards the support foot, radius growth)`` [m] at ``period`` (cached per 0.1 ms of period)."""
+        if not self.with_sway:
+            return 0.0, 0.0
         toward, away = sway_band(self.robot, round(period, 4))
         return 0.5 * (toward - away), 0.5 * (toward + away)
 

@@ -12,7 +12,10 @@ import numpy as np
 import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
-from footstep_gym.planners.period_search import longest_free_period
+from footstep_gym.planners.params import load_planner_config
+from footstep_gym.planners.period_search import PeriodSearch, longest_free_period
+from footstep_gym.planners.reference import PAPER
+from footstep_gym.planners.walks import walk_start
 from planner_helpers import EPS
 
 T0, TN = 0.3, 0.8
@@ -113,3 +116,88 @@ def test_kept_plan_brackets_the_period_search_from_below(door_speed, seed):
             break
     env.close()
     assert kept >= 3  # the property was exercised
+
+
+# ====================================================================== the stage: PeriodSearch -> PeriodChoice
+class Closes:
+    """Body check blocking every point at times ``t > at`` [s]."""
+
+    def __init__(self, at):
+        self.at = at
+
+    def free(self, points, times, normals, period):
+        return np.asarray(times, dtype=float).reshape(-1) <= self.at
+
+
+class Zone:
+    """Blocks points with ``x0 <= x <= x1`` while ``t < until`` [s] (a crossing that clears at ``until``)."""
+
+    def __init__(self, x0, x1, until):
+        self.x0, self.x1, self.until = x0, x1, until
+
+    def free(self, points, times, normals, period):
+        p = np.asarray(points, dtype=float).reshape(-1, 2)
+        t = np.asarray(times, dtype=float).reshape(-1)
+        return ~((p[:, 0] >= self.x0) & (p[:, 0] <= self.x1) & (t < self.until))
+
+
+@pytest.fixture(scope="module")
+def crossing_start():
+    """The first snapshot of the crossing (robot near the origin, goal at (1.9, 0)) and its walk start."""
+    env = gym.make("FootstepCrossing-v0")
+    env.reset(seed=0)
+    snap = env.unwrapped.sensing()
+    robot = env.unwrapped.robot
+    env.close()
+    return robot, snap, walk_start(snap, 0.5 * robot.nominal_side_stride)
+
+
+def paper_search(robot, vary_period=True):
+    return PeriodSearch(robot, load_planner_config(defaults={"additions": PAPER}), vary_period=vary_period)
+
+
+@pytest.mark.parametrize("t_star", [0.42, 0.55, 0.7])
+def test_paper_search_returns_the_longest_period_whose_next_node_is_free(crossing_start, t_star):
+    """Fig. 2: the next node is checked over one step; everything closes at t*, so T is free iff T <= t*.
+    The paper's T0 is the configured one (no LIPM floor): the search runs on [0.3, 0.8] with N passes."""
+    robot, snap, start = crossing_start
+    search = paper_search(robot)
+    choice = search(snap, start, Closes(t_star), Closes(t_star), None)
+    n = load_planner_config().period_search.iterations
+    assert choice.floor == T0
+    assert t_star - (TN - T0) / 2 ** n - EPS <= choice.period <= t_star + EPS
+    assert choice.any_free and not choice.nominal_free and not choice.plan_kept and not choice.waiting_walks
+    assert choice.evaluations == 2 + n
+    assert choice.first_stride is None  # no LIPM window in the paper's planner
+    assert choice.free_walks and all(w.shape == (2, 2) for w in choice.free_walks)
+
+
+def test_paper_search_keeps_nominal_when_free_and_t0_when_nothing_is(crossing_start):
+    robot, snap, start = crossing_start
+    free = paper_search(robot)(snap, start, Closes(np.inf), Closes(np.inf), None)
+    assert (free.period, free.nominal_free, free.evaluations) == (TN, True, 1)
+    blocked = paper_search(robot)(snap, start, Closes(-1.0), Closes(-1.0), None)
+    assert (blocked.period, blocked.any_free, blocked.free_walks, blocked.evaluations) == (T0, False, (), 2)
+
+
+def test_paper_fixed_period_only_checks_the_nominal_period(crossing_start):
+    robot, snap, start = crossing_start
+    search = paper_search(robot, vary_period=False)
+    assert search(snap, start, Closes(1.0), Closes(1.0), None).period == TN
+    closed = search(snap, start, Closes(0.5), Closes(0.5), None)
+    assert (closed.period, closed.any_free, closed.evaluations) == (TN, False, 1)
+
+
+def test_second_tier_finds_a_waiting_walk_when_no_period_clears_the_way(crossing_start):
+    """A zone 0.1-0.6 m ahead stays blocked for 4 s: walking off at once meets it at any period; waiting six
+    nominal steps (4.8 s) lets it clear. With the switch off the search gives up at the shortest period."""
+    robot, snap, start = crossing_start
+    zone = Zone(0.1, 0.6, 4.0)
+    on = PeriodSearch(robot, load_planner_config())
+    choice = on(snap, start, zone, zone, None)
+    assert choice.any_free and choice.waiting_walks
+    steps = np.linalg.norm(np.diff(choice.free_walks[0], axis=0), axis=1)
+    assert np.all(steps[:3] == 0.0)  # the best free walk first steps in place
+    off = PeriodSearch(robot, load_planner_config({"additions_waiting_walks": False}))
+    blocked = off(snap, start, zone, zone, None)
+    assert not blocked.any_free and not blocked.waiting_walks and blocked.period == blocked.floor

@@ -231,3 +231,31 @@ def test_repair_flag_matches_lipm_when_not_repairable(robot, side):
     assert out.feasible == verdict(robot, com, vel, out.command, side)
     delta = out.command - ref
     assert np.all(delta >= TABLE1_LOW - 1e-12) and np.all(delta <= TABLE1_HIGH + 1e-12)
+
+
+# ====================================================================== stage 3's unit
+def test_command_repair_runs_the_pso_only_when_infeasible(robot):
+    """:class:`CommandRepair`: a feasible reference passes unchanged (no PSO); an infeasible one comes back
+    feasible within Table 1's increments; with ``vary_period=False`` the period is left alone."""
+    from types import SimpleNamespace
+
+    from footstep_gym.planners.pso import CommandRepair
+
+    side = RIGHT
+    com, vel = steady_gait(robot, side)
+    snap = SimpleNamespace(com_local=com, vel_local=vel, support_side=side)
+    params = load_planner_config().pso
+    stage = CommandRepair(robot, params)
+    same = stage(snap, np.asarray(STEADY), np.random.default_rng(0))
+    assert same.feasible_before and same.pso is None
+    np.testing.assert_array_equal(same.command, STEADY)
+    ref = np.asarray(REPAIRABLE[0])
+    fixed = ref.copy()
+    out = stage(snap, ref, np.random.default_rng(0))
+    assert not out.feasible_before and out.pso is not None and out.feasible
+    assert verdict(robot, com, vel, out.command, side)
+    delta = out.command - ref
+    assert np.all(delta >= TABLE1_LOW - 1e-12) and np.all(delta <= TABLE1_HIGH + 1e-12)
+    still = CommandRepair(robot, params, vary_period=False)(snap, fixed, np.random.default_rng(0))
+    assert still.pso is not None
+    np.testing.assert_array_equal(still.command[3:], fixed[3:])

@@ -7,10 +7,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from footstep_gym.planners.rollouts import GoalRollouts, NextNodeFan
 from footstep_gym.planners.walks import CommittedPlan
-from planner_helpers import LEFT, RIGHT, AlwaysFree, angle_limits, make_start, robot  # noqa: F401
+from planner_helpers import LEFT, RIGHT, AlwaysFree, angle_limits, make_start, robot, wrap  # noqa: F401
+
 
 class Blocks:
     """Body check blocking points with ``y > y0`` at times ``t > after`` (a stub of BodyModel.free)."""
@@ -103,3 +105,68 @@ def test_waiting_rollouts_step_in_place_first(robot):
         match = [o for o in np.flatnonzero(~waiting)
                  if np.allclose(nodes[w, 3:], nodes[o, :3], atol=1e-12)]
         assert match, w
+
+
+
+# ====================================================================== the paper's one-step check (Fig. 2)
+class Closes:
+    """Blocks every point at times ``t > at`` [s] (a stub of BodyModel.free)."""
+
+    def __init__(self, at):
+        self.at = at
+
+    def free(self, points, times, normals, period):
+        return np.asarray(times, dtype=float).reshape(-1) <= self.at
+
+
+def make_fan(robot, body, side=RIGHT, heading=0.0, directions=9, fractions=(1.0,), goal=(2.0, 0.0), window=None):
+    return NextNodeFan(body, robot, make_start(side, heading), goal, 0.1, step_size=0.1, stride_fractions=fractions,
+                       directions=directions, edge_samples=3, first_stride=window)
+
+
+@pytest.mark.parametrize("side,heading", [(RIGHT, 0.0), (LEFT, 0.0), (RIGHT, 0.7), (LEFT, -2.0)])
+def test_fan_spans_the_selectable_range_of_the_next_node(robot, side, heading):
+    """Fig. 2 / Fig. 4: next nodes at Max_step_size, in headings from the inner to the outer limit of the foot
+    that swings next (limits written out in planner_helpers, not read from the code)."""
+    fan = make_fan(robot, AlwaysFree(), side, heading, directions=7, fractions=(0.5, 1.0))
+    nodes, headings = fan.nodes(0.8)
+    assert nodes.shape == (14, 2, 2) and headings.shape == (14, 2)
+    np.testing.assert_array_equal(nodes[:, 0], 0.0)
+    vec = nodes[:, 1] - nodes[:, 0]
+    np.testing.assert_allclose(np.sort(np.hypot(vec[:, 0], vec[:, 1])), [0.05] * 7 + [0.1] * 7, atol=1e-12)
+    turn = wrap(np.arctan2(vec[:, 1], vec[:, 0]) - heading)
+    lo, hi = angle_limits(side, robot)
+    assert turn.min() == pytest.approx(lo) and turn.max() == pytest.approx(hi)
+    np.testing.assert_allclose(np.unique(np.round(turn, 12)), np.linspace(lo, hi, 7), atol=1e-12)
+    np.testing.assert_allclose(wrap(headings[:, 1] - np.arctan2(vec[:, 1], vec[:, 0])), 0.0, atol=1e-12)
+
+
+def test_fan_looks_one_step_ahead_only(robot):
+    """Everything is blocked after 1 s: one step of 0.8 s is free, one of 1.2 s is not; the goal rollouts, which
+    look further, collide at 0.8 s too."""
+    fan = make_fan(robot, Closes(1.0))
+    assert not fan(0.8) and fan(1.2)
+    assert len(fan.free_walks(0.8)) == 9 and fan.free_walks(1.2) == []
+    assert make_rollouts(robot, Closes(1.0))(0.8)
+
+
+def test_fan_free_walks_are_the_free_directions_nearest_the_goal_first(robot):
+    """Body points left of y = 0.01 are blocked; the body steps to the midpoint of the two nodes, so only the
+    next nodes with y <= 0.02 are free (those turning right, straight on, and a little left)."""
+    fan = make_fan(robot, Blocks(0.01), directions=9)
+    nodes, _ = fan.nodes(0.8)
+    walks = fan.free_walks(0.8)
+    assert len(walks) == int(np.sum(nodes[:, 1, 1] <= 0.02)) and 0 < len(walks) < 9
+    assert all(w.shape == (2, 2) and w[1, 1] <= 0.02 for w in walks)
+    goal = np.array([2.0, 0.0])
+    dist = [round(float(np.linalg.norm(w[-1] - goal)), 3) for w in walks]  # to the millimetre
+    assert dist == sorted(dist)
+
+
+def test_fan_strides_keep_to_the_window_and_stop_at_the_goal(robot):
+    fan = make_fan(robot, AlwaysFree(), fractions=(0.2, 1.0), window=lambda T: (0.04, 0.07))
+    nodes, _ = fan.nodes(0.5)
+    np.testing.assert_allclose(np.sort(np.linalg.norm(nodes[:, 1], axis=1)), [0.04] * 9 + [0.07] * 9, atol=1e-12)
+    inside = make_fan(robot, AlwaysFree(), goal=(0.03, 0.0))  # the start is in the goal region (radius 0.1)
+    nodes, _ = inside.nodes(0.5)
+    np.testing.assert_array_equal(nodes[:, 1], 0.0)

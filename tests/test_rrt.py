@@ -317,3 +317,55 @@ def test_best_partial_path_takes_the_spot_hit_last(robot):
     assert greedy.nodes[-1, 0] > 0.3
     late = rrt.best_partial_path(stay_until=5.0)
     assert late.nodes[-1, 0] <= 0.3
+
+
+# ====================================================================== the paper's RRT (switches off)
+def test_rrt_not_time_aware_checks_every_node_against_the_obstacles_after_one_period(robot):
+    """``time_aware=False`` (the paper: the obstacle predicted after T, then the tree): the same tree as the
+    time-aware one in free space, every body point asked at t = T."""
+    period = 0.55
+    start = make_start(RIGHT, 0.0)
+    timed, frozen = Recorder(), Recorder()
+    a = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 200})
+    b = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 200}, time_aware=False)
+    a.plan(start, (1.0, 0.5), 0.1, timed, period=period, rng=np.random.default_rng(5))
+    b.plan(start, (1.0, 0.5), 0.1, frozen, period=period, rng=np.random.default_rng(5))
+    rows_a, rows_b = np.concatenate(timed.rows), np.concatenate(frozen.rows)
+    assert rows_a[:, 2].max() > 2 * period  # the time-aware tree asks about later times
+    np.testing.assert_array_equal(rows_b[:, 2], period)
+    np.testing.assert_array_equal(rows_b[:, [0, 1, 3, 4]], rows_a[:, [0, 1, 3, 4]])
+
+
+def test_rrt_not_time_aware_is_blocked_by_a_gate_that_opens_later(robot):
+    """A wall across the way that clears at 2 s: the time-aware tree reaches the goal behind it (its nodes
+    there come later than 2 s at 0.8 s per step), the paper's tree sees the wall as it stands at T and does not."""
+    start = make_start(RIGHT, 0.0)
+    gate = Wall(0.3, 0.4, until=2.0)
+    timed = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 2000})
+    frozen = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 2000}, time_aware=False)
+    assert timed.plan(start, (1.0, 0.0), 0.1, gate, period=0.8, rng=np.random.default_rng(0)) is not None
+    assert frozen.plan(start, (1.0, 0.0), 0.1, gate, period=0.8, rng=np.random.default_rng(0)) is None
+
+
+def test_path_search_without_fallback_takes_the_branch_nearest_the_goal(robot):
+    """Stage 2's unit with ``additions.fallback`` off: no goal path -> the node nearest the goal
+    (:meth:`best_partial_path` without ``stay_until``); with it on, the spot that stays free longest."""
+    import gymnasium as gym
+
+    from footstep_gym.planners.params import load_planner_config
+    from footstep_gym.planners.rrt import PathSearch
+    from footstep_gym.planners.walks import walk_start
+
+    env = gym.make("FootstepCrossing-v0")
+    env.reset(seed=0)
+    snap = env.unwrapped.sensing()
+    env.close()
+    start = walk_start(snap, 0.5 * robot.nominal_side_stride)
+    zone = LateZone(0.5, 1.0)
+    out = {}
+    for fallback in (False, True):
+        stage = PathSearch(robot, load_planner_config({"additions_fallback": fallback}))
+        out[fallback] = stage(snap, start, zone, 0.1, (), None, np.random.default_rng(0))
+        assert not out[fallback].reached_goal and out[fallback].path.n_steps > 0
+    assert out[False].path.nodes[-1, 0] > 0.5  # the greedy branch enters the zone that closes after 1 s
+    assert out[True].path.nodes[-1, 0] <= 0.5  # the fallback waits short of it

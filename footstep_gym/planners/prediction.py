@@ -234,8 +234,9 @@ class BodyModel:
     moves along the midpoints of consecutive nodes. The LIPM's lateral sway is folded in
     per period: the circle is shifted towards the support foot by ``(toward - away) / 2``
     and its radius grown by ``(toward + away) / 2`` (:func:`sway_band`), plus
-    ``margin`` [m] for everything else (prediction error, turning). ``sway=False``: the
-    circle of ``body_radius + margin`` on the centre line (switch ``additions.com_sway``).
+    ``margin`` [m] for everything else (prediction error, turning). ``sway=False`` (switch
+    ``additions.com_sway`` off; the paper's "robot radius"): one circle on the centre line at
+    every period, grown by the larger sway of the nominal gait so that it holds the body there.
     """
 
     def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float, sway: bool = True) -> None:
@@ -247,7 +248,7 @@ class BodyModel:
     def sway(self, period: float) -> tuple[float, float]:
         """``(shift towards the support foot, radius growth)`` [m] at ``period`` (cached per 0.1 ms of period)."""
         if not self.with_sway:
-            return 0.0, 0.0
+            return 0.0, max(sway_band(self.robot, round(self.robot.nominal_period, 4)))
         toward, away = sway_band(self.robot, round(period, 4))
         return 0.5 * (toward - away), 0.5 * (toward + away)
 

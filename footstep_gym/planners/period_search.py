@@ -137,6 +137,9 @@ def stride_window(robot: Robot, com_local: Sequence[float], vel_local: Sequence[
     return float(strides[idx[0]]), float(strides[idx[-1]])
 
 
+_UNKNOWN = object()  # a stride window not yet computed
+
+
 @dataclass(frozen=True)
 class PeriodChoice:
     """Stage 1's record: the walking period and the evidence for it."""
@@ -181,6 +184,8 @@ class PeriodSearch:
         self.extra_steps = ps.rollout_extra_steps
         self.fan_directions = ps.fan_directions
         self.long_lookahead = add.long_lookahead
+        self._windows_of: Snapshot | None = None  # the snapshot whose stride windows are remembered
+        self._windows: dict[float, tuple[float, float] | None] = {}
         self.lipm_windows = add.lipm_windows
         waits = tuple(int(w) for w in ps.rollout_wait_steps if w > 0)
         fractions = tuple(ps.rollout_stride_fractions)
@@ -207,11 +212,20 @@ class PeriodSearch:
         return choice
 
     def stride_window(self, snapshot: Snapshot, period: float) -> tuple[float, float] | None:
-        """Front strides [m] the LIPM accepts for the first step at ``period`` [s] (``None``: not limited)."""
+        """Front strides [m] the LIPM accepts for the first step at ``period`` [s] (``None``: not limited).
+
+        Remembered per snapshot and period (the search asks for the same ones several times).
+        """
         if not self.lipm_windows:
             return None
-        return stride_window(self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, period,
-                             self.step_size, self.stride_grid)
+        if self._windows_of is not snapshot:
+            self._windows_of, self._windows = snapshot, {}
+        window = self._windows.get(period, _UNKNOWN)
+        if window is _UNKNOWN:
+            window = self._windows[period] = stride_window(
+                self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, period, self.step_size,
+                self.stride_grid)
+        return window
 
     def walks(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck, body: BodyCheck,
               committed: CommittedPlan | None, wait_steps: Sequence[int],

@@ -28,6 +28,7 @@ import numpy as np
 
 from footstep_gym import footstep
 from footstep_gym.footstep import LEFT, RIGHT
+from footstep_gym.planners import kernels
 from footstep_gym.planners.walks import BodyCheck, CommittedPlan, WalkStart, trim_at_goal, walks_free
 from footstep_gym.robot import Robot
 
@@ -144,35 +145,15 @@ class GoalRollouts(_Walks):
         return nodes[:, : depth + 1], headings[:, : depth + 1]
 
     def _pursue(self, window: tuple[float, float] | None, depth: int) -> tuple[np.ndarray, np.ndarray]:
-        """Pure pursuit of every rollout's lane for ``depth`` steps (2D points as complex numbers)."""
-        n_roll = self._offsets.size
-        node0 = complex(*self.start.node)
-        axis = complex(*self._dir)
-        goal = complex(*self.goal)
-        lane = self._offsets * (1j * axis)
-        limits = {side: footstep.turn_bounds(side, self.robot) for side in (LEFT, RIGHT)}
-        pos = np.full(n_roll, node0)
-        heading = np.full(n_roll, float(self.start.heading))
-        out = np.empty((n_roll, depth + 1), dtype=complex)
-        headings = np.empty((n_roll, depth + 1))
-        out[:, 0], headings[:, 0] = pos, heading
-        side = self.start.side
-        for d in range(1, depth + 1):
-            # Aim at the lane point ``lookahead`` ahead; the lane closes onto the goal over the last lookahead.
-            ahead = ((pos - node0) * axis.conjugate()).real + self.lookahead
-            taper = np.clip((self._length - ahead) / self.lookahead, 0.0, 1.0)
-            aim = node0 + np.minimum(ahead, self._length) * axis + taper * lane
-            lo, hi = limits[side]
-            heading = heading + np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi)
-            stride = np.where(d <= self._waits, 0.0, self._strides)
-            if d == 1 and window is not None:
-                stride = np.clip(stride, *window)
-            dist = np.abs(goal - pos)
-            stride = np.where(dist <= self.goal_radius, 0.0, np.minimum(stride, dist))
-            pos = pos + stride * np.exp(1j * heading)
-            out[:, d], headings[:, d] = pos, heading
-            side = -side
-        return np.stack([out.real, out.imag], axis=-1), headings
+        """Pure pursuit of every rollout's lane for ``depth`` steps (compiled: :func:`.kernels.pursue_lanes`)."""
+        (l_lo, l_hi), (r_lo, r_hi) = (footstep.turn_bounds(side, self.robot) for side in (LEFT, RIGHT))
+        w_lo, w_hi = window if window is not None else (0.0, 0.0)
+        return kernels.pursue_lanes(
+            float(self.start.node[0]), float(self.start.node[1]), float(self._dir[0]), float(self._dir[1]),
+            float(self.goal[0]), float(self.goal[1]), self._length, float(self.lookahead), float(self.goal_radius),
+            float(self.start.heading), int(self.start.side), self._offsets, self._strides,
+            self._waits.astype(np.int64), float(l_lo), float(l_hi), float(r_lo), float(r_hi), window is not None,
+            float(w_lo), float(w_hi), int(depth))
 
 
 class NextNodeFan(_Walks):

@@ -15,7 +15,11 @@ from typing import Protocol, Sequence
 
 import numpy as np
 
-from footstep_gym.planners.prediction import body_path_points, support_normal
+from footstep_gym.planners import kernels
+from footstep_gym.planners.prediction import BodyModel, body_path_points, support_normal
+
+_NO_GRID = np.empty((0, 0))  # no static distance grid: the kernel measures every shape
+_ORIGIN = np.zeros(2)
 
 
 class BodyCheck(Protocol):
@@ -87,6 +91,38 @@ def walks_free(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: n
     support foot's normal of its step (the CoM sway). Once a walk has reached the goal
     region (``goal (2,)``, ``goal_radius`` [m]) the episode is over: later steps are not checked.
     """
+    if isinstance(body, BodyModel):
+        return _walks_free_compiled(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
+    return walks_free_numpy(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
+
+
+def _walks_free_compiled(body: BodyModel, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
+                         edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """:func:`walks_free` in one compiled loop (:func:`.kernels.walks_free`); walks it cannot decide
+    (a point beyond the static grid) are measured by :func:`walks_free_numpy`."""
+    pred = body.predictor
+    shift, grow = body.sway(period)
+    field = pred.static_field
+    grid, low, res = (field.grid, field.low, field.resolution) if field is not None else (_NO_GRID, _ORIGIN, 1.0)
+    e = pred.exact_shapes
+    status = np.empty(len(nodes), dtype=np.int64)
+    kernels.walks_free(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
+                       float(start.body[1]), np.ascontiguousarray(nodes, dtype=float),
+                       np.ascontiguousarray(headings, dtype=float), int(start.side), float(period),
+                       np.linspace(0.0, 1.0, edge_samples), float(goal[0]), float(goal[1]), float(goal_radius),
+                       float(shift), float(body.robot.body_radius + body.margin + grow), *pred.kernel_shapes,
+                       pred.kernel_radius, pred.kernel_horizon, grid, float(low[0]), float(low[1]), float(res), status)
+    free = status == 1
+    undecided = np.flatnonzero(status == 2)
+    if undecided.size:
+        free[undecided] = walks_free_numpy(body, start, nodes[undecided], headings[undecided], period, edge_samples,
+                                           goal, goal_radius)
+    return free
+
+
+def walks_free_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
+                     edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """:func:`walks_free` in numpy, for any :class:`BodyCheck` (the reference of the compiled loop)."""
     n_roll, n_nodes, _ = nodes.shape
     prev = np.concatenate([np.tile(start.previous_node, (n_roll, 1, 1)), nodes[:, :-1]], axis=1)
     bodies = 0.5 * (prev + nodes)  # body at the end of step d = midpoint(n[d-1], n[d])

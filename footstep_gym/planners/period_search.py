@@ -252,17 +252,11 @@ class PeriodSearch:
         """
         walks = self.walks(snapshot, start, search_body, body, committed, wait_steps, fractions)
         t_n = self.robot.nominal_period
-        free_at: dict[float, list[np.ndarray]] = {}
-
-        def collides(period: float) -> bool:
-            free_at[period] = walks.free_walks(period)
-            return not free_at[period]
-
         if not self.vary_period:
-            free = not collides(t_n)
+            free_walks = tuple(walks.free_walks(t_n))
             kept = committed is not None and walks.committed_free(t_n)
-            return PeriodChoice(t_n, free, tuple(free_at[t_n]), self.stride_window(snapshot, t_n), t_n, free, 1,
-                                kept, second_tier)
+            return PeriodChoice(t_n, bool(free_walks), free_walks, self.stride_window(snapshot, t_n), t_n,
+                                bool(free_walks), 1, kept, second_tier)
         if self.lipm_windows:
             strides = (float(snapshot.previous_command[0]), self.step_size)
             floor = shortest_feasible_period(self.robot, snapshot.com_local, snapshot.vel_local,
@@ -271,7 +265,8 @@ class PeriodSearch:
             floor = self.t0
         kept = (committed is not None and floor <= committed.period <= t_n
                 and walks.committed_free(committed.period))
-        result = longest_free_period(collides, committed.period if kept else floor, t_n, self.iterations)
-        return PeriodChoice(result.period, result.any_free, tuple(free_at[result.period]),
+        result = longest_free_period(walks, committed.period if kept else floor, t_n, self.iterations)
+        free_walks = tuple(walks.free_walks(result.period)) if result.any_free else ()
+        return PeriodChoice(result.period, result.any_free, free_walks,
                             self.stride_window(snapshot, result.period), floor, result.nominal_free,
                             result.evaluations, kept, second_tier)

@@ -94,8 +94,14 @@ class _Walks(ABC):
         return walks[:limit] if limit is not None else walks
 
     def __call__(self, period: float) -> bool:
-        """``ObstacleCollision(period)``: every walk collides."""
-        return not self.free_walks(period, 1)
+        """``ObstacleCollision(period)``: every walk collides (the committed one included)."""
+        nodes, headings = self.nodes(period)
+        if self._free(nodes, headings, period).any():
+            return False
+        if self.committed is None:
+            return True
+        nodes, headings = self._with_committed(nodes[:1], headings[:1])
+        return not bool(self._free(nodes[-1:], headings[-1:], period, self.committed_body)[0])
 
 
 class GoalRollouts(_Walks):

@@ -1,10 +1,18 @@
 """Reference planners (Lee et al.): period search, modified RRT, PSO, and the policies built on them.
 
-The maths here never imports pygame or torch. See :mod:`.reference` for the policy
-interface and the three planners (``period-aware``, ``fixed-period``, ``pso-only``).
+The maths here never imports pygame or torch. One module per stage, each with a unit
+that returns a small record: :class:`PeriodSearch` -> :class:`PeriodChoice` (stage 1,
+:mod:`.period_search` over the walks of :mod:`.rollouts`), :class:`PathSearch` ->
+:class:`PathChoice` (stage 2, :mod:`.rrt`), :class:`CommandRepair` ->
+:class:`RepairChoice` (stage 3, :mod:`.pso`). :mod:`.reference` holds the policy
+interface and the registry (``period-aware``, ``fixed-period``, ``pso-only``,
+``paper-period-aware``, ``paper-fixed-period``); :mod:`.ablation` names the variants
+with one of our additions switched off.
 """
 
+from footstep_gym.planners.ablation import ablation_variants
 from footstep_gym.planners.params import (
+    AdditionsParams,
     PeriodSearchParams,
     PlannerConfig,
     PredictionParams,
@@ -14,17 +22,18 @@ from footstep_gym.planners.params import (
     load_planner_config,
 )
 from footstep_gym.planners.period_search import (
-    GoalRollouts,
+    PeriodChoice,
+    PeriodSearch,
     PeriodSearchResult,
-    WalkStart,
     longest_free_period,
-    node_of_foot,
     shortest_feasible_period,
-    walk_start,
+    stride_window,
 )
-from footstep_gym.planners.prediction import ObstaclePredictor, body_path_points
+from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor, body_path_points
 from footstep_gym.planners.pso import (
+    CommandRepair,
     PSOResult,
+    RepairChoice,
     RepairResult,
     clip_command,
     feasibility_objective,
@@ -33,20 +42,28 @@ from footstep_gym.planners.pso import (
     repair_command,
 )
 from footstep_gym.planners.reference import (
+    PAPER,
     POLICIES,
     FixedPeriodPlanner,
     PeriodAwarePlanner,
     Policy,
+    PolicySpec,
     PSOOnlyPlanner,
     make_policy,
+    policy_spec,
+    variant_name,
 )
-from footstep_gym.planners.rrt import ModifiedRRT, RRTPath
+from footstep_gym.planners.rollouts import GoalRollouts, NextNodeFan
+from footstep_gym.planners.rrt import ModifiedRRT, PathChoice, PathSearch, RRTPath
+from footstep_gym.planners.walks import CommittedPlan, WalkStart, node_of_foot, walk_start
 
 __all__ = [
-    "POLICIES", "FixedPeriodPlanner", "GoalRollouts", "ModifiedRRT", "ObstaclePredictor", "PSOOnlyParams",
-    "PSOOnlyPlanner", "PSOParams", "PSOResult", "PeriodAwarePlanner", "PeriodSearchParams", "PeriodSearchResult",
-    "PlannerConfig", "Policy", "PredictionParams", "RRTParams", "RRTPath", "RepairResult", "WalkStart",
-    "body_path_points", "clip_command", "feasibility_objective", "increment_bounds", "load_planner_config",
-    "longest_free_period", "make_policy", "minimise", "node_of_foot", "repair_command",
-    "shortest_feasible_period", "walk_start",
+    "PAPER", "POLICIES", "AdditionsParams", "BodyModel", "CommandRepair", "CommittedPlan", "FixedPeriodPlanner",
+    "GoalRollouts", "ModifiedRRT", "NextNodeFan", "ObstaclePredictor", "PSOOnlyParams", "PSOOnlyPlanner",
+    "PSOParams", "PSOResult", "PathChoice", "PathSearch", "PeriodAwarePlanner", "PeriodChoice", "PeriodSearch",
+    "PeriodSearchParams", "PeriodSearchResult", "PlannerConfig", "Policy", "PolicySpec", "PredictionParams",
+    "RRTParams", "RRTPath", "RepairChoice", "RepairResult", "WalkStart", "ablation_variants", "body_path_points",
+    "clip_command", "feasibility_objective", "increment_bounds", "load_planner_config", "longest_free_period",
+    "make_policy", "minimise", "node_of_foot", "policy_spec", "repair_command", "shortest_feasible_period",
+    "stride_window", "variant_name", "walk_start",
 ]

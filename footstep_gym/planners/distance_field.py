@@ -17,10 +17,9 @@ from typing import Sequence
 
 import numpy as np
 
+from footstep_gym.planners import kernels
 from footstep_gym.sensing import ObstacleView, shapes_of
 
-#: Grid nodes measured per batch: bounds the (nodes, shapes) temporaries of the distance maths.
-_CHUNK = 8192
 
 
 class StaticDistanceField:
@@ -39,9 +38,13 @@ class StaticDistanceField:
         self.high = lo + self.resolution * (np.array(self.shape) - 1)
         xs = lo[0] + self.resolution * np.arange(self.shape[0])
         ys = lo[1] + self.resolution * np.arange(self.shape[1])
-        nodes = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
-        exact = np.concatenate([self._shapes.clearance(nodes[i:i + _CHUNK]) for i in range(0, len(nodes), _CHUNK)])
-        self._grid = exact.reshape(self.shape) - self.resolution / math.sqrt(2.0)
+        sh = self._shapes
+        exact = kernels.grid_clearance(xs, ys, np.ascontiguousarray(sh.circle_centres, dtype=float).reshape(-1, 2),
+                                       np.ascontiguousarray(sh.circle_radii, dtype=float),
+                                       np.ascontiguousarray(sh.segment_a, dtype=float).reshape(-1, 2),
+                                       np.ascontiguousarray(sh.segment_b, dtype=float).reshape(-1, 2),
+                                       np.ascontiguousarray(sh.segment_radii, dtype=float))
+        self.grid = exact - self.resolution / math.sqrt(2.0)  # (nx, ny) lower bounds [m] at the nodes
 
     @staticmethod
     def geometry_key(views: Sequence[ObstacleView]) -> tuple:
@@ -59,7 +62,7 @@ class StaticDistanceField:
         idx = np.rint((pts - self.low) / self.resolution).astype(np.intp)
         inside = np.all((idx >= 0) & (idx < np.array(self.shape)), axis=1)
         out = np.empty(len(pts))
-        out[inside] = self._grid[idx[inside, 0], idx[inside, 1]]
+        out[inside] = self.grid[idx[inside, 0], idx[inside, 1]]
         if not inside.all():
             out[~inside] = self._shapes.clearance(pts[~inside])
         return out

@@ -20,6 +20,29 @@ from footstep_gym.errors import ConfigError
 
 
 @dataclass(frozen=True)
+class AdditionsParams:
+    """Named switches of what our planners add to the paper's (docs/model.md §5); all off = the paper's planner.
+
+    Each switch is read by the stage it changes; the ablation (:mod:`.ablation`) turns them
+    off one at a time.
+    """
+
+    waiting_walks: bool = plain()  # stage 1: a second tier of slower / waiting walks when no period is free
+    plan_commitment: bool = plain()  # stage 1: the previous step's plan stays a walk and bounds the search
+    long_lookahead: bool = plain()  # stage 1: goal-directed rollouts over the horizon; off: one-step fan (Fig. 2)
+    unsteady_horizons: bool = plain()  # shapes whose velocity changed are predicted only unsteady_horizon_s
+    lipm_windows: bool = plain()  # T0 = shortest period reachable now; first stride inside the LIPM's window
+    search_margin: bool = plain()  # stage 1 checks with period_search.extra_margin_m more clearance
+    com_sway: bool = plain()  # the body circle follows the LIPM's lateral sway (off: robot radius only)
+    time_aware_rrt: bool = plain()  # stage 2: node d checked at [(d-1)T, dT]; off: all against obstacles at T
+    rrt_seeds: bool = plain()  # stage 2: stage 1's free walks are the tree's first branches
+    step_cost: bool = plain()  # stage 2: rrt.step_cost_m per step in the path cost (off: length only)
+    fallback: bool = plain()  # stage 2 without a goal path: the spot that stays free longest (off: nearest goal)
+    distance_field: bool = plain()  # static shapes read off a distance grid (speed; conservative by res/sqrt 2)
+    region_pruning: bool = plain()  # shapes that cannot reach the planning box are left out (speed; exact)
+
+
+@dataclass(frozen=True)
 class PredictionParams:
     """How far ahead obstacles are predicted and how much room the robot keeps."""
 
@@ -27,7 +50,7 @@ class PredictionParams:
     unsteady_horizon_s: float = positive()  # [s] ... but only this far for shapes whose velocity changed since the last step
     unsteady_speed_mps: float = nonnegative()  # [m/s] a velocity change above this makes a shape unsteady
     unsteady_turn_rad_s: float = nonnegative()  # [rad/s] likewise for the angular velocity
-    static_field_resolution_m: float = nonnegative()  # [m] grid of the static shapes' distance field (0: exact)
+    static_field_resolution_m: float = positive()  # [m] grid of the static shapes' distance field (additions.distance_field)
     static_field_padding_m: float = nonnegative()  # [m] the field extends this far beyond the region asked for
     safety_margin_m: float = nonnegative()  # [m] added to robot.body_radius in every collision check
     edge_samples: int = positive()  # points checked along each body-path segment (>= 2)
@@ -49,6 +72,9 @@ class PeriodSearchParams:
     rollout_stride_fractions: list = plain()  # rollout strides as fractions of rrt.step_size_m
     rollout_lookahead_m: float = positive()  # [m] pure-pursuit lookahead along a lane
     rollout_wait_steps: list = plain()  # steps in place before a rollout sets off (0: at once)
+    rollout_depth_slack: float = positive()  # rollouts span ceil(distance / shortest stride x this) steps ...
+    rollout_extra_steps: int = nonnegative()  # ... + the longest wait + this many
+    fan_directions: int = positive()  # one-step check (long_lookahead off): headings across the angle limits
     commit_tolerance_m: float = nonnegative()  # [m] previous plan kept if the robot stands this close to its node
     extra_margin_m: float = nonnegative()  # [m] more clearance in the search than in the RRT: slack in the timing
 
@@ -63,7 +89,9 @@ class PeriodSearchParams:
         if not all(float(w).is_integer() and w >= 0 for w in self.rollout_wait_steps):
             raise ConfigError(f"period_search.rollout_wait_steps must be whole numbers >= 0, "
                               f"got {self.rollout_wait_steps}")
-        for name in ("floor_grid", "stride_grid"):
+        if self.rollout_depth_slack < 1:
+            raise ConfigError(f"period_search.rollout_depth_slack must be >= 1, got {self.rollout_depth_slack}")
+        for name in ("floor_grid", "stride_grid", "fan_directions"):
             if getattr(self, name) < 2:
                 raise ConfigError(f"period_search.{name} must be >= 2, got {getattr(self, name)}")
 
@@ -99,6 +127,7 @@ class PSOParams:
     c2: float = nonnegative()  # social coefficient
     patience: int = positive()  # stop after this many iterations without improvement > tolerance
     tolerance: float = nonnegative()  # improvement of the objective that counts
+    max_velocity: float = positive()  # |velocity| per dimension <= this x the box size
     d_front_stride_m: tuple[float, float] = interval()  # ΔS [m]
     d_side_stride_m: tuple[float, float] = interval()  # ΔL [m]
     d_turn_deg: tuple[float, float] = interval()  # Δθ [deg]
@@ -136,6 +165,7 @@ class PSOOnlyParams:
     c2: float = nonnegative()
     patience: int = positive()
     tolerance: float = nonnegative()
+    max_velocity: float = positive()  # |velocity| per dimension <= this x the box size
     goal_weight: float = positive()  # per metre from the robot centre after the step to the goal
     collision_penalty: float = positive()  # if any predicted body point is closer than the safe distance
     intrusion_weight: float = nonnegative()  # per metre of the deepest intrusion into the safe distance
@@ -148,6 +178,7 @@ class PSOOnlyParams:
 class PlannerConfig:
     """All sections of ``configs/planner.yaml``."""
 
+    additions: AdditionsParams
     prediction: PredictionParams
     period_search: PeriodSearchParams
     rrt: RRTParams
@@ -156,6 +187,7 @@ class PlannerConfig:
 
 
 _SECTION_TYPES = {
+    "additions": AdditionsParams,
     "prediction": PredictionParams,
     "period_search": PeriodSearchParams,
     "rrt": RRTParams,
@@ -184,8 +216,10 @@ def _nest_overrides(overrides: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     return nested
 
 
-def load_planner_config(overrides: Mapping[str, Any] | None = None) -> PlannerConfig:
-    """``configs/planner.yaml`` with ``overrides`` applied (see module doc)."""
+def load_planner_config(overrides: Mapping[str, Any] | None = None,
+                        defaults: Mapping[str, Mapping[str, Any]] | None = None) -> PlannerConfig:
+    """``configs/planner.yaml`` with ``defaults`` (``{section: {key: value}}``, e.g. a policy's own
+    switches) and then ``overrides`` applied (see module doc)."""
     data = config.read_yaml("planner.yaml")
     unknown = [k for k in data if k not in _SECTION_TYPES]
     if unknown:
@@ -199,6 +233,6 @@ def load_planner_config(overrides: Mapping[str, Any] | None = None) -> PlannerCo
         section = data[name]
         if not isinstance(section, Mapping):
             raise ConfigError(f"planner.yaml: section {name!r} must be a mapping, got {section!r}")
-        section = {**section, **nested[name]}
+        section = {**section, **(defaults or {}).get(name, {}), **nested[name]}
         sections[name] = config.build(cls, section, f"planner.yaml:{name}")
     return PlannerConfig(**sections)

@@ -25,6 +25,7 @@ import functools
 import numpy as np
 
 from footstep_gym import footstep, lipm
+from footstep_gym.planners import kernels
 from footstep_gym.planners.distance_field import StaticDistanceField
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import ObstacleView, Snapshot
@@ -132,6 +133,15 @@ class ObstaclePredictor:
         # free() and clearance() measure these shapes exactly; the static ones come from the field if any.
         self._exact = (np.flatnonzero([not v.static for v in views]) if static_field is not None
                        else np.arange(n))
+        e = self._exact
+        # The exact shapes as the compiled kernel reads them (x and y apart, contiguous).
+        self.exact_shapes = e
+        self.kernel_radius = np.ascontiguousarray(self._radius[e])
+        self.kernel_horizon = np.ascontiguousarray(self._horizon[e])
+        self.kernel_shapes = tuple(np.ascontiguousarray(a) for a in (
+            self._position[e].real, self._position[e].imag, self._velocity[e].real, self._velocity[e].imag,
+            self._angle[e], self._omega[e], self._a[e].real, self._a[e].imag, self._ab[e].real, self._ab[e].imag,
+            self._ab2[e]))
 
     @property
     def n_shapes(self) -> int:
@@ -181,7 +191,28 @@ class ObstaclePredictor:
         return out
 
     def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
-        """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots for exact shapes)."""
+        """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots for exact shapes).
+
+        One compiled loop (:func:`.kernels.points_free`) over points and shapes; the numpy
+        expression it replaces is :meth:`free_numpy` (the tests hold the two equal).
+        """
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        times = np.broadcast_to(np.asarray(times, dtype=float), pts.shape[:1])
+        k = self.kernel_shapes
+        field = self.static_field
+        grid, low, res = (field.grid, field.low, field.resolution) if field is not None else (_NO_GRID, _ORIGIN, 1.0)
+        out = np.empty(len(pts), dtype=bool)
+        outside = np.empty(len(pts), dtype=bool)
+        kernels.points_free(np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]),
+                            np.ascontiguousarray(times), *k, (self._radius[self._exact] + safe_distance) ** 2,
+                            self._horizon[self._exact], grid, float(low[0]), float(low[1]), float(res),
+                            float(safe_distance), out, outside)
+        if field is not None and outside.any():
+            out[outside] &= field.clearance(pts[outside]) >= safe_distance
+        return out
+
+    def free_numpy(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
+        """:meth:`free` in plain numpy (the reference the compiled kernel is tested against)."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         ok = (self._distance2(pts, times, self._exact) >= (self._radius[self._exact] + safe_distance) ** 2).all(axis=1)
         if self.static_field is not None:
@@ -190,6 +221,8 @@ class ObstaclePredictor:
 
 
 _SAMPLES_CACHE: dict[int, np.ndarray] = {}
+_NO_GRID = np.empty((0, 0))  # no static distance grid: the kernel measures every shape
+_ORIGIN = np.zeros(2)
 
 
 def body_path_points(starts: np.ndarray, ends: np.ndarray, t_start: np.ndarray, t_end: np.ndarray,
@@ -234,16 +267,21 @@ class BodyModel:
     moves along the midpoints of consecutive nodes. The LIPM's lateral sway is folded in
     per period: the circle is shifted towards the support foot by ``(toward - away) / 2``
     and its radius grown by ``(toward + away) / 2`` (:func:`sway_band`), plus
-    ``margin`` [m] for everything else (prediction error, turning).
+    ``margin`` [m] for everything else (prediction error, turning). ``sway=False`` (switch
+    ``additions.com_sway`` off; the paper's "robot radius"): one circle on the centre line at
+    every period, grown by the larger sway of the nominal gait so that it holds the body there.
     """
 
-    def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float) -> None:
+    def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float, sway: bool = True) -> None:
         self.predictor = predictor
         self.robot = robot
         self.margin = margin
+        self.with_sway = sway
 
     def sway(self, period: float) -> tuple[float, float]:
         """``(shift towards the support foot, radius growth)`` [m] at ``period`` (cached per 0.1 ms of period)."""
+        if not self.with_sway:
+            return 0.0, max(sway_band(self.robot, round(self.robot.nominal_period, 4)))
         toward, away = sway_band(self.robot, round(period, 4))
         return 0.5 * (toward - away), 0.5 * (toward + away)
 

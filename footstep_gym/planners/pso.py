@@ -28,7 +28,9 @@ from typing import Callable, Sequence
 import numpy as np
 
 from footstep_gym import footstep, lipm
+from footstep_gym.planners.params import PSOParams
 from footstep_gym.robot import Robot
+from footstep_gym.sensing import Snapshot
 
 #: ``f(X (P, D)) -> (P,)`` evaluated once per iteration for the whole swarm.
 Objective = Callable[[np.ndarray], np.ndarray]
@@ -160,7 +162,7 @@ def repair_command(robot: Robot, com_local: Sequence[float], vel_local: Sequence
                    reference: Sequence[float], rng: np.random.Generator, *, delta_low: Sequence[float],
                    delta_high: Sequence[float], particles: int, iterations: int, inertia: float, c1: float,
                    c2: float, patience: int | None, deviation_weight: float, infeasible_penalty: float,
-                   violation_weight: float) -> RepairResult:
+                   violation_weight: float, tolerance: float = 1e-9, max_velocity: float = 0.5) -> RepairResult:
     """The feasible command closest (eq. 7) to ``reference`` within Table 1's increments."""
     ref = clip_command(robot, reference, support_side)
     lo, hi = increment_bounds(robot, ref, support_side, delta_low, delta_high)
@@ -168,7 +170,53 @@ def repair_command(robot: Robot, com_local: Sequence[float], vel_local: Sequence
         robot, com_local, vel_local, support_side, ref, deviation_weight=deviation_weight,
         infeasible_penalty=infeasible_penalty, violation_weight=violation_weight)
     res = minimise(objective, lo, hi, rng, particles=particles, iterations=iterations, inertia=inertia,
-                   c1=c1, c2=c2, patience=patience, seeds=np.zeros((1, 5)))
+                   c1=c1, c2=c2, patience=patience, tolerance=tolerance, max_velocity=max_velocity,
+                   seeds=np.zeros((1, 5)))
     cmd = ref + res.x
     ok = bool(lipm.check_steps(robot, com_local, vel_local, cmd[None], support_side).feasible[0])
     return RepairResult(cmd, ok, res)
+
+
+# ---------------------------------------------------------------------- stage 3
+@dataclass(frozen=True)
+class RepairChoice:
+    """Stage 3's record: the command sent and whether the PSO was needed."""
+
+    command: np.ndarray  # (5,) the stage-2 command if feasible, else the PSO's FC + ΔFC
+    feasible_before: bool  # the stage-2 command was feasible (the PSO did not run)
+    feasible: bool  # the command sent is feasible for the LIPM (as predicted from the snapshot)
+    pso: PSOResult | None  # None when the PSO did not run
+
+    def diagnostics(self) -> dict[str, object]:
+        """The record as ``policy.last_info`` entries."""
+        out: dict[str, object] = dict(feasible_pre_pso=self.feasible_before, pso_ran=self.pso is not None,
+                                      predicted_feasible=self.feasible)
+        if self.pso is not None:
+            out.update(pso_iterations=self.pso.iterations, pso_value=self.pso.value)
+        return out
+
+
+class CommandRepair:
+    """Stage 3 with the parameters of ``configs/planner.yaml`` (section ``pso``).
+
+    ``vary_period=False`` (the fixed-period planner): ``ΔT_SS = ΔT_DS = 0``.
+    """
+
+    def __init__(self, robot: Robot, params: PSOParams, vary_period: bool = True) -> None:
+        self.robot = robot
+        self.delta_low, self.delta_high = params.delta_bounds(vary_period=vary_period)
+        self.settings = dict(
+            particles=params.particles, iterations=params.iterations, inertia=params.inertia, c1=params.c1,
+            c2=params.c2, patience=params.patience, tolerance=params.tolerance, max_velocity=params.max_velocity,
+            deviation_weight=params.deviation_weight, infeasible_penalty=params.infeasible_penalty,
+            violation_weight=params.violation_weight)
+
+    def __call__(self, snapshot: Snapshot, reference: np.ndarray, rng: np.random.Generator) -> RepairChoice:
+        """``reference`` if the LIPM accepts it from the snapshot's CoM state, else the PSO's closest feasible command."""
+        ok = bool(lipm.check_steps(self.robot, snapshot.com_local, snapshot.vel_local, reference[None],
+                                   snapshot.support_side).feasible[0])
+        if ok:
+            return RepairChoice(reference, True, True, None)
+        rep = repair_command(self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, reference,
+                             rng, delta_low=self.delta_low, delta_high=self.delta_high, **self.settings)
+        return RepairChoice(rep.command, False, rep.feasible, rep.pso)

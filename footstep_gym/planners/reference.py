@@ -15,25 +15,32 @@ robot could sense now; the future only through its constant-velocity prediction)
 ignore ``observation``; a learned agent reads ``observation`` and ignores the snapshot.
 
 ``period-aware`` — the paper's planner, greedy (one footstep per call, replanned every
-step), DESIGN §5:
+step), docs/model.md §5. :meth:`PeriodAwarePlanner._plan` is the paper's three calls,
+each a unit returning a record:
 
-1. walking period ``T`` by binary search (:mod:`.period_search`) between the shortest
-   period reachable in one step and ``T_n``, collision predicate :class:`GoalRollouts`
-   (walks at full stride; only if no period is free, again with walks that slow down or
-   first step in place). The previous step's plan, while still free, is one of the walks
-   and bounds the search from below;
-2. modified RRT (:mod:`.rrt`) at that period, time-aware; its first node, via the
-   footstep convention (:func:`footstep.foot_from_node` then
-   :func:`footstep.command_between`), gives ``(S, L, θ)``; ``T_SS = T - nominal T_DS``,
-   ``T_DS`` nominal (the paper's Tables 2 and 4 keep T_DS at 0.20 s and vary T_SS);
-3. PSO over Table 1's increments (:mod:`.pso`), only if that command is infeasible.
+1. :class:`~.period_search.PeriodSearch` -> :class:`~.period_search.PeriodChoice`: the
+   walking period ``T`` by binary search (Algorithm 1) between ``T0`` and ``T_n``;
+2. :class:`~.rrt.PathSearch` -> :class:`~.rrt.PathChoice`: the modified RRT
+   (Algorithm 2) at that period; its first node, via the footstep convention
+   (:func:`footstep.foot_from_node` then :func:`footstep.command_between`), gives
+   ``(S, L, θ)``; ``T_SS = T - nominal T_DS``, ``T_DS`` nominal (the paper's Tables 2 and
+   4 keep T_DS at 0.20 s and vary T_SS);
+3. :class:`~.pso.CommandRepair` -> :class:`~.pso.RepairChoice`: PSO over Table 1's
+   increments (eq. 5-8), only if that command is infeasible.
+
+What we add to the paper's planner is a set of named switches (``configs/planner.yaml``,
+section ``additions``: the second tier of the period search, plan commitment, the long
+look-ahead, short horizons for unsteady shapes, the LIPM's windows, the fallback, ...).
+``paper-period-aware`` and ``paper-fixed-period`` are the same classes with every switch
+off: the paper's algorithm and nothing else. ``<policy>-no-<switch>`` names a policy with
+one switch off (:mod:`.ablation`).
 
 ``fixed-period`` — the same planner "without considering the walking period" (the
 paper's comparison, Fig. 8 A-C): the period is not a decision variable *anywhere*. The
 binary search is skipped (``T = T_n``), the RRT predicts obstacles at ``T_n`` per step,
 and the PSO may change only ``S, L, θ`` (``ΔT_SS = ΔT_DS = 0``). Letting the PSO shorten
 ``T`` would reintroduce the period through the back door and blur the comparison; since
-changing the stride at a constant period is always cheap for the LIPM (DESIGN §3),
+changing the stride at a constant period is always cheap for the LIPM (docs/model.md §3),
 this planner practically never needs more than that.
 
 ``pso-only`` — no binary search, no RRT: one PSO over the whole command box (S, L, θ
@@ -46,30 +53,28 @@ search space of the PSO").
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from abc import ABC, abstractmethod
-from typing import Any, Callable
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from footstep_gym import footstep, lipm
 from footstep_gym.planners import pso
 from footstep_gym.planners.distance_field import StaticDistanceField
-from footstep_gym.planners.params import PlannerConfig, load_planner_config
-from footstep_gym.planners.period_search import (
-    GoalRollouts,
-    longest_free_period,
-    shortest_feasible_period,
-    stride_window,
-    walk_start,
-)
+from footstep_gym.planners.params import AdditionsParams, PlannerConfig, load_planner_config
+from footstep_gym.planners.period_search import PeriodSearch
 from footstep_gym.planners.prediction import (
     BodyModel,
     ObstaclePredictor,
     body_path_points,
     steady_motion_horizons,
 )
-from footstep_gym.planners.rrt import ModifiedRRT
+from footstep_gym.planners.pso import CommandRepair
+from footstep_gym.planners.rrt import PathChoice, PathSearch
+from footstep_gym.planners.walks import CommittedPlan, WalkStart, walk_start
 from footstep_gym.robot import Robot, load_robot
 from footstep_gym.sensing import Snapshot
 
@@ -98,8 +103,10 @@ class Policy(ABC):
 class _Planner(Policy):
     """Shared by the scripted planners: robot, config, generator, timing of ``act``."""
 
-    def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None) -> None:
+    def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None, name: str | None = None) -> None:
         super().__init__()
+        if name is not None:
+            self.name = name  # a configured variant (e.g. "paper-period-aware") of this class
         self.robot = robot
         self.config = config
         self._seed = seed
@@ -114,9 +121,9 @@ class _Planner(Policy):
 
     def static_field(self, snapshot: Snapshot, region: tuple[np.ndarray, np.ndarray]) -> StaticDistanceField | None:
         """The distance field of the snapshot's static shapes over ``region``: built once, reused while it
-        covers the region and the static shapes are unchanged (``None`` if the resolution is 0)."""
+        covers the region and the static shapes are unchanged (``None`` with ``additions.distance_field`` off)."""
         res = self.config.prediction.static_field_resolution_m
-        if res <= 0:
+        if not self.config.additions.distance_field:
             return None
         field = self._field
         if (field is None or field.key != StaticDistanceField.geometry_key(snapshot.obstacles)
@@ -166,178 +173,81 @@ class PeriodAwarePlanner(_Planner):
     name = "period-aware"
     vary_period = True
 
-    def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None) -> None:
-        super().__init__(robot, config, seed)
-        c = config
-        self.rrt = ModifiedRRT(
-            robot, iterations=c.rrt.iterations, batch_size=c.rrt.batch_size, step_size=c.rrt.step_size_m,
-            goal_sample_rate=c.rrt.goal_sample_rate, n_paths=c.rrt.n_paths,
-            sample_margin=c.rrt.sample_margin_m, edge_samples=c.prediction.edge_samples,
-            step_cost=c.rrt.step_cost_m, clearance_weight=c.rrt.fallback_clearance_weight,
-            clearance_cap=c.rrt.fallback_clearance_cap_m)
+    def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None, name: str | None = None) -> None:
+        super().__init__(robot, config, seed, name)
+        self.period_search = PeriodSearch(robot, config, vary_period=self.vary_period)  # stage 1
+        self.path_search = PathSearch(robot, config)  # stage 2
+        self.repair = CommandRepair(robot, config.pso, vary_period=self.vary_period)  # stage 3
         self.half_width = 0.5 * robot.nominal_side_stride
-        self.delta_low, self.delta_high = c.pso.delta_bounds(vary_period=self.vary_period)
-        self._last_path: tuple[np.ndarray, np.ndarray, float] | None = None  # rest of the last goal path, its period
+        add, pp = config.additions, config.prediction
+        self.commit_tolerance = config.period_search.commit_tolerance_m if add.plan_commitment else None
+        self.unsteady = ((pp.unsteady_horizon_s, pp.unsteady_speed_mps, pp.unsteady_turn_rad_s)
+                         if add.unsteady_horizons else None)
+        self.horizon = pp.horizon_s
+        self.margin = pp.safety_margin_m
+        self.search_margin = pp.safety_margin_m + (config.period_search.extra_margin_m if add.search_margin else 0.0)
+        self.com_sway = add.com_sway
+        self.region_pruning = add.region_pruning
+        self._plan_ahead: CommittedPlan | None = None  # the rest of the last goal path, at its period
         self._previous_snapshot: Snapshot | None = None  # what was sensed one step ago
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
-        self._last_path = None
+        self._plan_ahead = None
         self._previous_snapshot = None
 
     # -------------------------------------------------------------- the three stages
     def _plan(self, snapshot: Snapshot) -> tuple[np.ndarray, dict[str, Any]]:
-        info: dict[str, Any] = {}
-        cfg = self.config
-        horizon = cfg.prediction.horizon_s
         start = walk_start(snapshot, self.half_width)
-        pp = cfg.prediction
-        unsteady = steady_motion_horizons(self._previous_snapshot, snapshot, pp.unsteady_horizon_s,
-                                          pp.unsteady_speed_mps, pp.unsteady_turn_rad_s)
+        body, search_body, unsteady = self._predict(snapshot, start)
+        committed = self._committed(start)
+
+        t0 = time.perf_counter()
+        period = self.period_search(snapshot, start, search_body, body, committed)  # Algorithm 1
+        t1 = time.perf_counter()
+        path = self.path_search(snapshot, start, body, period.period, period.free_walks,  # Algorithm 2
+                                period.first_stride, self.rng)
+        t2 = time.perf_counter()
+        repair = self.repair(snapshot, path.command, self.rng)  # eq. (5)-(8), only if infeasible
+        t3 = time.perf_counter()
+
+        self._plan_ahead = self._next_commitment(path, period.period)
+        info: dict[str, Any] = dict(unsteady_shapes=unsteady, **period.diagnostics(), **path.diagnostics(),
+                                    stride_window=period.first_stride, **repair.diagnostics())
+        info.update(time_period_search_ms=1e3 * (t1 - t0), time_rrt_ms=1e3 * (t2 - t1), time_pso_ms=1e3 * (t3 - t2),
+                    command_pre_pso=path.command, period=float(repair.command[3] + repair.command[4]))
+        return repair.command, info
+
+    def _predict(self, snapshot: Snapshot, start: WalkStart) -> tuple[BodyModel, BodyModel, int]:
+        """The body checks of the RRT and of the period search over the predicted obstacles, and how many
+        shapes were found unsteady (their velocity changed since the previous step)."""
+        unsteady = (steady_motion_horizons(self._previous_snapshot, snapshot, *self.unsteady)
+                    if self.unsteady is not None else {})
         self._previous_snapshot = snapshot
-        info["unsteady_shapes"] = len(unsteady)
         region = self.region(start.node, snapshot.goal)
-        predictor = ObstaclePredictor(snapshot, horizon=horizon, region=region, horizons=unsteady,
-                                      static_field=self.static_field(snapshot, region))
-        body = BodyModel(predictor, self.robot, cfg.prediction.safety_margin_m)
-        search_body = BodyModel(predictor, self.robot,
-                                cfg.prediction.safety_margin_m + cfg.period_search.extra_margin_m)
+        predictor = ObstaclePredictor(snapshot, horizon=self.horizon, region=region if self.region_pruning else None,
+                                      horizons=unsteady, static_field=self.static_field(snapshot, region))
+        body = BodyModel(predictor, self.robot, self.margin, sway=self.com_sway)
+        search_body = BodyModel(predictor, self.robot, self.search_margin, sway=self.com_sway)
+        return body, search_body, len(unsteady)
 
-        t = time.perf_counter()
-        committed, committed_period = self._committed(start)
-        # Algorithm 1 asks whether the robot can go on now at full stride (Fig. 2: the next node at
-        # Max_step_size); only if no period in [T0, T_n] lets it is the same search repeated with
-        # walks that slow down or first step in place (let the obstacle pass).
-        rollouts = self._rollouts(snapshot, start, search_body, committed, wait_steps=(0,), fractions=(1.0,),
-                                  committed_body=body)
-        period, found = self.choose_period(snapshot, rollouts, info, committed_period)
-        ps = cfg.period_search
-        waits = tuple(int(w) for w in ps.rollout_wait_steps if w > 0)
-        info["waiting_walks"] = False
-        if not found and (waits or any(f < 1.0 for f in ps.rollout_stride_fractions)):
-            later = self._rollouts(snapshot, start, search_body, committed, wait_steps=(0, *waits),
-                                   fractions=tuple(ps.rollout_stride_fractions), committed_body=body)
-            later_period, later_found = self.choose_period(snapshot, later, {}, committed_period)
-            if later_found:
-                period, rollouts = later_period, later
-                info.update(waiting_walks=True, period_search=later_period)
-        window = self._stride_window(snapshot, period)
-        info["time_period_search_ms"] = 1e3 * (time.perf_counter() - t)
+    def _committed(self, start: WalkStart) -> CommittedPlan | None:
+        """The previous step's goal path from the node the robot now stands on (switch ``plan_commitment``).
 
-        t = time.perf_counter()
-        seeds = rollouts.free_walks(period, cfg.rrt.seed_paths) if cfg.rrt.seed_paths else []
-        path = self.rrt.plan(start, snapshot.goal, snapshot.goal_tolerance, body, period, self.rng,
-                             seeds=seeds, first_stride=window)
-        info["rrt_reached_goal"] = path is not None
-        if path is None:
-            path = self.rrt.best_partial_path(stay_until=horizon)
-        info.update(rrt_nodes=self.rrt.tree.n, rrt_seeds=len(seeds), path=path.nodes, stride_window=window)
-        self._last_path = (path.nodes[1:], path.headings[1:], period) if path.reached_goal and path.n_steps else None
-        reference = self.command_from_path(snapshot, path, period, window)
-        info["time_rrt_ms"] = 1e3 * (time.perf_counter() - t)
-
-        t = time.perf_counter()
-        command = self.make_feasible(snapshot, reference, info)
-        info["time_pso_ms"] = 1e3 * (time.perf_counter() - t)
-        info["command_pre_pso"] = reference
-        info["period"] = float(command[3] + command[4])
-        return command, info
-
-    def _committed(self, start) -> tuple[tuple[np.ndarray, np.ndarray] | None, float | None]:
-        """The previous step's goal path from the node the robot now stands on, and its period.
-
-        ``(None, None)`` if there is none or the robot did not land where it planned to
-        (by more than ``commit_tolerance_m``: the PSO moved the step, or a fall-back was taken).
+        ``None`` if there is none or the robot did not land where it planned to (by more
+        than ``commit_tolerance_m``: the PSO moved the step, or a fall-back was taken).
         """
-        if self._last_path is None:
-            return None, None
-        nodes, headings, period = self._last_path
-        if np.linalg.norm(nodes[0] - start.node) > self.config.period_search.commit_tolerance_m:
-            return None, None
-        nodes = np.concatenate([start.node[None], nodes[1:]])
-        headings = np.concatenate([[start.heading], headings[1:]])
-        return (nodes, headings), period
+        plan = self._plan_ahead
+        if plan is None or np.linalg.norm(plan.nodes[0] - start.node) > self.commit_tolerance:
+            return None
+        return CommittedPlan(np.concatenate([start.node[None], plan.nodes[1:]]),
+                             np.concatenate([[start.heading], plan.headings[1:]]), plan.period)
 
-    def _rollouts(self, snapshot: Snapshot, start, body: BodyModel,
-                  committed: tuple[np.ndarray, np.ndarray] | None = None,
-                  wait_steps: tuple[int, ...] = (0,), fractions: tuple[float, ...] = (1.0,),
-                  committed_body: BodyModel | None = None) -> GoalRollouts:
-        cfg = self.config
-        ps = cfg.period_search
-        return GoalRollouts(
-            body, self.robot, start, snapshot.goal, snapshot.goal_tolerance, horizon=cfg.prediction.horizon_s,
-            step_size=cfg.rrt.step_size_m, lane_offsets=ps.rollout_lane_offsets_m,
-            stride_fractions=fractions, lookahead=ps.rollout_lookahead_m,
-            edge_samples=cfg.prediction.edge_samples, wait_steps=wait_steps,
-            first_stride=lambda T: self._stride_window(snapshot, T), committed=committed,
-            committed_body=committed_body)
-
-    def _stride_window(self, snapshot: Snapshot, period: float) -> tuple[float, float] | None:
-        """Front strides the LIPM accepts for the first step at ``period`` (see :func:`stride_window`)."""
-        return stride_window(self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, period,
-                             self.config.rrt.step_size_m, self.config.period_search.stride_grid)
-
-    def choose_period(self, snapshot: Snapshot, collides: GoalRollouts, info: dict[str, Any],
-                      committed_period: float | None = None) -> tuple[float, bool]:
-        """Stage 1: the longest collision-free period (Algorithm 1), from the shortest reachable one.
-
-        If the previous step's plan still holds at its period, that period is known to be
-        free and becomes the search's lower end (so the result is never shorter). Returns
-        the period [s] and whether any period was free. The fixed-period planner keeps T_n.
-        """
-        robot, ps = self.robot, self.config.period_search
-        t_n = robot.nominal_period
-        if not self.vary_period:
-            free = bool(collides.free_walks(t_n, 1))
-            info.update(period_search=t_n, period_floor=t_n, nominal_free=free, search_evaluations=1,
-                        plan_kept=committed_period is not None and collides.committed_free(t_n))
-            return t_n, free
-        strides = (float(snapshot.previous_command[0]), self.config.rrt.step_size_m)
-        floor = shortest_feasible_period(robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side,
-                                         strides, min(ps.t0_s, t_n), t_n, ps.floor_grid)
-        kept = (committed_period is not None and floor <= committed_period <= t_n
-                and collides.committed_free(committed_period))
-        result = longest_free_period(collides, committed_period if kept else floor, t_n, ps.iterations)
-        info.update(period_search=result.period, period_floor=floor, nominal_free=result.nominal_free,
-                    search_evaluations=result.evaluations, plan_kept=kept)
-        return result.period, result.any_free
-
-    def command_from_path(self, snapshot: Snapshot, path, period: float,
-                          window: tuple[float, float] | None = None) -> np.ndarray:
-        """Stage 2's command: first node -> swing foot pose -> ``(S, L, θ)``; ``T`` split as ``T_SS + nominal T_DS``.
-
-        A path without steps means "step in place" (the shortest stride of ``window`` if the
-        CoM's momentum forbids stopping).
-        """
-        robot = self.robot
-        side = snapshot.support_side
-        if path.n_steps == 0:
-            heading = path.headings[0]
-            shortest = window[0] if window is not None else 0.0
-            node = path.nodes[0] + shortest * np.array([np.cos(heading), np.sin(heading)])
-        else:
-            node, heading = path.nodes[1], path.headings[1]
-        new_foot = footstep.foot_from_node(node, heading, -side, self.half_width)
-        s, l, theta = footstep.command_between(snapshot.support_foot, side, new_foot)
-        t_ds = robot.nominal_t_ds
-        return pso.clip_command(robot, [s, l, theta, period - t_ds, t_ds], side)
-
-    def make_feasible(self, snapshot: Snapshot, reference: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        """Stage 3: the reference if feasible, else the PSO's closest feasible command (eq. 5-8)."""
-        ok = bool(self._feasible(snapshot, reference[None])[0])
-        info["feasible_pre_pso"] = ok
-        info["pso_ran"] = not ok
-        if ok:
-            info["predicted_feasible"] = True
-            return reference
-        p = self.config.pso
-        rep = pso.repair_command(
-            self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, reference, self.rng,
-            delta_low=self.delta_low, delta_high=self.delta_high, particles=p.particles, iterations=p.iterations,
-            inertia=p.inertia, c1=p.c1, c2=p.c2, patience=p.patience, deviation_weight=p.deviation_weight,
-            infeasible_penalty=p.infeasible_penalty, violation_weight=p.violation_weight)
-        info.update(predicted_feasible=rep.feasible, pso_iterations=rep.pso.iterations, pso_value=rep.pso.value)
-        return rep.command
+    def _next_commitment(self, path: PathChoice, period: float) -> CommittedPlan | None:
+        """What the next step may commit to: the rest of a goal path (nodes after the first), at ``period``."""
+        if self.commit_tolerance is None or not (path.path.reached_goal and path.path.n_steps):
+            return None
+        return CommittedPlan(path.path.nodes[1:], path.path.headings[1:], period)
 
 
 class FixedPeriodPlanner(PeriodAwarePlanner):
@@ -361,6 +271,7 @@ class PSOOnlyPlanner(_Planner):
         seed = pso.clip_command(robot, snapshot.previous_command, side)
         res = pso.minimise(objective, low, high, self.rng, particles=p.particles, iterations=p.iterations,
                            inertia=p.inertia, c1=p.c1, c2=p.c2, patience=p.patience, tolerance=p.tolerance,
+                           max_velocity=p.max_velocity,
                            seeds=seed[None])
         command = res.x.copy()
         info = {
@@ -405,26 +316,73 @@ class PSOOnlyPlanner(_Planner):
         return f
 
 
+@dataclass(frozen=True)
+class PolicySpec:
+    """A registered policy: its class and the ``configs/planner.yaml`` overrides that make it.
+
+    ``additions``: switches of the ``additions`` section set on top of the YAML (e.g. all
+    off for the paper's planners).
+    """
+
+    planner: type[_Planner]
+    additions: Mapping[str, bool] = field(default_factory=dict)
+
+
+#: Every switch of ``additions`` off: the paper's planner, nothing else (docs/model.md §5).
+PAPER = {f.name: False for f in dataclasses.fields(AdditionsParams)}
+
 #: The registry of scripted policies, by name.
-POLICIES: dict[str, type[_Planner]] = {
-    PeriodAwarePlanner.name: PeriodAwarePlanner,
-    FixedPeriodPlanner.name: FixedPeriodPlanner,
-    PSOOnlyPlanner.name: PSOOnlyPlanner,
+POLICIES: dict[str, PolicySpec] = {
+    "period-aware": PolicySpec(PeriodAwarePlanner),
+    "fixed-period": PolicySpec(FixedPeriodPlanner),
+    "pso-only": PolicySpec(PSOOnlyPlanner),
+    "paper-period-aware": PolicySpec(PeriodAwarePlanner, PAPER),
+    "paper-fixed-period": PolicySpec(FixedPeriodPlanner, PAPER),
 }
+
+#: ``<policy>-no-<switch>``: a staged policy of :data:`POLICIES` with one switch of ``additions`` off.
+VARIANT_SEPARATOR = "-no-"
+
+
+def switch_of(label: str) -> str:
+    """The ``additions`` key a variant label names (``waiting-walks`` -> ``waiting_walks``)."""
+    return label.replace("-", "_")
+
+
+def variant_name(policy: str, switch: str) -> str:
+    """The name of ``policy`` with switch ``switch`` off: ``period-aware`` + ``plan_commitment`` ->
+    ``period-aware-no-plan-commitment``."""
+    return f"{policy}{VARIANT_SEPARATOR}{switch.replace('_', '-')}"
+
+
+def policy_spec(name: str) -> PolicySpec:
+    """The :class:`PolicySpec` of a registered name or of a variant ``<policy>-no-<switch>``."""
+    if name in POLICIES:
+        return POLICIES[name]
+    switches = [f.name for f in dataclasses.fields(AdditionsParams)]
+    base, sep, label = name.partition(VARIANT_SEPARATOR)
+    if sep and base in POLICIES and switch_of(label) in switches:
+        spec = POLICIES[base]
+        if issubclass(spec.planner, PeriodAwarePlanner):
+            return PolicySpec(spec.planner, {**spec.additions, switch_of(label): False})
+    variants = ", ".join(variant_name("period-aware", s) for s in switches)
+    raise ValueError(f"unknown policy {name!r}; known: {', '.join(sorted(POLICIES))}, and <staged policy>-no-<switch> "
+                     f"such as {variants}")
 
 
 def make_policy(name: str, robot: Robot | None = None, seed: int | None = None,
                 config: PlannerConfig | None = None, **overrides: Any) -> Policy:
-    """A policy of :data:`POLICIES` with ``configs/planner.yaml`` (plus ``overrides``) and ``robot``.
+    """A policy by name with ``configs/planner.yaml`` (plus ``overrides``) and ``robot``.
 
+    ``name``: a key of :data:`POLICIES` or a variant ``<policy>-no-<switch>`` (that policy
+    with one switch of the ``additions`` section off, see :mod:`.ablation`).
     ``overrides`` are planner config keys, per section (``rrt={"iterations": 200}``) or flat
-    (``rrt_iterations=200``), applied on top of the YAML; ``config`` (a ready
-    :class:`PlannerConfig`) and ``overrides`` are exclusive.
+    (``rrt_iterations=200``), applied on top of the YAML and of the policy's own switches;
+    ``config`` (a ready :class:`PlannerConfig`, used as given) and ``overrides`` are exclusive.
     """
-    if name not in POLICIES:
-        raise ValueError(f"unknown policy {name!r}; known: {', '.join(sorted(POLICIES))}")
+    spec = policy_spec(name)
     if config is None or overrides:
         if config is not None:
             raise ValueError("pass either config or overrides, not both")
-        config = load_planner_config(overrides)
-    return POLICIES[name](robot if robot is not None else load_robot(), config, seed)
+        config = load_planner_config(overrides, defaults={"additions": spec.additions})
+    return spec.planner(robot if robot is not None else load_robot(), config, seed, name)

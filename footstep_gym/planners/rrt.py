@@ -27,18 +27,25 @@ the CoM's sway towards the support foot). So a
 shorter period lets the tree slip through a gap before a door wing closes it, and
 short edges (small steps) let it wait for an obstacle to pass.
 
-**Extensions beyond Algorithm 2** (each switchable by its argument):
+:class:`PathSearch` is the stage: it grows the tree at stage 1's period and returns a
+:class:`PathChoice` (the path, whether it reached the goal, the reference command).
 
-* ``seeds``: walks already known to be collision-free (the period search's free
+**Extensions beyond Algorithm 2** (each a switch of ``configs/planner.yaml``'s ``additions``):
+
+* ``time_aware`` (``time_aware_rrt``): the timing above; off, every body point is checked
+  against the obstacles predicted after one period ``T`` (the paper: "the position of
+  the predicted obstacle before extending a node");
+
+* ``seeds`` (``rrt_seeds``): walks already known to be collision-free (the period search's free
   rollouts) are inserted as branches before sampling, so the tree never does worse
   than the evidence that chose the period;
-* ``step_cost`` [m per step] is added to every edge's length in the cost (0: the
+* ``step_cost`` (``step_cost``) [m per step] is added to every edge's length in the cost (0: the
   paper's pure cumulative length). In a time-aware tree a step is also time: of two
   equally long paths the one with fewer, longer steps arrives earlier, so it is
   preferred (the period search's rollouts at half and full stride trace the same line);
-* ``first_stride``: the first step's length is kept inside the strides the LIPM accepts
+* ``first_stride`` (``lipm_windows``): the first step's length is kept inside the strides the LIPM accepts
   from the current CoM state (at a short period the robot cannot stop in one step);
-* :meth:`ModifiedRRT.best_partial_path`: when no path reaches the goal, the branch to
+* :meth:`ModifiedRRT.best_partial_path` with ``stay_until`` (``fallback``): when no path reaches the goal, the branch to
   the node where stepping in place would stay free longest (to the prediction horizon
   if any can), then the roomiest, then the nearest the goal, so that the greedy planner
   advances as far as it safely can and waits there instead of walking into a closing gap.
@@ -53,24 +60,17 @@ the depth of the tree.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from footstep_gym import footstep
-from footstep_gym.planners.period_search import WalkStart
+from footstep_gym.planners.params import PlannerConfig
 from footstep_gym.planners.prediction import body_path_points, support_normal
+from footstep_gym.planners.pso import clip_command
+from footstep_gym.planners.walks import BodyCheck, WalkStart
 from footstep_gym.robot import Robot
-
-class BodyCheck(Protocol):
-    """``free(points (N, 2), times (N,), support_normals (N, 2), period) -> (N,)`` bool, and ``slack``
-    (the same arguments) -> clearance [m] beyond the required one (e.g. :class:`BodyModel`)."""
-
-    def free(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray,
-             period: float) -> np.ndarray: ...
-
-    def slack(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray,
-              period: float) -> np.ndarray: ...
+from footstep_gym.sensing import Snapshot
 
 
 @dataclass(frozen=True)
@@ -135,12 +135,14 @@ class ModifiedRRT:
     ``sample_margin``: the sampling box extends this far [m] beyond start and goal;
     ``edge_samples``: points checked along each body segment; ``step_cost``: cost [m]
     added per step; ``clearance_weight`` [m of goal distance per m], ``clearance_cap`` [m]:
-    how :meth:`best_partial_path` trades clearance for progress.
+    how :meth:`best_partial_path` trades clearance for progress; ``time_aware``: a node at
+    depth ``d`` is checked during ``[(d - 1) T, d T]`` (else every point at ``T``).
     """
 
     def __init__(self, robot: Robot, *, iterations: int, batch_size: int, step_size: float,
                  goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int,
-                 step_cost: float = 0.0, clearance_weight: float = 0.0, clearance_cap: float = 0.0) -> None:
+                 step_cost: float = 0.0, clearance_weight: float = 0.0, clearance_cap: float = 0.0,
+                 time_aware: bool = True) -> None:
         self.robot = robot
         self.iterations = iterations
         self.batch_size = batch_size
@@ -152,6 +154,7 @@ class ModifiedRRT:
         self.step_cost = step_cost
         self.clearance_weight = clearance_weight
         self.clearance_cap = clearance_cap
+        self.time_aware = time_aware
         self.tree: Tree | None = None
         self.goal_nodes: list[int] = []
 
@@ -296,6 +299,8 @@ class ModifiedRRT:
         ends = 0.5 * (tree.xy[parents] + new_xy)
         t0 = tree.depth[parents] * self._period
         pts, times = body_path_points(starts, ends, t0, t0 + self._period, self.edge_samples)
+        if not self.time_aware:
+            times = np.full_like(times, self._period)  # the obstacles predicted after one period
         normals = np.repeat(support_normal(tree.heading[parents], tree.side[parents]), self.edge_samples, axis=0)
         free = self._body.free(pts, times, normals, self._period)
         return free.reshape(len(parents), self.edge_samples).all(axis=1)
@@ -347,3 +352,77 @@ class ModifiedRRT:
         tree.side[sl], tree.cost[sl], tree.depth[sl], tree.body[sl] = side, cost, depth, body
         self.goal_nodes.extend((tree.n + np.flatnonzero(self._in_goal(new_xy))).tolist())
         tree.n += len(parents)
+
+
+# ---------------------------------------------------------------------- stage 2
+@dataclass(frozen=True)
+class PathChoice:
+    """Stage 2's record: the path taken and the command its first node gives."""
+
+    path: RRTPath  # to the goal region, or the fallback branch
+    reached_goal: bool  # a path reached the goal region
+    command: np.ndarray  # (5,) [S, L, θ, T_SS, T_DS] from the first node, T split as T_SS + nominal T_DS
+    tree_nodes: int  # nodes in the tree
+    seeds: int  # stage 1's free walks inserted as branches
+
+    def diagnostics(self) -> dict[str, object]:
+        """The record as ``policy.last_info`` entries."""
+        return dict(rrt_reached_goal=self.reached_goal, rrt_nodes=self.tree_nodes, rrt_seeds=self.seeds,
+                    path=self.path.nodes)
+
+
+class PathSearch:
+    """Stage 2 with the parameters of ``configs/planner.yaml`` (sections ``rrt``, ``additions``)."""
+
+    def __init__(self, robot: Robot, config: PlannerConfig) -> None:
+        c, add = config, config.additions
+        self.robot = robot
+        self.rrt = ModifiedRRT(
+            robot, iterations=c.rrt.iterations, batch_size=c.rrt.batch_size, step_size=c.rrt.step_size_m,
+            goal_sample_rate=c.rrt.goal_sample_rate, n_paths=c.rrt.n_paths,
+            sample_margin=c.rrt.sample_margin_m, edge_samples=c.prediction.edge_samples,
+            step_cost=c.rrt.step_cost_m if add.step_cost else 0.0,
+            clearance_weight=c.rrt.fallback_clearance_weight, clearance_cap=c.rrt.fallback_clearance_cap_m,
+            time_aware=add.time_aware_rrt)
+        self.seed_paths = c.rrt.seed_paths if add.rrt_seeds else 0
+        self.stay_until = c.prediction.horizon_s if add.fallback else None
+        self.half_width = 0.5 * robot.nominal_side_stride
+
+    def __call__(self, snapshot: Snapshot, start: WalkStart, body: BodyCheck, period: float,
+                 free_walks: Sequence[np.ndarray], first_stride: tuple[float, float] | None,
+                 rng: np.random.Generator) -> PathChoice:
+        """Algorithm 2 at ``period`` [s] from ``start``; the first node's command.
+
+        ``free_walks``: stage 1's evidence, best first (up to ``rrt.seed_paths`` become the
+        tree's first branches); ``first_stride``: ``(lo, hi)`` [m] of the first step's length.
+        """
+        seeds = list(free_walks[: self.seed_paths]) if self.seed_paths else []
+        path = self.rrt.plan(start, snapshot.goal, snapshot.goal_tolerance, body, period, rng,
+                             seeds=seeds, first_stride=first_stride)
+        reached = path is not None
+        if path is None:
+            path = self.rrt.best_partial_path(stay_until=self.stay_until)
+        command = self.command_from_path(snapshot, path, period, first_stride)
+        return PathChoice(path, reached, command, self.rrt.tree.n, len(seeds))
+
+    def command_from_path(self, snapshot: Snapshot, path: RRTPath, period: float,
+                          window: tuple[float, float] | None = None) -> np.ndarray:
+        """First node -> swing foot pose -> ``(S, L, θ)``; ``T`` [s] split as ``T_SS + nominal T_DS``.
+
+        The footstep convention (:func:`footstep.foot_from_node`, then
+        :func:`footstep.command_between`); the paper's Tables 2 and 4 keep T_DS at 0.20 s and
+        vary T_SS. A path without steps means "step in place" (the shortest stride of
+        ``window`` [m] if the CoM's momentum forbids stopping).
+        """
+        robot = self.robot
+        side = snapshot.support_side
+        if path.n_steps == 0:
+            heading = path.headings[0]
+            shortest = window[0] if window is not None else 0.0
+            node = path.nodes[0] + shortest * np.array([np.cos(heading), np.sin(heading)])
+        else:
+            node, heading = path.nodes[1], path.headings[1]
+        new_foot = footstep.foot_from_node(node, heading, -side, self.half_width)
+        s, l, theta = footstep.command_between(snapshot.support_foot, side, new_foot)
+        t_ds = robot.nominal_t_ds
+        return clip_command(robot, [s, l, theta, period - t_ds, t_ds], side)

@@ -1,0 +1,228 @@
+"""Compiled inner loops of the planners (numba): the same arithmetic as the numpy code they replace.
+
+The planners ask tens of thousands of small questions per footstep ("is this body point,
+at this time, clear of every predicted shape?"); in numpy each question costs a dozen
+array temporaries and Python-level calls. These kernels loop over points and shapes
+once, stopping at the first shape that blocks a point:
+
+* :func:`points_free` — :meth:`.prediction.ObstaclePredictor.free` for the exactly measured
+  shapes (thick segments moving at constant velocity and angular velocity, docs/model.md §5)
+  plus the static distance grid;
+* :func:`walks_free` — :func:`.walks.walks_free` with a :class:`.prediction.BodyModel`: the
+  body points of whole walks generated and checked in one loop, each walk stopping at its
+  first blocked point;
+* :func:`pursue_lanes` — the pure pursuit of :class:`.rollouts.GoalRollouts`;
+* :func:`grid_clearance` — the distances of :class:`.distance_field.StaticDistanceField`.
+
+Compiled on first use and cached on disk (``cache=True``): the first call of a fresh
+install costs the compilation (about 2-4 s for all three), later processes load them
+in milliseconds.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True, fastmath=False)
+def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, pos_x: np.ndarray, pos_y: np.ndarray,
+                vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray,
+                a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray, need2: np.ndarray,
+                horizon: np.ndarray, grid: np.ndarray, grid_low_x: float, grid_low_y: float, resolution: float,
+                static_need: float, out: np.ndarray, outside: np.ndarray) -> None:
+    """Whether each point ``(px[i], py[i])`` [m] at time ``t[i]`` [s] clears every shape, into ``out`` (bool).
+
+    Shape ``s`` (body-frame segment ``a``..``a + ab``, rotated by ``angle + omega t`` and carried by
+    ``pos + vel t``) blocks a point closer than ``sqrt(need2[s])`` to its centre line, for times
+    up to ``horizon[s]``. With a ``grid`` (static shapes' clearance lower bounds, nodes
+    ``low + resolution * (i, j)``) a point whose nearest node reads less than ``static_need``
+    is blocked; a point outside the grid is flagged in ``outside`` for the caller to measure.
+    """
+    n = px.size
+    n_shapes = pos_x.size
+    nx, ny = grid.shape
+    for i in range(n):
+        x, y, ti = px[i], py[i], t[i]
+        ok = True
+        outside[i] = False
+        if nx > 0:
+            gi = np.rint((x - grid_low_x) / resolution)
+            gj = np.rint((y - grid_low_y) / resolution)
+            if 0 <= gi < nx and 0 <= gj < ny:
+                if grid[int(gi), int(gj)] < static_need:
+                    ok = False
+            else:
+                outside[i] = True
+        if ok:
+            for s in range(n_shapes):
+                if ti > horizon[s]:
+                    continue
+                ang = angle[s] + omega[s] * ti
+                c, sn = math.cos(ang), math.sin(ang)
+                ox = pos_x[s] + vel_x[s] * ti + (c * a_x[s] - sn * a_y[s])
+                oy = pos_y[s] + vel_y[s] * ti + (sn * a_x[s] + c * a_y[s])
+                apx, apy = x - ox, y - oy
+                bx = c * ab_x[s] - sn * ab_y[s]
+                by = sn * ab_x[s] + c * ab_y[s]
+                u = 0.0
+                if ab2[s] > 0:
+                    u = (apx * bx + apy * by) / ab2[s]
+                    u = min(max(u, 0.0), 1.0)
+                dx, dy = apx - u * bx, apy - u * by
+                if dx * dx + dy * dy < need2[s]:
+                    ok = False
+                    break
+        out[i] = ok
+
+
+@numba.njit(cache=True, fastmath=False)
+def pursue_lanes(node_x: float, node_y: float, axis_x: float, axis_y: float, goal_x: float, goal_y: float,
+                 length: float, lookahead: float, goal_radius: float, heading0: float, side0: int,
+                 offsets: np.ndarray, strides: np.ndarray, waits: np.ndarray, left_lo: float, left_hi: float,
+                 right_lo: float, right_hi: float, has_window: bool, window_lo: float, window_hi: float,
+                 depth: int) -> tuple[np.ndarray, np.ndarray]:
+    """Pure pursuit of each rollout's lane for ``depth`` steps: nodes ``(R, depth + 1, 2)`` [m], headings [rad].
+
+    Rollout ``r`` aims at the point ``lookahead`` [m] ahead on the line from the start node
+    along ``axis`` offset sideways by ``offsets[r]`` (the offset tapering to zero over the
+    last ``lookahead`` before the goal), turns at most the support side's limits, steps in
+    place for ``waits[r]`` steps, then strides ``strides[r]`` (the first step clipped into the
+    window if ``has_window``), never past the goal and not at all once within ``goal_radius``.
+    Side ``+1`` is left; the limits ``(lo, hi)`` are those of the foot swinging from that support.
+    """
+    n_roll = offsets.size
+    nodes = np.empty((n_roll, depth + 1, 2))
+    headings = np.empty((n_roll, depth + 1))
+    for r in range(n_roll):
+        lane_x = offsets[r] * -axis_y
+        lane_y = offsets[r] * axis_x
+        x, y, h = node_x, node_y, heading0
+        nodes[r, 0, 0], nodes[r, 0, 1], headings[r, 0] = x, y, h
+        side = side0
+        for d in range(1, depth + 1):
+            ahead = (x - node_x) * axis_x + (y - node_y) * axis_y + lookahead
+            taper = min(max((length - ahead) / lookahead, 0.0), 1.0)
+            along = min(ahead, length)
+            aim_x = node_x + along * axis_x + taper * lane_x
+            aim_y = node_y + along * axis_y + taper * lane_y
+            rx, ry = aim_x - x, aim_y - y
+            c, sn = math.cos(h), math.sin(h)
+            turn = math.atan2(ry * c - rx * sn, rx * c + ry * sn)
+            lo, hi = (left_lo, left_hi) if side > 0 else (right_lo, right_hi)
+            h = h + min(max(turn, lo), hi)
+            stride = 0.0 if d <= waits[r] else strides[r]
+            if d == 1 and has_window:
+                stride = min(max(stride, window_lo), window_hi)
+            dist = math.hypot(goal_x - x, goal_y - y)
+            stride = 0.0 if dist <= goal_radius else min(stride, dist)
+            x = x + stride * math.cos(h)
+            y = y + stride * math.sin(h)
+            nodes[r, d, 0], nodes[r, d, 1], headings[r, d] = x, y, h
+            side = -side
+    return nodes, headings
+
+
+@numba.njit(cache=True, fastmath=False)
+def grid_clearance(xs: np.ndarray, ys: np.ndarray, centres: np.ndarray, circle_radii: np.ndarray,
+                   seg_a: np.ndarray, seg_b: np.ndarray, seg_radii: np.ndarray) -> np.ndarray:
+    """Distance [m] from each grid node ``(xs[i], ys[j])`` to the nearest circle / thick segment surface, ``(nx, ny)``."""
+    out = np.empty((xs.size, ys.size))
+    for i in range(xs.size):
+        for j in range(ys.size):
+            x, y = xs[i], ys[j]
+            best = np.inf
+            for k in range(circle_radii.size):
+                best = min(best, math.hypot(x - centres[k, 0], y - centres[k, 1]) - circle_radii[k])
+            for k in range(seg_radii.size):
+                ax, ay = seg_a[k, 0], seg_a[k, 1]
+                bx, by = seg_b[k, 0] - ax, seg_b[k, 1] - ay
+                px, py = x - ax, y - ay
+                den = bx * bx + by * by
+                u = 0.0
+                if den > 0:
+                    u = min(max((px * bx + py * by) / den, 0.0), 1.0)
+                best = min(best, math.hypot(px - u * bx, py - u * by) - seg_radii[k])
+            out[i, j] = best
+    return out
+
+
+@numba.njit(cache=True, fastmath=False)
+def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes: np.ndarray, headings: np.ndarray,
+               side0: int, period: float, samples: np.ndarray, goal_x: float, goal_y: float, goal_radius: float,
+               shift: float, needed: float, pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray,
+               vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray, a_y: np.ndarray,
+               ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray, radius: np.ndarray, horizon: np.ndarray,
+               grid: np.ndarray, grid_low_x: float, grid_low_y: float, resolution: float,
+               status: np.ndarray) -> None:
+    """:func:`.walks.walks_free` for a :class:`.prediction.BodyModel`, one walk after the other, into ``status``.
+
+    ``status[r]``: 1 free, 0 blocked, 2 undecided (a point outside the static grid was not
+    blocked otherwise: the caller measures that walk exactly). The body of step ``d`` moves
+    from ``bodies[d]`` to ``bodies[d + 1]`` during ``[d T, (d + 1) T]``, sampled at the
+    fractions ``samples``, shifted by ``shift`` [m] towards the step's support foot, and
+    needs ``needed`` [m] of clearance; once a walk has reached the goal it is not checked further.
+    """
+    n_roll, n_nodes, _ = nodes.shape
+    n_shapes = pos_x.size
+    nx, ny = grid.shape
+    for r in range(n_roll):
+        result = 1
+        ax, ay = body_x, body_y
+        side = side0
+        for d in range(n_nodes - 1):
+            if d > 0 and math.hypot(nodes[r, d, 0] - goal_x, nodes[r, d, 1] - goal_y) <= goal_radius:
+                break  # reached the goal at node d: the episode is over
+            px_prev = prev_x if d == 0 else nodes[r, d - 1, 0]
+            py_prev = prev_y if d == 0 else nodes[r, d - 1, 1]
+            if d > 0:
+                ax = 0.5 * (px_prev + nodes[r, d, 0])
+                ay = 0.5 * (py_prev + nodes[r, d, 1])
+            bx = 0.5 * (nodes[r, d, 0] + nodes[r, d + 1, 0])
+            by = 0.5 * (nodes[r, d, 1] + nodes[r, d + 1, 1])
+            h = headings[r, d]
+            nrm_x = -side * math.sin(h)
+            nrm_y = side * math.cos(h)
+            t0 = d * period
+            t1 = (d + 1) * period
+            for k in range(samples.size):
+                s = samples[k]
+                x = ax + s * (bx - ax) + shift * nrm_x
+                y = ay + s * (by - ay) + shift * nrm_y
+                ti = t0 + s * (t1 - t0)
+                blocked = False
+                if nx > 0:
+                    gi = np.rint((x - grid_low_x) / resolution)
+                    gj = np.rint((y - grid_low_y) / resolution)
+                    if 0 <= gi < nx and 0 <= gj < ny:
+                        blocked = grid[int(gi), int(gj)] < needed
+                    else:
+                        result = 2
+                if not blocked:
+                    for q in range(n_shapes):
+                        if ti > horizon[q]:
+                            continue
+                        ang = angle[q] + omega[q] * ti
+                        c, sn = math.cos(ang), math.sin(ang)
+                        ox = pos_x[q] + vel_x[q] * ti + (c * a_x[q] - sn * a_y[q])
+                        oy = pos_y[q] + vel_y[q] * ti + (sn * a_x[q] + c * a_y[q])
+                        apx, apy = x - ox, y - oy
+                        ux = c * ab_x[q] - sn * ab_y[q]
+                        uy = sn * ab_x[q] + c * ab_y[q]
+                        u = 0.0
+                        if ab2[q] > 0:
+                            u = min(max((apx * ux + apy * uy) / ab2[q], 0.0), 1.0)
+                        dx, dy = apx - u * ux, apy - u * uy
+                        lim = radius[q] + needed
+                        if dx * dx + dy * dy < lim * lim:
+                            blocked = True
+                            break
+                if blocked:
+                    result = 0
+                    break
+            if result == 0:
+                break
+            side = -side
+        status[r] = result

@@ -1,0 +1,197 @@
+"""``ObstacleCollision(T)`` of Algorithm 1: the walks stage 1 checks at a period ``T``.
+
+Two predicates, both answering "which of these walks at period ``T`` stay free?"
+(:meth:`free_walks`) and "does ``T`` collide?" (``__call__``: every walk collides):
+
+* :class:`NextNodeFan` — the paper's check (Fig. 2): the next node at ``Max_step_size``
+  in each of a fan of directions across the hardware angle limits (the "selectable
+  range of a next node"), the body's step to it checked against the obstacles predicted
+  over ``[0, T]``. One step: nothing beyond the next node is looked at.
+* :class:`GoalRollouts` — our look-ahead (switch ``additions.long_lookahead``): a small
+  library of goal-directed walks checked over the whole prediction horizon, so that a
+  wing that will close the gap in three steps shortens the period now, not when it is
+  too late.
+
+Both evaluate from scratch at every call (the walk geometry is memoised, the verdicts
+are not): the period search (:mod:`.period_search`) keeps what it needs in its record.
+With a :class:`~.walks.CommittedPlan` (switch ``additions.plan_commitment``), the
+previous step's plan joins the walks, re-timed at every period tried, and leads the
+free walks when it holds.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Callable, Sequence
+
+import numpy as np
+
+from footstep_gym import footstep
+from footstep_gym.footstep import LEFT, RIGHT
+from footstep_gym.planners import kernels
+from footstep_gym.planners.walks import BodyCheck, CommittedPlan, WalkStart, trim_at_goal, walks_free
+from footstep_gym.robot import Robot
+
+#: ``(lo, hi)`` [m] of the first step's front stride the LIPM accepts at period ``T``, or ``None`` (no limit).
+StrideWindow = Callable[[float], "tuple[float, float] | None"]
+
+
+class _Walks(ABC):
+    """What both predicates share: the committed plan, the body check, the ordering of free walks."""
+
+    def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
+                 goal_radius: float, *, edge_samples: int, first_stride: StrideWindow | None = None,
+                 committed: CommittedPlan | None = None, committed_body: BodyCheck | None = None) -> None:
+        self.body = body
+        self.robot = robot
+        self.start = start
+        self.goal = np.asarray(goal, dtype=float)
+        self.goal_radius = goal_radius
+        self.edge_samples = edge_samples
+        self.first_stride = first_stride
+        self.committed = committed
+        self.committed_body = committed_body if committed_body is not None else body
+
+    @abstractmethod
+    def nodes(self, period: float) -> tuple[np.ndarray, np.ndarray]:
+        """Walk nodes ``(R, D + 1, 2)`` [m] and headings ``(R, D + 1)`` [rad] (index 0: the start) at ``period`` [s]."""
+
+    def _with_committed(self, nodes: np.ndarray, headings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The walks plus the committed walk, padded (standing at its end) or cut to the same depth."""
+        walk, walk_headings = self.committed.nodes, self.committed.headings
+        n_nodes = nodes.shape[1]
+        idx = np.minimum(np.arange(n_nodes), len(walk) - 1)
+        return (np.concatenate([nodes, walk[idx][None]], axis=0),
+                np.concatenate([headings, walk_headings[idx][None]], axis=0))
+
+    def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float,
+              body: BodyCheck | None = None) -> np.ndarray:
+        return walks_free(self.body if body is None else body, self.start, nodes, headings, period,
+                          self.edge_samples, self.goal, self.goal_radius)
+
+    def committed_free(self, period: float) -> bool:
+        """Whether the committed walk alone is still free at ``period`` [s] (``False`` without one)."""
+        if self.committed is None or len(self.committed.nodes) < 2:
+            return False
+        return bool(self._free(self.committed.nodes[None], self.committed.headings[None], period,
+                               self.committed_body)[0])
+
+    def free_walks(self, period: float, limit: int | None = None) -> list[np.ndarray]:
+        """Free walks ``(k + 1, 2)`` [m] at ``period`` [s]: the committed one if free, then those ending
+        nearest the goal (ties: the shortest), each cut at its first node in the goal region."""
+        nodes, headings = self.nodes(period)
+        ok = self._free(nodes, headings, period)
+        if self.committed is not None:
+            nodes, headings = self._with_committed(nodes, headings)
+            ok = np.append(ok, self._free(nodes[-1:], headings[-1:], period, self.committed_body))
+        walks = [trim_at_goal(nodes[i], self.goal, self.goal_radius) for i in np.flatnonzero(ok)]
+        order = sorted(range(len(walks)), key=lambda i: (round(float(np.linalg.norm(walks[i][-1] - self.goal)), 3),
+                                                         len(walks[i])))
+        if self.committed is not None and ok[-1]:  # the committed walk (last row) leads if free
+            order.remove(len(walks) - 1)
+            order.insert(0, len(walks) - 1)
+        walks = [walks[i] for i in order]
+        return walks[:limit] if limit is not None else walks
+
+    def __call__(self, period: float) -> bool:
+        """``ObstacleCollision(period)``: every walk collides (the committed one included)."""
+        nodes, headings = self.nodes(period)
+        if self._free(nodes, headings, period).any():
+            return False
+        if self.committed is None:
+            return True
+        nodes, headings = self._with_committed(nodes[:1], headings[:1])
+        return not bool(self._free(nodes[-1:], headings[-1:], period, self.committed_body)[0])
+
+
+class GoalRollouts(_Walks):
+    """Goal-directed rollouts at period ``T``, checked over the prediction horizon.
+
+    Rollout ``(k, j, w)`` follows the *lane* parallel to the line from the start node to
+    the goal, offset sideways by ``lane_offsets[k]`` [m] (pure pursuit of the lane point
+    ``lookahead`` ahead; the lane closes onto the goal over the last ``lookahead``), with a
+    stride of ``stride_fractions[j] * step_size`` [m] after ``wait_steps[w]`` steps in place
+    (so that "let the wing pass, then go" is in the library), the first stride clipped into
+    ``first_stride(T)``. Every step turns at most the side-dependent hardware limits. A
+    rollout that reaches the goal stops there. Rollouts span ``ceil(horizon / T)`` steps,
+    but no more than the slowest of them needs to reach the goal:
+    ``ceil(distance / shortest stride * depth_slack) + longest wait + extra_steps`` (the slack
+    covers the lanes' detours; a long horizon costs nothing once the goal is within it).
+    """
+
+    def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
+                 goal_radius: float, *, horizon: float, step_size: float, lane_offsets: Sequence[float],
+                 stride_fractions: Sequence[float], lookahead: float, edge_samples: int,
+                 wait_steps: Sequence[int] = (0,), depth_slack: float = 1.2, extra_steps: int = 2,
+                 first_stride: StrideWindow | None = None, committed: CommittedPlan | None = None,
+                 committed_body: BodyCheck | None = None) -> None:
+        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples,
+                         first_stride=first_stride, committed=committed, committed_body=committed_body)
+        self.horizon = horizon
+        self.lookahead = lookahead
+        off, frac, wait = np.meshgrid(np.asarray(lane_offsets, float), np.asarray(stride_fractions, float),
+                                      np.asarray(wait_steps, dtype=int), indexing="ij")
+        self._offsets = off.ravel()
+        self._strides = frac.ravel() * step_size
+        self._waits = wait.ravel()
+        axis = self.goal - start.node
+        self._length = float(np.linalg.norm(axis))
+        self._max_depth = (int(np.ceil(self._length / float(self._strides.min()) * depth_slack))
+                           + int(self._waits.max()) + extra_steps)
+        self._dir = axis / self._length if self._length > 0 else np.array([np.cos(start.heading),
+                                                                           np.sin(start.heading)])
+        self._walk_cache: dict[tuple[float, float] | None, tuple[np.ndarray, np.ndarray]] = {}
+
+    def nodes(self, period: float) -> tuple[np.ndarray, np.ndarray]:
+        depth = max(1, min(int(np.ceil(self.horizon / period - 1e-9)), self._max_depth))
+        window = self.first_stride(period) if self.first_stride is not None else None
+        if window not in self._walk_cache:  # the walks depend on the period only through the first stride
+            self._walk_cache[window] = self._pursue(window, self._max_depth)
+        nodes, headings = self._walk_cache[window]
+        return nodes[:, : depth + 1], headings[:, : depth + 1]
+
+    def _pursue(self, window: tuple[float, float] | None, depth: int) -> tuple[np.ndarray, np.ndarray]:
+        """Pure pursuit of every rollout's lane for ``depth`` steps (compiled: :func:`.kernels.pursue_lanes`)."""
+        (l_lo, l_hi), (r_lo, r_hi) = (footstep.turn_bounds(side, self.robot) for side in (LEFT, RIGHT))
+        w_lo, w_hi = window if window is not None else (0.0, 0.0)
+        return kernels.pursue_lanes(
+            float(self.start.node[0]), float(self.start.node[1]), float(self._dir[0]), float(self._dir[1]),
+            float(self.goal[0]), float(self.goal[1]), self._length, float(self.lookahead), float(self.goal_radius),
+            float(self.start.heading), int(self.start.side), self._offsets, self._strides,
+            self._waits.astype(np.int64), float(l_lo), float(l_hi), float(r_lo), float(r_hi), window is not None,
+            float(w_lo), float(w_hi), int(depth))
+
+
+class NextNodeFan(_Walks):
+    """The paper's ``ObstacleCollision(T)`` (Fig. 2): can the tree extend one node at period ``T``?
+
+    The candidate next nodes lie at ``stride_fractions[j] * step_size`` [m] (clipped into
+    ``first_stride(T)`` and to the distance to the goal) in ``directions`` headings spread
+    evenly across the hardware angle limits of the support side (the selectable range of
+    the next node); each body step to them is checked against the obstacles predicted
+    over ``[0, T]``. The period collides iff every candidate does.
+    """
+
+    def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
+                 goal_radius: float, *, step_size: float, stride_fractions: Sequence[float], directions: int,
+                 edge_samples: int, first_stride: StrideWindow | None = None,
+                 committed: CommittedPlan | None = None, committed_body: BodyCheck | None = None) -> None:
+        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples,
+                         first_stride=first_stride, committed=committed, committed_body=committed_body)
+        lo, hi = footstep.turn_bounds(start.side, robot)
+        turn, frac = np.meshgrid(np.linspace(lo, hi, directions), np.asarray(stride_fractions, float), indexing="ij")
+        self._headings = float(start.heading) + turn.ravel()
+        self._strides = frac.ravel() * step_size
+
+    def nodes(self, period: float) -> tuple[np.ndarray, np.ndarray]:
+        window = self.first_stride(period) if self.first_stride is not None else None
+        stride = self._strides if window is None else np.clip(self._strides, *window)
+        dist = float(np.linalg.norm(self.goal - self.start.node))
+        stride = np.zeros_like(stride) if dist <= self.goal_radius else np.minimum(stride, dist)
+        n = self._headings.size
+        nodes = np.empty((n, 2, 2))
+        nodes[:, 0] = self.start.node
+        nodes[:, 1] = self.start.node + stride[:, None] * np.stack([np.cos(self._headings),
+                                                                    np.sin(self._headings)], axis=1)
+        headings = np.stack([np.full(n, float(self.start.heading)), self._headings], axis=1)
+        return nodes, headings

@@ -1,0 +1,146 @@
+"""Data shared by the planner's stages: where a walk starts, the committed plan, and the body check of a walk.
+
+A *walk* is a chain of nodes (robot centres in the paper's footstep convention, Fig. 5)
+starting at the support foot's node, one step per period. Stage 1 checks whole walks
+(:mod:`.rollouts`), stage 2 grows a tree of them (:mod:`.rrt`); both start from a
+:class:`WalkStart` and move the body (the robot centre between its feet) along the
+midpoints of consecutive nodes: step ``d`` moves it from ``(n[d-2] + n[d-1]) / 2`` to
+``(n[d-1] + n[d]) / 2`` during ``[(d - 1) T, d T]`` (docs/model.md §5).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, Sequence
+
+import numpy as np
+
+from footstep_gym.planners import kernels
+from footstep_gym.planners.prediction import BodyModel, body_path_points, support_normal
+
+_NO_GRID = np.empty((0, 0))  # no static distance grid: the kernel measures every shape
+_ORIGIN = np.zeros(2)
+
+
+class BodyCheck(Protocol):
+    """``free(points (N, 2), times (N,), support_normals (N, 2), period) -> (N,)`` bool, and ``slack``
+    (the same arguments) -> clearance [m] beyond the required one (e.g. :class:`.prediction.BodyModel`)."""
+
+    def free(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray,
+             period: float) -> np.ndarray: ...
+
+    def slack(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray,
+              period: float) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class WalkStart:
+    """Where a walk (a rollout or the RRT) starts, in the paper's node convention.
+
+    ``node``: the support foot's node (the point ``half_width`` inside the support foot,
+    perpendicular to its yaw, i.e. the inverse of :func:`footstep.foot_from_node`);
+    ``heading``: the support foot's yaw; ``side``: the support side (+1 left, -1 right);
+    ``body``: where the body (CoM ground projection) is now; ``previous_node``: the swing
+    foot's node.
+    """
+
+    node: np.ndarray  # (2,) [m]
+    heading: float  # [rad]
+    side: int
+    body: np.ndarray  # (2,) [m]
+    previous_node: np.ndarray  # (2,) [m]
+
+
+@dataclass(frozen=True)
+class CommittedPlan:
+    """The rest of the previous step's goal path, from the node the robot now stands on.
+
+    ``nodes (k + 1, 2)`` [m] with the current node first, ``headings (k + 1,)`` [rad], and
+    the ``period`` [s] it was planned at.
+    """
+
+    nodes: np.ndarray
+    headings: np.ndarray
+    period: float
+
+
+def node_of_foot(foot_pose: Sequence[float], side: int, half_width: float) -> np.ndarray:
+    """The node [m] a foot ``(x, y, yaw)`` stands for: inverse of :func:`footstep.foot_from_node`."""
+    x, y, yaw = foot_pose
+    return np.array([x + side * half_width * np.sin(yaw), y - side * half_width * np.cos(yaw)])
+
+
+def walk_start(snapshot, half_width: float) -> WalkStart:
+    """The :class:`WalkStart` of a :class:`~footstep_gym.sensing.Snapshot` (``half_width`` [m])."""
+    side = int(snapshot.support_side)
+    return WalkStart(
+        node=node_of_foot(snapshot.support_foot, side, half_width),
+        heading=float(snapshot.support_foot[2]),
+        side=side,
+        body=np.asarray(snapshot.com, dtype=float),
+        previous_node=node_of_foot(snapshot.swing_foot, -side, half_width),
+    )
+
+
+def walks_free(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
+               edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """``(R,)`` bool: walk ``r`` (nodes ``(R, D + 1, 2)`` [m], row 0 the start; step ``d`` during
+    ``[(d-1) T, d T]`` with ``T = period`` [s]) keeps its body free of every obstacle.
+
+    Each body segment is checked at ``edge_samples`` points by ``body.free`` with the
+    support foot's normal of its step (the CoM sway). Once a walk has reached the goal
+    region (``goal (2,)``, ``goal_radius`` [m]) the episode is over: later steps are not checked.
+    """
+    if isinstance(body, BodyModel):
+        return _walks_free_compiled(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
+    return walks_free_numpy(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
+
+
+def _walks_free_compiled(body: BodyModel, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
+                         edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """:func:`walks_free` in one compiled loop (:func:`.kernels.walks_free`); walks it cannot decide
+    (a point beyond the static grid) are measured by :func:`walks_free_numpy`."""
+    pred = body.predictor
+    shift, grow = body.sway(period)
+    field = pred.static_field
+    grid, low, res = (field.grid, field.low, field.resolution) if field is not None else (_NO_GRID, _ORIGIN, 1.0)
+    e = pred.exact_shapes
+    status = np.empty(len(nodes), dtype=np.int64)
+    kernels.walks_free(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
+                       float(start.body[1]), np.ascontiguousarray(nodes, dtype=float),
+                       np.ascontiguousarray(headings, dtype=float), int(start.side), float(period),
+                       np.linspace(0.0, 1.0, edge_samples), float(goal[0]), float(goal[1]), float(goal_radius),
+                       float(shift), float(body.robot.body_radius + body.margin + grow), *pred.kernel_shapes,
+                       pred.kernel_radius, pred.kernel_horizon, grid, float(low[0]), float(low[1]), float(res), status)
+    free = status == 1
+    undecided = np.flatnonzero(status == 2)
+    if undecided.size:
+        free[undecided] = walks_free_numpy(body, start, nodes[undecided], headings[undecided], period, edge_samples,
+                                           goal, goal_radius)
+    return free
+
+
+def walks_free_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
+                     edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """:func:`walks_free` in numpy, for any :class:`BodyCheck` (the reference of the compiled loop)."""
+    n_roll, n_nodes, _ = nodes.shape
+    prev = np.concatenate([np.tile(start.previous_node, (n_roll, 1, 1)), nodes[:, :-1]], axis=1)
+    bodies = 0.5 * (prev + nodes)  # body at the end of step d = midpoint(n[d-1], n[d])
+    bodies[:, 0] = start.body
+    starts = bodies[:, :-1].reshape(-1, 2)
+    ends = bodies[:, 1:].reshape(-1, 2)
+    d = np.tile(np.arange(n_nodes - 1, dtype=float), n_roll)
+    pts, times = body_path_points(starts, ends, d * period, (d + 1) * period, edge_samples)
+    sides = start.side * np.where(np.arange(n_nodes - 1) % 2 == 0, 1.0, -1.0)
+    normals = support_normal(headings[:, :-1], sides[None, :]).reshape(-1, 2)
+    normals = np.repeat(normals, edge_samples, axis=0)
+    free = body.free(pts, times, normals, period).reshape(n_roll, -1)
+    reached = np.linalg.norm(nodes[:, 1:] - goal, axis=-1) <= goal_radius
+    done_before = np.concatenate([np.zeros((n_roll, 1), bool), np.cumsum(reached, axis=1)[:, :-1] > 0], axis=1)
+    return (free | np.repeat(done_before, edge_samples, axis=1)).all(axis=1)
+
+
+def trim_at_goal(nodes: np.ndarray, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """A walk's nodes ``(k + 1, 2)`` up to (and including) the first one in the goal region."""
+    inside = np.flatnonzero(np.linalg.norm(nodes[1:] - goal, axis=1) <= goal_radius)
+    return nodes[: inside[0] + 2] if inside.size else nodes

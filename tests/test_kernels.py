@@ -1,0 +1,133 @@
+"""The compiled kernels (:mod:`footstep_gym.planners.kernels`) against the numpy code they replace.
+
+On real snapshots of the three scenes (with and without the static distance grid, with
+per-shape horizons), random points and times, and random walks: the same booleans as
+the numpy expressions, and the same lane pursuit as a numpy version written here.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import footstep_gym  # noqa: F401  (registers the envs)
+from footstep_gym import footstep
+from footstep_gym.planners.distance_field import StaticDistanceField
+from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor
+from footstep_gym.planners.rollouts import GoalRollouts
+from footstep_gym.planners.walks import WalkStart, walks_free, walks_free_numpy
+from planner_helpers import LEFT, RIGHT, robot  # noqa: F401
+
+SCENES = [("FootstepDoor-v0", dict(door_speed=17.0), 6), ("FootstepCrossing-v0", {}, 8), ("FootstepCrowd-v0", {}, 5)]
+
+
+def snapshot_after(env_id, kwargs, steps, seed=0):
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=seed)
+    for _ in range(steps):
+        env.step(env.unwrapped.robot.nominal_command)
+    snap = env.unwrapped.sensing()
+    env.close()
+    return snap
+
+
+def predictors(snap):
+    """Exact shapes only; with the distance grid; with a short horizon for the first moving shape."""
+    lo, hi = np.asarray(snap.com) - 1.5, np.asarray(snap.com) + 2.5
+    field = StaticDistanceField(snap.obstacles, (lo, hi), 0.01)
+    moving = [v.name for v in snap.obstacles if not v.static]
+    yield ObstaclePredictor(snap, horizon=30.0)
+    yield ObstaclePredictor(snap, horizon=30.0, static_field=field)
+    yield ObstaclePredictor(snap, horizon=30.0, static_field=field, horizons={moving[0]: 0.7})
+
+
+@pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
+def test_points_free_matches_numpy(env_id, kwargs, steps):
+    snap = snapshot_after(env_id, kwargs, steps)
+    rng = np.random.default_rng(0)
+    centre = np.asarray(snap.com)
+    pts = centre + rng.uniform(-1.0, 2.5, (20000, 2))  # some beyond the grid's box
+    times = rng.uniform(0.0, 5.0, 20000)
+    for pred in predictors(snap):
+        for safe in (0.0, 0.11, 0.2):
+            got = pred.free(pts, times, safe)
+            want = pred.free_numpy(pts, times, safe)
+            assert 0 < want.sum() < want.size
+            np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
+@pytest.mark.parametrize("period", [0.3, 0.55, 0.8])
+def test_walks_free_matches_numpy(robot, env_id, kwargs, steps, period):
+    """Random walks of 10 cm steps from near the robot (some reaching a goal nearby, some leaving the grid)."""
+    snap = snapshot_after(env_id, kwargs, steps)
+    rng = np.random.default_rng(1)
+    centre = np.asarray(snap.com)
+    start = WalkStart(node=centre + [0.0, 0.02], heading=0.1, side=LEFT, body=centre, previous_node=centre - [0, 0.06])
+    heading = np.cumsum(rng.uniform(-0.4, 0.4, (300, 25)), axis=1)
+    steps_xy = 0.1 * np.stack([np.cos(heading), np.sin(heading)], axis=-1)
+    nodes = start.node + np.concatenate([np.zeros((300, 1, 2)), np.cumsum(steps_xy, axis=1)], axis=1)
+    headings = np.concatenate([np.full((300, 1), start.heading), heading], axis=1)
+    goal = centre + [0.8, 0.0]
+    blocked = 0
+    for pred in predictors(snap):
+        body = BodyModel(pred, robot, 0.02)
+        got = walks_free(body, start, nodes, headings, period, 3, goal, 0.1)
+        want = walks_free_numpy(body, start, nodes, headings, period, 3, goal, 0.1)
+        blocked += int(want.size - want.sum())
+        np.testing.assert_array_equal(got, want)
+    assert blocked > 0 or env_id == "FootstepCrossing-v0"  # the crossing's car may still be far at this time
+
+
+def pursue_numpy(rollouts, window, depth):
+    """The lane pursuit of :class:`GoalRollouts` in numpy, as it was before it was compiled."""
+    n_roll = rollouts._offsets.size
+    node0 = complex(*rollouts.start.node)
+    axis = complex(*rollouts._dir)
+    goal = complex(*rollouts.goal)
+    lane = rollouts._offsets * (1j * axis)
+    limits = {side: footstep.turn_bounds(side, rollouts.robot) for side in (LEFT, RIGHT)}
+    pos = np.full(n_roll, node0)
+    heading = np.full(n_roll, float(rollouts.start.heading))
+    out = np.empty((n_roll, depth + 1), dtype=complex)
+    headings = np.empty((n_roll, depth + 1))
+    out[:, 0], headings[:, 0] = pos, heading
+    side = rollouts.start.side
+    for d in range(1, depth + 1):
+        ahead = ((pos - node0) * axis.conjugate()).real + rollouts.lookahead
+        taper = np.clip((rollouts._length - ahead) / rollouts.lookahead, 0.0, 1.0)
+        aim = node0 + np.minimum(ahead, rollouts._length) * axis + taper * lane
+        lo, hi = limits[side]
+        heading = heading + np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi)
+        stride = np.where(d <= rollouts._waits, 0.0, rollouts._strides)
+        if d == 1 and window is not None:
+            stride = np.clip(stride, *window)
+        dist = np.abs(goal - pos)
+        stride = np.where(dist <= rollouts.goal_radius, 0.0, np.minimum(stride, dist))
+        pos = pos + stride * np.exp(1j * heading)
+        out[:, d], headings[:, d] = pos, heading
+        side = -side
+    return np.stack([out.real, out.imag], axis=-1), headings
+
+
+class Free:
+    def free(self, points, times, normals, period):
+        return np.ones(len(points), dtype=bool)
+
+
+@pytest.mark.parametrize("side,heading,goal", [(RIGHT, 0.0, (1.9, 0.0)), (LEFT, 2.5, (0.3, 0.6)),
+                                               (RIGHT, -1.0, (-1.0, -1.2))])
+@pytest.mark.parametrize("window", [None, (0.03, 0.06)])
+def test_pursue_lanes_matches_numpy(robot, side, heading, goal, window):
+    start = WalkStart(node=np.array([0.01, -0.02]), heading=heading, side=side, body=np.zeros(2),
+                      previous_node=np.zeros(2))
+    rollouts = GoalRollouts(Free(), robot, start, goal, 0.1, horizon=30.0, step_size=0.1,
+                            lane_offsets=(-0.13, -0.065, 0.0, 0.065, 0.13), stride_fractions=(0.7, 1.0),
+                            lookahead=0.3, edge_samples=3, wait_steps=(0, 3, 6))
+    depth = 40
+    got_nodes, got_headings = rollouts._pursue(window, depth)
+    want_nodes, want_headings = pursue_numpy(rollouts, window, depth)
+    np.testing.assert_allclose(got_nodes, want_nodes, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got_headings, want_headings, rtol=0, atol=1e-12)
+    assert np.ptp(got_nodes[:, 1:, :], axis=0).max() > 0.05  # the lanes, strides and waits differ

@@ -1,0 +1,203 @@
+"""Stage 1 (:mod:`footstep_gym.planners.period_search`): :func:`longest_free_period` (Algorithm 1 as its text
+describes it) on hand-made monotone predicates ``collides(T) = T > T*`` whose answer ``T*`` is known; the
+stage's record; the kept plan bracketing the search from below.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import footstep_gym  # noqa: F401  (registers the envs)
+from footstep_gym.planners.params import load_planner_config
+from footstep_gym.planners.period_search import PeriodSearch, longest_free_period
+from footstep_gym.planners.reference import PAPER
+from footstep_gym.planners.walks import walk_start
+from planner_helpers import EPS
+
+T0, TN = 0.3, 0.8
+
+
+@pytest.mark.parametrize("iterations", [1, 4, 6, 10])
+@pytest.mark.parametrize("t_star", [0.31, 0.42, 0.55, 0.5499, 0.7, 0.79])
+@pytest.mark.parametrize("strict", [True, False])
+def test_binary_search_finds_boundary_inside(t_star, iterations, strict):
+    calls = []
+
+    def collides(t):
+        calls.append(t)
+        return t > t_star if strict else t >= t_star
+
+    res = longest_free_period(collides, T0, TN, iterations)
+    assert res.evaluations == len(calls) == 2 + iterations
+    assert not res.nominal_free and res.any_free
+    # on the free side of the boundary, within the promised resolution
+    assert not collides(res.period)
+    assert res.period <= t_star + EPS
+    assert t_star - res.period <= (TN - T0) / 2 ** iterations + EPS
+    assert T0 <= res.period <= TN
+    # every evaluated period lies in [T0, T_n]
+    assert all(T0 - EPS <= t <= TN + EPS for t in calls)
+
+
+@pytest.mark.parametrize("t_star", [0.8, 0.9, 5.0])
+def test_binary_search_nominal_free_returns_nominal(t_star):
+    calls = []
+
+    def collides(t):
+        calls.append(t)
+        return t > t_star
+
+    res = longest_free_period(collides, T0, TN, 6)
+    assert res.period == TN
+    assert res.nominal_free and res.any_free
+    assert res.evaluations == len(calls) == 1
+
+
+@pytest.mark.parametrize("t_star", [0.0, 0.1, 0.2999])
+def test_binary_search_nothing_free_returns_t_short(t_star):
+    calls = []
+
+    def collides(t):
+        calls.append(t)
+        return t > t_star
+
+    res = longest_free_period(collides, T0, TN, 6)
+    assert res.period == T0
+    assert not res.nominal_free and not res.any_free
+    assert res.evaluations == len(calls) == 2
+
+
+def test_binary_search_resolution_improves_with_iterations():
+    """The error halves per pass (until the boundary is hit exactly)."""
+    t_star = 0.3 + 0.5 / math.pi  # not on any dyadic grid point of [0.3, 0.8]
+    errors = [t_star - longest_free_period(lambda t: t > t_star, T0, TN, n).period for n in range(1, 16)]
+    assert all(0.0 <= e <= (TN - T0) / 2 ** n + EPS for n, e in zip(range(1, 16), errors))
+    assert errors[-1] < 2e-5
+
+
+def test_binary_search_degenerate_interval():
+    assert longest_free_period(lambda t: False, 0.5, 0.5, 6).period == 0.5
+    assert longest_free_period(lambda t: True, 0.5, 0.5, 6).period == 0.5
+
+
+def test_binary_search_rejects_inverted_interval():
+    with pytest.raises(ValueError):
+        longest_free_period(lambda t: False, 0.9, 0.8, 6)
+
+
+# ====================================================================== the planner keeps its plan
+@pytest.mark.parametrize("door_speed,seed", [(17.0, 0), (17.0, 2), (14.0, 4)])
+def test_kept_plan_brackets_the_period_search_from_below(door_speed, seed):
+    """Whenever the previous step's plan is kept, the period searched is no shorter than that plan's
+    (the previous step's search result). Episodes 17/2 and 14/4 each have a kept step where a search
+    from the reachable floor instead of the kept plan's period would return a shorter period."""
+    from footstep_gym.planners import make_policy
+
+    env = gym.make("FootstepDoor-v0", door_speed=door_speed)
+    u = env.unwrapped
+    policy = make_policy("period-aware", u.robot, seed=0)
+    policy.reset(seed=seed)
+    obs, _ = env.reset(seed=seed)
+    previous, kept = None, 0
+    for _ in range(60):
+        action = policy.act(obs, u.sensing())
+        info = policy.last_info
+        if info["plan_kept"]:
+            assert previous is not None
+            assert info["period_search"] >= previous - 1e-9, (info["period_search"], previous)
+            kept += 1
+        previous = info["period_search"]
+        obs, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            break
+    env.close()
+    assert kept >= 3  # the property was exercised
+
+
+# ====================================================================== the stage: PeriodSearch -> PeriodChoice
+class Closes:
+    """Body check blocking every point at times ``t > at`` [s]."""
+
+    def __init__(self, at):
+        self.at = at
+
+    def free(self, points, times, normals, period):
+        return np.asarray(times, dtype=float).reshape(-1) <= self.at
+
+
+class Zone:
+    """Blocks points with ``x0 <= x <= x1`` while ``t < until`` [s] (a crossing that clears at ``until``)."""
+
+    def __init__(self, x0, x1, until):
+        self.x0, self.x1, self.until = x0, x1, until
+
+    def free(self, points, times, normals, period):
+        p = np.asarray(points, dtype=float).reshape(-1, 2)
+        t = np.asarray(times, dtype=float).reshape(-1)
+        return ~((p[:, 0] >= self.x0) & (p[:, 0] <= self.x1) & (t < self.until))
+
+
+@pytest.fixture(scope="module")
+def crossing_start():
+    """The first snapshot of the crossing (robot near the origin, goal at (1.9, 0)) and its walk start."""
+    env = gym.make("FootstepCrossing-v0")
+    env.reset(seed=0)
+    snap = env.unwrapped.sensing()
+    robot = env.unwrapped.robot
+    env.close()
+    return robot, snap, walk_start(snap, 0.5 * robot.nominal_side_stride)
+
+
+def paper_search(robot, vary_period=True):
+    return PeriodSearch(robot, load_planner_config(defaults={"additions": PAPER}), vary_period=vary_period)
+
+
+@pytest.mark.parametrize("t_star", [0.42, 0.55, 0.7])
+def test_paper_search_returns_the_longest_period_whose_next_node_is_free(crossing_start, t_star):
+    """Fig. 2: the next node is checked over one step; everything closes at t*, so T is free iff T <= t*.
+    The paper's T0 is the configured one (no LIPM floor): the search runs on [0.3, 0.8] with N passes."""
+    robot, snap, start = crossing_start
+    search = paper_search(robot)
+    choice = search(snap, start, Closes(t_star), Closes(t_star), None)
+    n = load_planner_config().period_search.iterations
+    assert choice.floor == T0
+    assert t_star - (TN - T0) / 2 ** n - EPS <= choice.period <= t_star + EPS
+    assert choice.any_free and not choice.nominal_free and not choice.plan_kept and not choice.waiting_walks
+    assert choice.evaluations == 2 + n
+    assert choice.first_stride is None  # no LIPM window in the paper's planner
+    assert choice.free_walks and all(w.shape == (2, 2) for w in choice.free_walks)
+
+
+def test_paper_search_keeps_nominal_when_free_and_t0_when_nothing_is(crossing_start):
+    robot, snap, start = crossing_start
+    free = paper_search(robot)(snap, start, Closes(np.inf), Closes(np.inf), None)
+    assert (free.period, free.nominal_free, free.evaluations) == (TN, True, 1)
+    blocked = paper_search(robot)(snap, start, Closes(-1.0), Closes(-1.0), None)
+    assert (blocked.period, blocked.any_free, blocked.free_walks, blocked.evaluations) == (T0, False, (), 2)
+
+
+def test_paper_fixed_period_only_checks_the_nominal_period(crossing_start):
+    robot, snap, start = crossing_start
+    search = paper_search(robot, vary_period=False)
+    assert search(snap, start, Closes(1.0), Closes(1.0), None).period == TN
+    closed = search(snap, start, Closes(0.5), Closes(0.5), None)
+    assert (closed.period, closed.any_free, closed.evaluations) == (TN, False, 1)
+
+
+def test_second_tier_finds_a_waiting_walk_when_no_period_clears_the_way(crossing_start):
+    """A zone 0.1-0.6 m ahead stays blocked for 4 s: walking off at once meets it at any period; waiting six
+    nominal steps (4.8 s) lets it clear. With the switch off the search gives up at the shortest period."""
+    robot, snap, start = crossing_start
+    zone = Zone(0.1, 0.6, 4.0)
+    on = PeriodSearch(robot, load_planner_config())
+    choice = on(snap, start, zone, zone, None)
+    assert choice.any_free and choice.waiting_walks
+    steps = np.linalg.norm(np.diff(choice.free_walks[0], axis=0), axis=1)
+    assert np.all(steps[:3] == 0.0)  # the best free walk first steps in place
+    off = PeriodSearch(robot, load_planner_config({"additions_waiting_walks": False}))
+    blocked = off(snap, start, zone, zone, None)
+    assert not blocked.any_free and not blocked.waiting_walks and blocked.period == blocked.floor

@@ -1,0 +1,377 @@
+""":class:`ObstaclePredictor` against the snapshot's own prediction, a direct geometric computation and
+pymunk's ground truth (the door and the crossing car move at constant (angular) velocity), and against
+the simulator's future, which it must not see; shorter horizons for shapes whose motion changed; the
+region pruning.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from footstep_gym.planners.prediction import ObstaclePredictor, steady_motion_horizons
+from planner_helpers import robot  # noqa: F401
+
+# ====================================================================== prediction
+def segment_distance(p, a, b):
+    """Distance from points ``p (N, 2)`` to segments ``a``-``b`` ``(N, 2)`` (plain vector algebra)."""
+    ab = b - a
+    denom = (ab * ab).sum(axis=1)
+    u = np.where(denom > 0, ((p - a) * ab).sum(axis=1) / np.where(denom > 0, denom, 1.0), 0.0)
+    u = np.clip(u, 0.0, 1.0)
+    return np.linalg.norm(p - (a + u[:, None] * ab), axis=1)
+
+
+def direct_clearance(obstacles, points, times):
+    """Nearest surface of each point at its own time, constant (angular) velocity, from the views."""
+    best = np.full(len(points), np.inf)
+    for o in obstacles:
+        ang = o.angle + o.angular_velocity * times
+        c, s = np.cos(ang), np.sin(ang)
+        origin = np.asarray(o.position) + np.outer(times, o.velocity)
+
+        def world(local):
+            return origin + np.stack([c * local[0] - s * local[1], s * local[0] + c * local[1]], axis=1)
+
+        a = world(o.a)
+        b = world(o.b) if o.kind == "segment" else a
+        best = np.minimum(best, segment_distance(points, a, b) - o.radius)
+    return best
+
+
+def snapshot_after(env_id, steps, seed=0, **kwargs):
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=seed)
+    u = env.unwrapped
+    for _ in range(steps):
+        _, _, terminated, _, _ = env.step(u.robot.nominal_command)
+        assert not terminated
+    return env, u.sensing()
+
+
+def sample_points(snapshot, n, rng, spread=1.0, t_max=4.0):
+    centre = np.asarray(snapshot.com)
+    pts = centre + rng.uniform(-spread, spread, (n, 2))
+    times = rng.uniform(0.0, t_max, n)
+    return pts, times
+
+
+CASES = [
+    ("FootstepDoor-v0", 0, dict(door_speed=17.0), (0.0, 0.0), 1.5),  # rod rotating about the door centre
+    ("FootstepCrossing-v0", 1, dict(crossing_x=0.5), None, 1.5),  # capsule translating at constant velocity
+    ("FootstepCrowd-v0", 1, {}, None, 0.6),  # circles, velocities set by the last step
+]
+
+
+@pytest.mark.parametrize("env_id,steps,kwargs,centre,spread", CASES)
+def test_prediction_agrees_with_geometry_and_snapshot(env_id, steps, kwargs, centre, spread):
+    env, snap = snapshot_after(env_id, steps, **kwargs)
+    moving = [o for o in snap.obstacles if not o.static]
+    assert moving and any(np.hypot(*o.velocity) > 0 or o.angular_velocity != 0 for o in moving)
+    rng = np.random.default_rng(0)
+    pts, times = sample_points(snap, 300, rng, spread=spread)
+    if centre is not None:  # near the rod as well
+        extra = np.asarray(centre) + rng.uniform(-0.6, 0.6, (300, 2))
+        pts, times = np.vstack([pts, extra]), np.concatenate([times, rng.uniform(0.0, 4.0, 300)])
+    pred = ObstaclePredictor(snap)
+    got = pred.clearance(pts, times)
+    np.testing.assert_allclose(got, direct_clearance(snap.obstacles, pts, times), atol=1e-9)
+    # the snapshot's own prediction, one instant at a time
+    for t in (0.0, 0.37, 1.0, 2.5):
+        same_t = np.full(len(pts), t)
+        np.testing.assert_allclose(pred.clearance(pts, same_t), snap.shapes_at(t).clearance(pts), atol=1e-9)
+    # some samples are near or inside an obstacle, so the check is not vacuous
+    assert got.min() < 0.05
+    env.close()
+
+
+def test_prediction_known_numbers_circle_and_rotating_rod():
+    """Hand numbers: a circle moving at 0.5 m/s and a rod turning at 90 deg/s."""
+    env, snap = snapshot_after("FootstepCrowd-v0", 0)
+    from footstep_gym.sensing import ObstacleView
+
+    circle = ObstacleView("c", "circle", False, (1.0, 0.0), 0.0, (0.5, 0.0), 0.0, 0.1, (0.0, 0.0), (0.0, 0.0))
+    rod = ObstacleView("r", "segment", False, (0.0, 5.0), 0.0, (0.0, 0.0), math.pi / 2, 0.01,
+                       (-0.5, 0.0), (0.5, 0.0))
+    snap = dataclasses.replace(snap, obstacles=(circle, rod))
+    pred = ObstaclePredictor(snap)
+    env.close()
+    # circle: at t = 2 its centre is at (2, 0)
+    assert pred.distances([[3.0, 0.0]], [2.0])[0, 0] == pytest.approx(0.9)
+    assert pred.distances([[2.0, 0.0]], [2.0])[0, 0] == pytest.approx(-0.1)
+    assert pred.distances([[2.0, 0.3]], [0.0])[0, 0] == pytest.approx(math.hypot(1.0, 0.3) - 0.1)
+    # rod: horizontal at t = 0, vertical at t = 1 s (a quarter turn counter-clockwise)
+    assert pred.distances([[0.0, 5.4]], [0.0])[0, 1] == pytest.approx(0.39)
+    assert pred.distances([[0.0, 5.4]], [1.0])[0, 1] == pytest.approx(-0.01)
+    assert pred.distances([[0.4, 5.0]], [1.0])[0, 1] == pytest.approx(0.39)
+    assert pred.distances([[0.4, 5.0]], [2.0])[0, 1] == pytest.approx(-0.01)
+    # the rod's tip after 45 degrees
+    tip = np.array([0.0, 5.0]) + 0.5 * np.array([math.cos(math.pi / 4), math.sin(math.pi / 4)])
+    assert pred.distances([tip], [0.5])[0, 1] == pytest.approx(-0.01)
+
+
+@pytest.mark.parametrize("env_id,steps,kwargs", [("FootstepDoor-v0", 0, dict(door_speed=14.0)),
+                                                 ("FootstepCrossing-v0", 1, dict(crossing_x=0.5))])
+def test_prediction_matches_pymunk_for_constant_motion(env_id, steps, kwargs):
+    """Door and crossing car move at constant (angular) velocity: the prediction is pymunk's future."""
+    env, snap = snapshot_after(env_id, steps, **kwargs)
+    pred = ObstaclePredictor(snap)
+    rng = np.random.default_rng(3)
+    world = env.unwrapped.world
+    t_prev = 0.0
+    for t in (0.3, 0.8, 1.6, 3.0):
+        world.advance(t - t_prev)
+        t_prev = t
+        pts = np.asarray(snap.com) + rng.uniform(-1.5, 1.5, (60, 2))
+        if env_id == "FootstepDoor-v0":
+            pts = np.vstack([pts, rng.uniform(-0.6, 0.6, (60, 2))])
+        truth = np.array([world.clearance(tuple(p), 100.0)[0] for p in pts])  # pymunk's nearest-shape query
+        np.testing.assert_allclose(pred.clearance(pts, np.full(len(pts), t)), truth, atol=1e-6)
+    env.close()
+
+
+def test_prediction_horizon_drops_moving_obstacles():
+    env, snap = snapshot_after("FootstepDoor-v0", 0)
+    pts = np.array([[0.0, -0.3], [0.3, 0.0], [1.0, -0.5]])
+    full = ObstaclePredictor(snap)
+    short = ObstaclePredictor(snap, horizon=1.0)
+    static_only = [o for o in snap.obstacles if o.static]
+    for t in (0.0, 0.5, 1.0):
+        np.testing.assert_allclose(short.clearance(pts, np.full(3, t)), full.clearance(pts, np.full(3, t)))
+    for t in (1.001, 1.05, 1.5):
+        t = np.full(3, t)
+        np.testing.assert_allclose(short.clearance(pts, t), direct_clearance(static_only, pts, t), atol=1e-9)
+    # the door's centre lies on the rod: beyond the horizon it is no longer checked
+    assert full.clearance(np.zeros((1, 2)), [1.01])[0] < 0
+    assert short.clearance(np.zeros((1, 2)), [1.01])[0] > 0
+    env.close()
+
+
+@pytest.mark.parametrize("env_id,kwargs", [("FootstepCrowd-v0", {}), ("FootstepDoor-v0", {}),
+                                           ("FootstepCrossing-v0", dict(crossing_x=0.5))])
+def test_prediction_never_reads_the_simulator_future(env_id, kwargs):
+    env, snap = snapshot_after(env_id, 1, **kwargs)
+    u = env.unwrapped
+    pred = ObstaclePredictor(snap)
+    rng = np.random.default_rng(1)
+    pts, times = sample_points(snap, 200, rng, spread=1.0, t_max=3.0)
+    before = pred.clearance(pts, times).copy()
+    sensed = [(o.position, o.angle, o.velocity, o.angular_velocity) for o in snap.obstacles]
+    # the simulator moves on (and, for the crowd, its members change velocity)
+    for _ in range(3):
+        _, _, terminated, _, _ = env.step(u.robot.nominal_command)
+        if terminated:
+            break
+    # ... and is even tampered with: teleport and re-aim every kinematic body
+    for o in u.world.obstacles:
+        if not o.static:
+            o.body.position = (o.body.position.x + 5.0, o.body.position.y - 5.0)
+            o.body.velocity = (1.0, 1.0)
+            o.body.angular_velocity = 1.0
+    np.testing.assert_array_equal(pred.clearance(pts, times), before)
+    assert [(o.position, o.angle, o.velocity, o.angular_velocity) for o in snap.obstacles] == sensed
+    np.testing.assert_allclose(before, direct_clearance(snap.obstacles, pts, times), atol=1e-9)
+    # a predictor from a fresh snapshot does see the change, so the comparison above is not vacuous
+    fresh = ObstaclePredictor(u.sensing())
+    assert not np.allclose(fresh.clearance(pts, times), before)
+    env.close()
+
+
+def test_crowd_prediction_is_constant_velocity_not_the_schedule():
+    """The crowd changes velocity every step; the prediction extrapolates the sensed one regardless."""
+    env, snap = snapshot_after("FootstepCrowd-v0", 2, seed=4)
+    u = env.unwrapped
+    period = float(sum(u.robot.nominal_command[3:]))
+    pred = ObstaclePredictor(snap)
+    pts = np.asarray(snap.com) + np.random.default_rng(0).uniform(-0.6, 0.6, (200, 2))
+    later = np.full(len(pts), 3 * period)
+    predicted = pred.clearance(pts, later)
+    # the simulator's own schedule of the members, 3 periods on
+    centres = u.scenario.positions(snap.time + 3 * period)
+    radius = u.scenario.cfg.member_radius
+    truth = (np.linalg.norm(pts[:, None, :] - centres[None], axis=-1) - radius).min(axis=1)
+    np.testing.assert_allclose(predicted, direct_clearance(snap.obstacles, pts, later), atol=1e-9)
+    assert not np.allclose(predicted, truth, atol=1e-6)  # the crowd did not keep its sensed velocity
+    env.close()
+
+
+
+SHORT_H, SPEED_TOL, TURN_TOL = 2.4, 0.01, 0.01
+
+
+def two_snapshots(env_id, seed=0, **kwargs):
+    """Snapshots after the first and the second nominal step (what a planner sensed one step apart)."""
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=seed)
+    u = env.unwrapped
+    snaps = []
+    for _ in range(2):
+        _, _, terminated, _, _ = env.step(u.robot.nominal_command)
+        assert not terminated
+        snaps.append(u.sensing())
+    env.close()
+    return snaps
+
+
+def test_steady_motion_horizons_crowd_flags_members_whose_velocity_changed():
+    previous, snap = two_snapshots("FootstepCrowd-v0")
+    before = {v.name: v for v in previous.obstacles}
+    expected = {}
+    for v in snap.obstacles:
+        dv = math.hypot(v.velocity[0] - before[v.name].velocity[0], v.velocity[1] - before[v.name].velocity[1])
+        assert abs(dv - SPEED_TOL) > 1e-4  # no member on the fence: the answer does not hang on rounding
+        if dv > SPEED_TOL:
+            expected[v.name] = SHORT_H
+    # the crowd changes its members' velocities every step, but not all of them by much
+    assert 0 < len(expected) < len(snap.obstacles)
+    assert steady_motion_horizons(previous, snap, SHORT_H, SPEED_TOL, TURN_TOL) == expected
+    # a tolerance above every change flags none; one below every change flags all
+    changes = [math.hypot(v.velocity[0] - before[v.name].velocity[0], v.velocity[1] - before[v.name].velocity[1])
+               for v in snap.obstacles]
+    assert steady_motion_horizons(previous, snap, SHORT_H, max(changes) + 1e-6, TURN_TOL) == {}
+    assert min(changes) > 1e-6
+    assert steady_motion_horizons(previous, snap, 1.0, min(changes) - 1e-7, TURN_TOL) == {
+        v.name: 1.0 for v in snap.obstacles}
+    assert steady_motion_horizons(None, snap, SHORT_H, SPEED_TOL, TURN_TOL) == {}
+
+
+@pytest.mark.parametrize("env_id,kwargs", [("FootstepDoor-v0", dict(door_speed=17.0)),
+                                           ("FootstepCrossing-v0", dict(crossing_x=0.5))])
+def test_steady_motion_horizons_empty_for_constant_motion(env_id, kwargs):
+    previous, snap = two_snapshots(env_id, **kwargs)
+    moving = [v for v in snap.obstacles if not v.static]
+    assert moving and all(np.hypot(*v.velocity) > 0 or v.angular_velocity != 0 for v in moving)
+    before = {v.name: v for v in previous.obstacles}
+    for v in moving:  # read from the snapshots: the motion did not change
+        assert v.velocity == pytest.approx(before[v.name].velocity, abs=1e-12)
+        assert v.angular_velocity == pytest.approx(before[v.name].angular_velocity, abs=1e-12)
+    assert steady_motion_horizons(previous, snap, SHORT_H, SPEED_TOL, TURN_TOL) == {}
+    assert steady_motion_horizons(None, snap, SHORT_H, SPEED_TOL, TURN_TOL) == {}
+
+
+def test_steady_motion_horizons_turn_and_speed_changes_of_one_shape():
+    """Edit the previous snapshot's door rod / crossing car: exactly that shape is flagged."""
+    previous, snap = two_snapshots("FootstepDoor-v0", door_speed=17.0)
+    turned = tuple(dataclasses.replace(v, angular_velocity=v.angular_velocity + 0.05) if v.name == "door" else v
+                   for v in previous.obstacles)
+    prev = dataclasses.replace(previous, obstacles=turned)
+    assert steady_motion_horizons(prev, snap, SHORT_H, SPEED_TOL, TURN_TOL) == {"door": SHORT_H}
+    assert steady_motion_horizons(prev, snap, SHORT_H, SPEED_TOL, 0.06) == {}
+    previous, snap = two_snapshots("FootstepCrossing-v0", crossing_x=0.5)
+    slowed = tuple(dataclasses.replace(v, velocity=(v.velocity[0], v.velocity[1] - 0.02)) for v in previous.obstacles)
+    prev = dataclasses.replace(previous, obstacles=slowed)
+    assert steady_motion_horizons(prev, snap, 1.5, SPEED_TOL, TURN_TOL) == {"car": 1.5}
+    assert steady_motion_horizons(prev, snap, 1.5, 0.03, TURN_TOL) == {}
+
+
+# ====================================================================== prediction: region pruning, per-shape horizons
+REGION_CASES = [
+    # env, steps, kwargs, box (low, high) relative to the robot's CoM, horizon [s], whether shapes get pruned
+    ("FootstepDoor-v0", 1, dict(door_speed=17.0), (-0.5, -0.5), (0.5, 0.5), 4.0, True),  # rod, drum out of reach
+    ("FootstepCrossing-v0", 1, dict(crossing_x=0.5), (-0.3, -0.3), (0.3, 0.3), 1.0, True),  # car arrives after 1 s
+    ("FootstepCrossing-v0", 1, dict(crossing_x=0.5), (-0.3, -0.3), (0.8, 0.3), 4.0, False),  # car drives in
+    ("FootstepCrowd-v0", 1, {}, (0.2, -0.15), (0.6, 0.15), 1.0, True),  # members behind the ring centre
+    ("FootstepCrowd-v0", 2, {}, (0.5, -0.15), (0.9, 0.15), 4.0, True),  # members ahead walk into the box
+]
+
+
+def box_edge_distance(points, lo, hi):
+    """Distance from points inside the box to its boundary."""
+    return np.minimum(points - lo, hi - points).min(axis=1)
+
+
+@pytest.mark.parametrize("env_id,steps,kwargs,off_lo,off_hi,horizon,prunes", REGION_CASES)
+def test_region_pruning_changes_no_answer_inside_the_box(env_id, steps, kwargs, off_lo, off_hi, horizon, prunes):
+    """A shape left out never comes into the box before the horizon, so for a point in the box it is
+    at least as far as the box's boundary: ``min(clearance, edge distance)`` is unchanged, and so is
+    ``free(.., safe)`` for points at least ``safe`` inside the box."""
+    env, snap = snapshot_after(env_id, steps, **kwargs)
+    env.close()
+    com = np.asarray(snap.com)
+    lo, hi = com + np.asarray(off_lo), com + np.asarray(off_hi)
+    full = ObstaclePredictor(snap, horizon=horizon)
+    pruned = ObstaclePredictor(snap, horizon=horizon, region=(lo, hi))
+    assert pruned.n_shapes <= full.n_shapes
+    assert (pruned.n_shapes < full.n_shapes) == prunes
+    rng = np.random.default_rng(11)
+    pts = lo + (hi - lo) * rng.random((3000, 2))
+    times = rng.uniform(0.0, horizon, 3000)
+    edge = box_edge_distance(pts, lo, hi)
+    c_full, c_pruned = full.clearance(pts, times), pruned.clearance(pts, times)
+    assert np.all(c_pruned >= c_full - 1e-12)  # pruning only ever removes shapes
+    np.testing.assert_allclose(np.minimum(c_pruned, edge), np.minimum(c_full, edge), rtol=0, atol=1e-12)
+    near = c_full < edge  # the nearest surface is inside the box: the very same clearance
+    np.testing.assert_allclose(c_pruned[near], c_full[near], rtol=0, atol=1e-12)
+    for safe in (0.0, 0.05, 0.12):
+        inside = edge >= safe
+        np.testing.assert_array_equal(pruned.free(pts[inside], times[inside], safe),
+                                      full.free(pts[inside], times[inside], safe))
+    if env_id != "FootstepCrossing-v0" or not prunes:
+        # not vacuous: obstacles are near enough to some points to decide their freedom
+        assert near.sum() > 50
+        assert not full.free(pts, times, 0.12).all()
+
+
+def test_region_pruning_drops_the_door_and_drum_from_a_box_clear_of_them():
+    """A box in the corridor left of the door: out of reach of the rod (0.51 m) and the drum (0.55 m)."""
+    env, snap = snapshot_after("FootstepDoor-v0", 0)
+    env.close()
+    lo, hi = np.array([-1.6, -0.6]), np.array([-0.9, -0.1])
+    full = ObstaclePredictor(snap, horizon=5.0)
+    pruned = ObstaclePredictor(snap, horizon=5.0, region=(lo, hi))
+    assert full.n_shapes == len(snap.obstacles)
+    assert pruned.n_shapes < full.n_shapes
+    pts = lo + (hi - lo) * np.random.default_rng(2).random((500, 2))
+    times = np.random.default_rng(3).uniform(0.0, 5.0, 500)
+    np.testing.assert_allclose(pruned.clearance(pts, times), full.clearance(pts, times), rtol=0, atol=1e-12)
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered in multiply:RuntimeWarning")
+def test_region_pruning_with_infinite_horizon_and_a_turning_rod():
+    env, snap = snapshot_after("FootstepDoor-v0", 0)
+    env.close()
+    lo, hi = np.array([-1.6, -0.6]), np.array([-0.9, -0.1])
+    pruned = ObstaclePredictor(snap, region=(lo, hi))  # horizon = inf (the default)
+    full = ObstaclePredictor(snap)
+    pts = lo + (hi - lo) * np.random.default_rng(2).random((200, 2))
+    times = np.random.default_rng(3).uniform(0.0, 20.0, 200)
+    np.testing.assert_allclose(pruned.clearance(pts, times), full.clearance(pts, times), rtol=0, atol=1e-12)
+
+
+def test_per_shape_horizon_ignores_that_shape_after_it_only():
+    """``horizons={"car": 1.0}``: the car is checked up to 1 s, then ignored; the rest is unchanged."""
+    env, snap = snapshot_after("FootstepCrossing-v0", 1, crossing_x=0.5)
+    env.close()
+    (car,) = snap.obstacles
+    full = ObstaclePredictor(snap)
+    short = ObstaclePredictor(snap, horizons={"car": 1.0})
+    t = np.array([0.0, 0.5, 0.99, 1.0, 1.01, 1.5, 3.0])
+    centre = np.asarray(car.position) + t[:, None] * np.asarray(car.velocity)  # inside the car at its time
+    before = t <= 1.0
+    d_full, d_short = full.distances(centre, t)[:, 0], short.distances(centre, t)[:, 0]
+    assert np.all(d_full < 0)
+    np.testing.assert_allclose(d_short[before], d_full[before], rtol=0, atol=1e-12)
+    assert np.all(np.isinf(d_short[~before]))
+    np.testing.assert_array_equal(short.free(centre, t, 0.0), ~before)
+    assert not full.free(centre, t, 0.0).any()
+    # with region pruning, the shorter horizon decides what can reach the box: 1 s is not enough for the car
+    com = np.asarray(snap.com)
+    box = (com - 0.3, com + 0.3)
+    assert ObstaclePredictor(snap, horizon=4.0, region=box).n_shapes == 1
+    assert ObstaclePredictor(snap, horizon=4.0, region=box, horizons={"car": 1.0}).n_shapes == 0
+
+
+def test_per_shape_horizon_on_the_door_leaves_walls_checked():
+    env, snap = snapshot_after("FootstepDoor-v0", 0)
+    env.close()
+    pred = ObstaclePredictor(snap, horizon=5.0, horizons={"door": 1.0, "wall_bottom": 0.5})
+    hub = np.zeros((4, 2))  # the rod's pivot: on the rod at every time
+    t = np.array([0.5, 1.0, 1.5, 4.0])
+    np.testing.assert_array_equal(pred.free(hub, t, 0.0), [False, False, True, True])
+    # a wall does not move: a per-shape horizon does not drop it
+    on_wall = np.tile([1.0, -0.66], (4, 1))
+    assert not pred.free(on_wall, np.array([0.1, 0.6, 3.0, 10.0]), 0.0).any()

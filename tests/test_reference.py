@@ -1,0 +1,117 @@
+"""The policies of :mod:`footstep_gym.planners.reference` end to end, and their registry."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import pytest
+
+import footstep_gym  # noqa: F401  (registers the envs)
+
+# ====================================================================== the policies end to end
+def run_policy(name: str, env_id: str, seed: int, **env_kwargs) -> dict:
+    """One episode of policy ``name`` on ``env_id``; the final step's info."""
+    from footstep_gym.planners import make_policy
+
+    env = gym.make(env_id, **env_kwargs)
+    policy = make_policy(name, env.unwrapped.robot, seed=seed)
+    obs, info = env.reset(seed=seed)
+    policy.reset(seed=seed)
+    while True:
+        obs, _, terminated, truncated, info = env.step(policy.act(obs, env.unwrapped.sensing()))
+        if terminated or truncated:
+            env.close()
+            return info
+
+
+@pytest.mark.parametrize("env_id, kwargs", [
+    ("FootstepDoor-v0", {"door_speed": 17.0}),
+    ("FootstepCrossing-v0", {}),
+    ("FootstepCrowd-v0", {}),
+])
+def test_period_aware_planner_reaches_the_goal_in_each_env(env_id, kwargs):
+    info = run_policy("period-aware", env_id, 0, **kwargs)
+    assert info["termination"] == "goal" and info["is_success"], info["termination"]
+
+
+@pytest.mark.parametrize("door_speed, outcome", [(5.0, "goal"), (14.0, "collision")])
+def test_fixed_period_planner_passes_a_slow_door_and_not_a_fast_one(door_speed, outcome):
+    """The paper's Fig. 8 in one seed: at T_n the robot cannot cross the disc at 14 deg/s."""
+    info = run_policy("fixed-period", "FootstepDoor-v0", 0, door_speed=door_speed)
+    assert info["termination"] == outcome
+    assert info["period"] == pytest.approx(0.8)
+
+
+# ====================================================================== the registry and the ablation variants
+def test_registry_has_the_paper_planners_beside_ours():
+    from footstep_gym.planners import POLICIES
+
+    assert set(POLICIES) == {"period-aware", "fixed-period", "pso-only", "paper-period-aware", "paper-fixed-period"}
+
+
+def test_variant_names_switch_one_addition_off():
+    import dataclasses
+
+    from footstep_gym.planners import ablation_variants, make_policy
+    from footstep_gym.planners.params import AdditionsParams
+
+    switches = [f.name for f in dataclasses.fields(AdditionsParams)]
+    names = ablation_variants()
+    assert names[0] == "period-aware" and names[-1] == "paper-period-aware" and len(names) == len(switches) + 2
+    for switch, name in zip(switches, names[1:-1]):
+        assert name == "period-aware-no-" + switch.replace("_", "-")
+        policy = make_policy(name, seed=0)
+        assert policy.name == name
+        off = [s for s in switches if not getattr(policy.config.additions, s)]
+        assert off == [switch]
+    fixed = make_policy("fixed-period-no-fallback")
+    assert not fixed.vary_period and not fixed.config.additions.fallback
+
+
+@pytest.mark.parametrize("name", ["period-aware-no-such-thing", "pso-only-no-fallback", "nonsense",
+                                  "paper-period-aware-no"])
+def test_unknown_names_are_rejected_with_the_known_ones(name):
+    from footstep_gym.planners import make_policy
+
+    with pytest.raises(ValueError, match="known: .*period-aware-no-waiting-walks"):
+        make_policy(name)
+
+
+@pytest.mark.parametrize("name", ["paper-period-aware", "paper-fixed-period"])
+def test_paper_planners_walk_to_the_goal_when_nothing_is_in_the_way(name):
+    """The crossing with its car crossing 5 m away (beyond the goal): both paper planners walk the 1.9 m straight
+    to the goal at the nominal period, in full 10 cm strides (19-20 steps)."""
+    from footstep_gym.planners import make_policy
+
+    env = gym.make("FootstepCrossing-v0", crossing_x=5.0)
+    policy = make_policy(name, env.unwrapped.robot, seed=0)
+    obs, _ = env.reset(seed=0)
+    policy.reset(seed=0)
+    periods = []
+    while True:
+        obs, _, terminated, truncated, info = env.step(policy.act(obs, env.unwrapped.sensing()))
+        periods.append(policy.last_info["period"])
+        assert not policy.last_info["pso_ran"]
+        if terminated or truncated:
+            break
+    env.close()
+    assert info["termination"] == "goal" and 19 <= info["steps"] <= 20
+    assert periods == pytest.approx([0.8] * len(periods))
+
+
+def test_every_ablation_variant_plans_an_episode_start():
+    """Each variant of the ablation plans a few steps of the crowd with the same interface and reports its stages."""
+    from footstep_gym.planners import ablation_variants, make_policy
+
+    env = gym.make("FootstepCrowd-v0")
+    for name in ablation_variants():
+        policy = make_policy(name, env.unwrapped.robot, seed=1)
+        obs, _ = env.reset(seed=1)
+        policy.reset(seed=1)
+        for _ in range(3):
+            obs, _, terminated, _, _ = env.step(policy.act(obs, env.unwrapped.sensing()))
+            info = policy.last_info
+            assert info["policy"] == name and info["period"] > 0
+            assert {"time_period_search_ms", "time_rrt_ms", "time_pso_ms", "period_search"} <= set(info)
+            if terminated:
+                break
+    env.close()

@@ -5,6 +5,7 @@ Usage::
     python baselines/eval_planner.py                 # quick default: all envs, planners and shipped agents, 3 seeds
     python baselines/eval_planner.py --paper         # the paper's protocol (door 8/14/17 deg/s, crossing, crowd; 20 seeds)
     python baselines/eval_planner.py --profile agents   # agents against both planners on every setting of the README
+    python baselines/eval_planner.py --ablation         # period-aware with each of our additions off in turn
     python baselines/eval_planner.py --env door --door-speed 8 --door-speed 17 --policy period-aware \\
         --policy ppo --episodes 10 --split validation --out runs/door --workers 2
     python baselines/eval_planner.py --env crowd --crowd-speed 0.2 --agent runs/rl/ppo/FootstepCrowd-v0_1
@@ -70,6 +71,9 @@ PROFILES = {
     # The paper's protocol: door at 8, 14, 17 deg/s, crossing, crowd; >= 20 seeds per cell.
     "paper": Profile(envs=("door", "crossing", "crowd"), episodes=20, door_speeds=(8.0, 14.0, 17.0),
                      crowd_speeds=(), policies=("period-aware", "fixed-period", "pso-only")),
+    # period-aware with each addition switched off in turn, and the paper's planner (filled in by --ablation).
+    "ablation": Profile(envs=("door", "crossing", "crowd"), episodes=10, door_speeds=(17.0,), crowd_speeds=(),
+                        policies=()),
     # The agents against both planners on every setting the README reports.
     "agents": Profile(envs=("door", "crossing", "crowd"), episodes=20, door_speeds=(8.0, 11.0, 14.0, 17.0, 20.0),
                       crowd_speeds=(0.16, 0.2), policies=("period-aware", "fixed-period", "ppo", "ppo-all", "sac")),
@@ -131,7 +135,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="eval_planner.py", description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog=f"policies (--policy):\n{listing}\n\nWithout options: the quick default (all envs, every policy, "
+        epilog=f"policies (--policy):\n{listing}\n  <planner>-no-<switch>  a planner with one addition of "
+               f"configs/planner.yaml off (the ablation's variants)\n\nWithout options: the quick default (all envs, every policy, "
                f"{quick.episodes} seeds of the test split, door at {_list(quick.door_speeds)} deg/s). An agent "
                "with no run shipped for an env is skipped there with a warning.",
     )
@@ -146,6 +151,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--profile", choices=sorted(PROFILES), help="defaults of a run (default quick)")
     parser.add_argument("--paper", action="store_true", help="same as --profile paper: door at "
                         f"{_list(paper.door_speeds)} deg/s, crossing, crowd, {paper.episodes} seeds, planners only")
+    parser.add_argument("--ablation", action="store_true",
+                        help="same as --profile ablation: period-aware with each addition of configs/planner.yaml "
+                             "switched off in turn (period-aware-no-<switch>), and paper-period-aware")
     parser.add_argument("--episodes", type=_int_at_least(1), metavar="N", help="seeds per cell (default: profile's)")
     parser.add_argument("--split", choices=sorted(SPLITS), default="test",
                         help="seed range (configs/eval.yaml): " + ", ".join(
@@ -201,9 +209,12 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings:
     """Parse and validate the command line; exits with status 2 and a message on a bad value."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.paper and args.profile not in (None, "paper"):
-        parser.error(f"--paper and --profile {args.profile} contradict each other")
-    profile_name = "paper" if args.paper else (args.profile or "quick")
+    chosen = {name for flag, name in ((args.paper, "paper"), (args.ablation, "ablation")) if flag}
+    if args.profile:
+        chosen.add(args.profile)
+    if len(chosen) > 1:
+        parser.error(f"choose one profile, got {', '.join(sorted(chosen))}")
+    profile_name = chosen.pop() if chosen else "quick"
     profile = PROFILES[profile_name]
     try:
         envs = _unique([resolve_env(e) for e in (args.env or profile.envs)])
@@ -211,12 +222,16 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings:
         parser.error(str(exc))
     available = registry.policy_names()
     if args.policy:
-        unknown = [p for p in args.policy if p not in available]
+        unknown = [p for p in args.policy if not registry.is_policy(p)]
         if unknown:
             parser.error(f"unknown policy {', '.join(map(repr, unknown))}; choose from {', '.join(available)}")
         policies = _unique(args.policy)
     elif args.agent:
         policies = ()  # only the user's agents
+    elif profile_name == "ablation":
+        from footstep_gym.planners.ablation import ablation_variants
+
+        policies = ablation_variants()
     elif profile.policies is not None:
         policies = tuple(p for p in profile.policies if p in available)
     else:

@@ -41,6 +41,8 @@ PLANNER_DESCRIPTIONS = {
     "period-aware": "the paper's planner: binary search for the period, modified RRT, PSO (with our additions)",
     "fixed-period": "the same planner with the period held at the nominal T_n",
     "pso-only": "PSO alone over the whole command box",
+    "paper-period-aware": "the paper's planner as written: Algorithms 1-2, PSO when infeasible, none of our additions",
+    "paper-fixed-period": "the paper's planner as written, the period held at T_n",
 }
 
 
@@ -51,8 +53,21 @@ def planner_names() -> tuple[str, ...]:
 
 
 def policy_names() -> tuple[str, ...]:
-    """Every registered policy: planners first, then agents."""
+    """Every registered policy: planners first, then agents (planner variants not listed: see :func:`is_policy`)."""
     return planner_names() + tuple(AGENTS)
+
+
+def is_policy(name: str) -> bool:
+    """A registered name, or a planner variant ``<planner>-no-<switch>`` (the ablation's)."""
+    if name in AGENTS or name in planner_names():
+        return True
+    from footstep_gym.planners.reference import policy_spec
+
+    try:
+        policy_spec(name)
+    except ValueError:
+        return False
+    return True
 
 
 def describe(name: str) -> str:
@@ -102,10 +117,9 @@ def make_policy(name: str, robot: Robot | None = None, seed: int | None = None, 
         policy = ZooAgent(run, robot, algo=AGENTS[name].algo if name in AGENTS else None)
         policy.reset(seed=seed)
         return policy
-    from footstep_gym.planners import POLICIES
     from footstep_gym.planners import make_policy as make_planner
 
-    if name not in POLICIES:
-        raise ValueError(f"unknown policy {name!r}; known: {', '.join(policy_names())} "
-                         f"(or {USER_AGENT_PREFIX}NAME with run=PATH)")
+    if not is_policy(name):
+        raise ValueError(f"unknown policy {name!r}; known: {', '.join(policy_names())}, planner variants "
+                         f"<planner>-no-<switch> (or {USER_AGENT_PREFIX}NAME with run=PATH)")
     return make_planner(name, robot, seed=seed, **overrides)

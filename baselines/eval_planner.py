@@ -70,7 +70,8 @@ PROFILES = {
                      policies=None),
     # The paper's protocol: door at 8, 14, 17 deg/s, crossing, crowd; >= 20 seeds per cell.
     "paper": Profile(envs=("door", "crossing", "crowd"), episodes=20, door_speeds=(8.0, 14.0, 17.0),
-                     crowd_speeds=(), policies=("period-aware", "fixed-period", "pso-only")),
+                     crowd_speeds=(), policies=("period-aware", "fixed-period", "pso-only", "paper-period-aware",
+                                                "paper-fixed-period")),
     # period-aware with each addition switched off in turn, and the paper's planner (filled in by --ablation).
     "ablation": Profile(envs=("door", "crossing", "crowd"), episodes=10, door_speeds=(17.0,), crowd_speeds=(),
                         policies=()),

@@ -79,6 +79,14 @@ def machine_info() -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------ memory (no psutil)
+def loadavg() -> list[float] | None:
+    """The 1, 5 and 15 minute load averages (None where the OS has none)."""
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except (AttributeError, OSError):
+        return None
+
+
 def rss_bytes() -> int | None:
     """Current resident set size of this process [bytes] (``/proc/self/statm``; ``None`` elsewhere)."""
     try:

@@ -61,7 +61,7 @@ import numpy as np  # noqa: E402
 
 import footstep_gym  # noqa: E402
 from bench_utils import (  # noqa: E402
-    RssPeak, finite_json, fmt_bytes, fmt_num, fmt_stat, machine_info, markdown_table, max_rss_bytes,
+    RssPeak, finite_json, fmt_bytes, fmt_num, fmt_stat, loadavg, machine_info, markdown_table, max_rss_bytes,
     rss_bytes, summary, tail_summary,
 )
 from footstep_gym import lipm  # noqa: E402
@@ -1100,13 +1100,6 @@ def report(res: dict[str, Any]) -> str:
 
 
 # ------------------------------------------------------------------ main
-def _loadavg() -> list[float] | None:
-    try:
-        return [round(x, 2) for x in os.getloadavg()]
-    except (AttributeError, OSError):
-        return None
-
-
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n")[0] + " Quick mode by default (a few minutes at most on 2 cores); "
@@ -1145,7 +1138,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     res: dict[str, Any] = {"meta": {"mode": settings.name, "settings": settings.__dict__, "seed": args.seed,
                                     "sections": sections, "machine": machine_info(),
                                     "started_unix": started, "nominal_period_s": robot.nominal_period}}
-    res["meta"]["load_average_start"] = _loadavg()
+    res["meta"]["load_average_start"] = loadavg()
     replays: dict[str, list] = {}
     if "planners" in sections or "env" in sections:
         log("planners ...")
@@ -1163,7 +1156,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         res["memory"] = bench_memory(settings)
     res["meta"]["duration_s"] = time.perf_counter() - t0
     res["meta"]["torch_imported"] = "torch" in sys.modules  # the benchmarked paths are torch-free
-    res["meta"]["load_average_end"] = _loadavg()
+    res["meta"]["load_average_end"] = loadavg()
     res["targets"], res["ratios"] = evaluate_targets(res, robot.nominal_period)
     text = report(res)
     print(text)

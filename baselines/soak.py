@@ -57,7 +57,8 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import footstep_gym  # noqa: E402
-from bench_utils import RssPeak, finite_json, fmt_bytes, fmt_num, machine_info, markdown_table, rss_bytes  # noqa: E402
+from bench_utils import (RssPeak, finite_json, fmt_bytes, fmt_num, loadavg, machine_info, markdown_table,
+                         rss_bytes)  # noqa: E402
 from footstep_gym.errors import ActionError  # noqa: E402
 
 ENV_IDS = (*footstep_gym.ENV_IDS.values(), footstep_gym.MIX_ENV_ID)
@@ -401,13 +402,6 @@ def report(summary: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _loadavg() -> list[float] | None:
-    try:
-        return [round(x, 2) for x in os.getloadavg()]
-    except (AttributeError, OSError):
-        return None
-
-
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -443,7 +437,7 @@ def main(argv: list[str] | None = None) -> int:
         raise SystemExit(f"unknown env id(s) {unknown}; choose from {list(ENV_IDS)}")
     started = time.perf_counter()
     meta = {"steps_per_env": args.steps, "seed": args.seed, "rss_tolerance_mib": args.rss_tolerance_mib,
-            "machine": machine_info(), "load_average_start": _loadavg(),
+            "machine": machine_info(), "load_average_start": loadavg(),
             "episode_styles": EPISODE_STYLES, "fuzz_kinds": FUZZ_KINDS, "walk_kinds": WALK_KINDS}
     results = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -463,7 +457,7 @@ def main(argv: list[str] | None = None) -> int:
             results.append(verdict(res, args.rss_tolerance_mib))
             log(f"{env_id}: {'PASS' if results[-1]['passed'] else 'FAIL'}")
     meta["duration_s"] = time.perf_counter() - started
-    meta["load_average_end"] = _loadavg()
+    meta["load_average_end"] = loadavg()
     summary = {"meta": meta, "envs": results, "passed": all(r["passed"] for r in results)}
     text = report(summary)
     print(text)

@@ -76,6 +76,11 @@ def draw_curves(agents_dir: Path, out_dir: Path, reference: Path, only: tuple[st
     for (algo, env_id), runs in sorted(groups.items()):
         if only is not None and (algo, env_id) != only:
             continue
+        runs = [r for r in runs if training.eval_curve(r)["success"]]
+        if not runs:
+            print(f"no evaluation recorded for {algo} on {env_id} (training shorter than --eval-freq): no curve",
+                  file=sys.stderr)
+            continue
         title = f"{algo.upper()} on {env_id}: success of the periodic evaluation ({len(runs)} training seed(s))"
         written.append(training.learning_curves(runs, out_dir / f"{algo}_{env_id}.png", title,
                                                 planner_reference(reference, env_id)))

@@ -176,7 +176,7 @@ def check_record(r: dict) -> None:
         assert key in r, f"missing {key}"
         assert isinstance(r[key], types if isinstance(types, tuple) else (types,)) or (
             types is float and isinstance(r[key], int)), f"{key}={r[key]!r}"
-    assert r["episodes"] == len(r["seeds"]) >= 1
+    assert r["episodes"] == len(r["seeds"]) * len(r.get("runs") or [None]) >= 1  # an agent pools its runs
     for k in RATES:
         assert 0.0 <= r[k] <= 1.0
     assert sum(r[k] for k in RATES) == pytest.approx(1.0)

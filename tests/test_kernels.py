@@ -25,8 +25,10 @@ SCENES = [("FootstepDoor-v0", dict(door_speed=17.0), 6), ("FootstepCrossing-v0",
 def snapshot_after(env_id, kwargs, steps, seed=0):
     env = gym.make(env_id, **kwargs)
     env.reset(seed=seed)
-    for _ in range(steps):
-        env.step(env.unwrapped.robot.nominal_command)
+    for _ in range(steps):  # the crowd overtakes the nominal walk: the snapshot is then the one at contact
+        *_, terminated, truncated, _ = env.step(env.unwrapped.robot.nominal_command)
+        if terminated or truncated:
+            break
     snap = env.unwrapped.sensing()
     env.close()
     return snap

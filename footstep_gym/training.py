@@ -77,7 +77,8 @@ def train(algo: str, env_id: str, seed: int, log_folder: str | Path, log_file: s
     return latest_run(log_folder, algo, env_id), wall
 
 
-def _zoo_yaml(path: Path) -> dict[str, Any]:
+def zoo_yaml(path: Path) -> dict[str, Any]:
+    """A YAML file rl_zoo3 wrote (``config.yml`` is a list of [key, value] pairs, ``args.yml`` a mapping) as a dict."""
     data = yaml.load(path.read_text(encoding="utf-8"), Loader=yaml.UnsafeLoader)  # the zoo writes python tags
     return dict(data) if isinstance(data, list) else dict(data or {})
 
@@ -120,8 +121,8 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
     folder = run / env_id
     if not model.is_file() or not folder.is_dir():
         raise FileNotFoundError(f"{run} is not a finished zoo run (no {model.name} and {env_id}/)")
-    args = _zoo_yaml(folder / "args.yml")
-    config = _zoo_yaml(folder / "config.yml")
+    args = zoo_yaml(folder / "args.yml")
+    config = zoo_yaml(folder / "config.yml")
     algo = args["algo"]
     seed = int(args["seed"] if seed is None else seed)
     dest = Path(agents_dir) / algo / f"{env_id}_{seed}"

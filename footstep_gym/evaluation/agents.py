@@ -18,22 +18,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from gymnasium import spaces
 
 from footstep_gym.robot import Robot
+from footstep_gym.training import zoo_yaml
 
 #: rl_zoo3 algorithm names this loader knows, and the stable-baselines3 class of each.
 ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "a2c": "A2C", "ddpg": "DDPG"}
-
-
-def _zoo_config(folder: Path) -> dict[str, Any]:
-    """``config.yml`` of a zoo run (a list of [key, value] pairs) as a dict; {} if absent."""
-    path = folder / "config.yml"
-    if not path.is_file():
-        return {}
-    data = yaml.load(path.read_text(encoding="utf-8"), Loader=yaml.UnsafeLoader)  # the zoo writes python tags
-    return dict(data) if isinstance(data, list) else dict(data or {})
 
 
 def _rescale_bounds(config: dict[str, Any]) -> tuple[float, float] | None:
@@ -84,8 +75,7 @@ class ZooAgent:
         torch.set_num_threads(1)  # one core per evaluation worker (PLATFORM: more threads are slower)
         model_path, folder, args_path = resolve_run(path)
         if algo is None and args_path is not None:
-            args = yaml.load(args_path.read_text(encoding="utf-8"), Loader=yaml.UnsafeLoader)
-            algo = dict(args).get("algo")
+            algo = zoo_yaml(args_path).get("algo")
         if algo is None:
             raise ValueError(f"agent {str(path)!r}: no args.yml beside the model to name its algorithm; "
                              f"pass algo= one of {sorted(ALGORITHMS)}")
@@ -104,7 +94,8 @@ class ZooAgent:
             self.normalizer.training = False
         env_box = spaces.Box(robot.command_low.astype(np.float32), robot.command_high.astype(np.float32),
                              dtype=np.float32)
-        bounds = _rescale_bounds(_zoo_config(folder))
+        config_path = folder / "config.yml"
+        bounds = _rescale_bounds(zoo_yaml(config_path) if config_path.is_file() else {})
         self._to_command = None
         if bounds is not None:
             from gymnasium.wrappers.utils import rescale_box

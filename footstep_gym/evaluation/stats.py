@@ -110,6 +110,8 @@ def cell_record(env_id: str, scenario: str, policy: str, params: dict[str, Any],
     plan = np.array([t for e in episodes for t in e.plan_ms], dtype=float)
     periods = [p for e in episodes for p in e.periods]
     pso = [bool(x) for e in episodes for x in e.pso_ran if x is not None]
+    clearance = _quantiles([e.min_clearance for e in episodes])
+    zmp_margin = _quantiles([e.min_zmp_margin for e in episodes])
     record: dict[str, Any] = {
         "env": env_id,
         "scenario": scenario,
@@ -133,10 +135,10 @@ def cell_record(env_id: str, scenario: str, policy: str, params: dict[str, Any],
         "mean_period": _mean(periods),
         "min_period": float(min(periods)) if periods else None,
         "pso_step_rate": (sum(pso) / len(pso)) if pso else None,
-        "min_clearance_median": _quantiles([e.min_clearance for e in episodes])[0],
-        "min_clearance_min": _quantiles([e.min_clearance for e in episodes])[1],
-        "min_zmp_margin_median": _quantiles([e.min_zmp_margin for e in episodes])[0],
-        "min_zmp_margin_min": _quantiles([e.min_zmp_margin for e in episodes])[1],
+        "min_clearance_median": clearance[0],
+        "min_clearance_min": clearance[1],
+        "min_zmp_margin_median": zmp_margin[0],
+        "min_zmp_margin_min": zmp_margin[1],
         "plan_ms_median": _percentile(plan, 50),
         "plan_ms_p95": _percentile(plan, 95),
         "plan_ms_p99": _percentile(plan, 99),

@@ -16,7 +16,7 @@ from footstep_gym import footstep
 from footstep_gym.planners.distance_field import StaticDistanceField
 from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor
 from footstep_gym.planners.rollouts import GoalRollouts
-from footstep_gym.planners.walks import WalkStart, walks_free, walks_free_numpy
+from footstep_gym.planners.walks import WalkStart, walks_free, walks_free_numpy, walks_survival, walks_survival_numpy
 from planner_helpers import LEFT, RIGHT, robot  # noqa: F401
 
 SCENES = [("FootstepDoor-v0", dict(door_speed=17.0), 6), ("FootstepCrossing-v0", {}, 8), ("FootstepCrowd-v0", {}, 5)]
@@ -79,6 +79,11 @@ def test_walks_free_matches_numpy(robot, env_id, kwargs, steps, period):
         want = walks_free_numpy(body, start, nodes, headings, period, 3, goal, 0.1)
         blocked += int(want.size - want.sum())
         np.testing.assert_array_equal(got, want)
+        # the time of each walk's first blocked point: the same instant, inf exactly for the free walks
+        survival = walks_survival(body, start, nodes, headings, period, 3, goal, 0.1)
+        np.testing.assert_allclose(survival, walks_survival_numpy(body, start, nodes, headings, period, 3, goal, 0.1),
+                                   rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(np.isinf(survival), want)
     assert blocked > 0 or env_id == "FootstepCrossing-v0"  # the crossing's car may still be far at this time
 
 
@@ -96,18 +101,21 @@ def pursue_numpy(rollouts, window, depth):
     headings = np.empty((n_roll, depth + 1))
     out[:, 0], headings[:, 0] = pos, heading
     side = rollouts.start.side
+    arrived = np.zeros(n_roll, dtype=bool)
     for d in range(1, depth + 1):
         ahead = ((pos - node0) * axis.conjugate()).real + rollouts.lookahead
         taper = np.clip((rollouts._length - ahead) / rollouts.lookahead, 0.0, 1.0)
         aim = node0 + np.minimum(ahead, rollouts._length) * axis + taper * lane
         lo, hi = limits[side]
-        heading = heading + np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi)
+        heading = np.where(arrived, heading, heading + np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi))
         stride = np.where(d <= rollouts._waits, 0.0, rollouts._strides)
         if d == 1 and window is not None:
             stride = np.clip(stride, *window)
         dist = np.abs(goal - pos)
-        stride = np.where(dist <= rollouts.goal_radius, 0.0, np.minimum(stride, dist))
-        pos = pos + stride * np.exp(1j * heading)
+        stride = np.where(arrived, 0.0, np.minimum(stride, dist))
+        new = pos + stride * np.exp(1j * heading)
+        arrived |= np.abs(0.5 * (pos + new) - goal) <= rollouts.goal_radius  # the body is in: it stands still
+        pos = new
         out[:, d], headings[:, d] = pos, heading
         side = -side
     return np.stack([out.real, out.imag], axis=-1), headings

@@ -1,6 +1,7 @@
 """Stage 1 (:mod:`footstep_gym.planners.period_search`): :func:`longest_free_period` (Algorithm 1 as its text
 describes it) on hand-made monotone predicates ``collides(T) = T > T*`` whose answer ``T*`` is known; the
-stage's record; the kept plan bracketing the search from below.
+centred scan (:func:`centred_free_period`) on hand-made windows of free periods; the stage's record; the kept
+plan bracketing the search from below.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym.planners.params import load_planner_config
-from footstep_gym.planners.period_search import PeriodSearch, longest_free_period
+from footstep_gym.planners.period_search import PeriodSearch, centred_free_period, longest_free_period
 from footstep_gym.planners.reference import PAPER
 from footstep_gym.planners.walks import walk_start
 from planner_helpers import EPS
@@ -92,14 +93,14 @@ def test_binary_search_rejects_inverted_interval():
 # ====================================================================== the planner keeps its plan
 @pytest.mark.parametrize("door_speed,seed", [(17.0, 0), (17.0, 2), (14.0, 4)])
 def test_kept_plan_brackets_the_period_search_from_below(door_speed, seed):
-    """Whenever the previous step's plan is kept, the period searched is no shorter than that plan's
-    (the previous step's search result). Episodes 17/2 and 14/4 each have a kept step where a search
-    from the reachable floor instead of the kept plan's period would return a shorter period."""
+    """With the bisection (``centred_period`` off), whenever the previous step's plan is kept, the period
+    searched is no shorter than that plan's (the previous step's search result). Episodes 17/2 and 14/4
+    each have a kept step where a search from the reachable floor instead would return a shorter period."""
     from footstep_gym.planners import make_policy
 
     env = gym.make("FootstepDoor-v0", door_speed=door_speed)
     u = env.unwrapped
-    policy = make_policy("period-aware", u.robot, seed=0)
+    policy = make_policy("period-aware", u.robot, seed=0, additions={"centred_period": False})
     policy.reset(seed=seed)
     obs, _ = env.reset(seed=seed)
     previous, kept = None, 0
@@ -201,3 +202,41 @@ def test_second_tier_finds_a_waiting_walk_when_no_period_clears_the_way(crossing
     off = PeriodSearch(robot, load_planner_config({"additions_waiting_walks": False}))
     blocked = off(snap, start, zone, zone, None)
     assert not blocked.any_free and not blocked.waiting_walks and blocked.period == blocked.floor
+
+
+def window(lo, hi, blocked_at=1.0):
+    """``survival(T)``: free (inf) for ``lo <= T <= hi``, else blocked after ``blocked_at(T)`` seconds."""
+    return lambda T: math.inf if lo <= T <= hi else (blocked_at(T) if callable(blocked_at) else blocked_at)
+
+
+@pytest.mark.parametrize("iterations", [3, 4, 6])
+@pytest.mark.parametrize("lo,hi", [(0.45, 0.6), (0.3, 0.55), (0.5, 0.8), (0.6, 0.62)])
+def test_centred_scan_takes_the_middle_of_the_free_window(lo, hi, iterations):
+    """A crowd's window: too quick runs into the member ahead, too slow is caught from behind."""
+    calls = []
+    survival = window(lo, hi)
+    res = centred_free_period(lambda T: calls.append(T) or survival(T), T0, TN, iterations)
+    grid = np.linspace(T0, TN, 2 ** iterations + 1)
+    inside = grid[(grid >= lo) & (grid <= hi)]
+    assert res.any_free and res.evaluations == len(calls) == grid.size
+    np.testing.assert_allclose(sorted(calls), grid)
+    assert lo <= res.period <= hi  # free
+    # the middle of the free grid periods: as many (give or take one) on either side
+    below, above = np.sum(inside < res.period - EPS), np.sum(inside > res.period + EPS)
+    assert abs(int(above) - int(below)) <= 1
+    assert res.nominal_free == (hi >= TN)
+
+
+def test_centred_scan_keeps_to_the_window_of_the_longest_free_period():
+    """Two windows: the one that holds the longest free period is taken, as the bisection would."""
+    survival = lambda T: math.inf if (0.3 <= T <= 0.35 or 0.6 <= T <= 0.7) else 2.0  # noqa: E731
+    res = centred_free_period(survival, T0, TN, 4)
+    assert 0.6 <= res.period <= 0.7
+    # where the bisection, whose predicate is assumed monotone, ends at the window's edge
+    assert longest_free_period(lambda T: math.isfinite(survival(T)), T0, TN, 4).period != res.period
+
+
+@pytest.mark.parametrize("blocked_at", [1.0, lambda T: 3.0 * T, lambda T: 5.0 - T])
+def test_centred_scan_with_nothing_free_walks_as_fast_as_allowed(blocked_at):
+    res = centred_free_period(window(2.0, 3.0, blocked_at), T0, TN, 4)
+    assert res.period == T0 and not res.any_free and not res.nominal_free

@@ -259,3 +259,30 @@ def test_command_repair_runs_the_pso_only_when_infeasible(robot):
     still = CommandRepair(robot, params, vary_period=False)(snap, fixed, np.random.default_rng(0))
     assert still.pso is not None
     np.testing.assert_array_equal(still.command[3:], fixed[3:])
+
+
+@pytest.mark.parametrize("side", [RIGHT, LEFT])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_rescue_finds_a_feasible_command_where_table1_cannot(robot, side, seed):
+    """Switch ``feasibility_rescue``: T_SS 0.6 -> 0.1 s at once is beyond Table 1's reach (dT_SS <= 0 cannot
+    lengthen it back); the rescue's PSO over the whole command box returns a feasible command (checked by
+    the LIPM here), inside the robot's limits; without the rescue the stage returns an infeasible one."""
+    from types import SimpleNamespace
+
+    from footstep_gym.planners.pso import CommandRepair
+
+    com, vel = steady_gait(robot, side)
+    snap = SimpleNamespace(com_local=com, vel_local=vel, support_side=side)
+    params = load_planner_config().pso
+    ref = np.array([0.05, 0.08, 0.0, 0.1, 0.2])
+    plain = CommandRepair(robot, params)(snap, ref, np.random.default_rng(seed))
+    assert not plain.feasible and not plain.rescued and not verdict(robot, com, vel, plain.command, side)
+    out = CommandRepair(robot, params, rescue=True)(snap, ref, np.random.default_rng(seed))
+    assert out.rescued and out.feasible and verdict(robot, com, vel, out.command, side)
+    assert np.all(out.command >= robot.command_low - 1e-12) and np.all(out.command <= robot.command_high + 1e-12)
+    lo, hi = angle_limits(side, robot)
+    assert lo - 1e-12 <= out.command[2] <= hi + 1e-12
+    assert out.command[3] > ref[3]  # it lengthened the single support, which Table 1 forbids
+    # the fixed-period planner's rescue leaves the period alone
+    fixed = CommandRepair(robot, params, vary_period=False, rescue=True)(snap, ref, np.random.default_rng(seed))
+    np.testing.assert_array_equal(fixed.command[3:], ref[3:])

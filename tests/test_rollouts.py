@@ -163,10 +163,39 @@ def test_fan_free_walks_are_the_free_directions_nearest_the_goal_first(robot):
     assert dist == sorted(dist)
 
 
-def test_fan_strides_keep_to_the_window_and_stop_at_the_goal(robot):
+def test_fan_strides_keep_to_the_window_and_never_pass_the_goal(robot):
     fan = make_fan(robot, AlwaysFree(), fractions=(0.2, 1.0), window=lambda T: (0.04, 0.07))
     nodes, _ = fan.nodes(0.5)
     np.testing.assert_allclose(np.sort(np.linalg.norm(nodes[:, 1], axis=1)), [0.04] * 9 + [0.07] * 9, atol=1e-12)
-    inside = make_fan(robot, AlwaysFree(), goal=(0.03, 0.0))  # the start is in the goal region (radius 0.1)
-    nodes, _ = inside.nodes(0.5)
-    np.testing.assert_array_equal(nodes[:, 1], 0.0)
+    near = make_fan(robot, AlwaysFree(), goal=(0.03, 0.0))  # 3 cm ahead: no candidate strides past the goal
+    nodes, _ = near.nodes(0.5)
+    np.testing.assert_allclose(np.linalg.norm(nodes[:, 1], axis=1), 0.03, atol=1e-12)
+
+
+class BlocksDuring:
+    """Body check blocking every point at times in ``[t0, t1]`` [s]."""
+
+    def __init__(self, t0, t1):
+        self.t0, self.t1 = t0, t1
+
+    def free(self, points, times, normals, period):
+        t = np.asarray(times, dtype=float).reshape(-1)
+        return ~((t >= self.t0) & (t <= self.t1))
+
+
+def test_a_walk_is_checked_until_its_body_reaches_the_goal(robot):
+    """The env ends an episode when the robot centre (the midpoint of the feet) is within the goal tolerance,
+    not the support foot's node: node 2 of this walk lies in the goal region (8 cm from the goal), but its body
+    (midpoint of nodes 1 and 2) is 13 cm away, so step 3 still counts; after step 3 the body is in. (The
+    compiled check is held equal to this one in test_kernels.py.)"""
+    from footstep_gym.planners.walks import trim_at_goal, walks_free as check
+    start = make_start(RIGHT, 0.0)
+    nodes = np.array([[[0.0, 0.0], [0.1, 0.0], [0.2, 0.0], [0.3, 0.0], [0.3, 0.0]]])
+    headings = np.zeros((1, 5))
+    goal, radius, period = np.array([0.28, 0.0]), 0.1, 0.5
+    assert np.linalg.norm(nodes[0, 2] - goal) <= radius < np.linalg.norm(0.5 * (nodes[0, 1] + nodes[0, 2]) - goal)
+    during_step_3 = BlocksDuring(2 * period + 0.01, 3 * period - 0.01)
+    after_step_3 = BlocksDuring(3 * period + 0.01, 4 * period)
+    assert not check(during_step_3, start, nodes, headings, period, 3, goal, radius)[0]
+    assert check(after_step_3, start, nodes, headings, period, 3, goal, radius)[0]
+    np.testing.assert_array_equal(trim_at_goal(nodes[0], goal, radius), nodes[0, :4])

@@ -31,8 +31,11 @@ def test_rrt_free_space_reaches_goal_within_hardware_limits(robot, body_kind, si
     # at least the straight-line number of steps
     assert path.n_steps >= math.ceil((np.linalg.norm(goal - start.node) - radius) / RRT_SETTINGS["step_size"])
     _, _, cost = check_tree_edges(rrt.tree, start, robot, RRT_SETTINGS["step_size"], RRT_SETTINGS["step_cost"])
-    # the kept path is the least-cost of the tree's nodes in the goal region
-    in_goal = np.linalg.norm(rrt.tree.xy[: rrt.tree.n] - goal, axis=1) <= radius
+    # the kept path is the least-cost of the tree's nodes whose step brings the body (midpoint of the
+    # node and its parent) into the goal region
+    tree = rrt.tree
+    bodies = 0.5 * (tree.xy[tree.parent[1: tree.n]] + tree.xy[1: tree.n])
+    in_goal = np.concatenate([[False], np.linalg.norm(bodies - goal, axis=1) <= radius])
     assert in_goal.sum() >= 1
     assert path.cost == pytest.approx(cost[in_goal].min(), abs=1e-9)
     if body_kind == "always_free":

@@ -90,7 +90,8 @@ def pursue_lanes(node_x: float, node_y: float, axis_x: float, axis_y: float, goa
     along ``axis`` offset sideways by ``offsets[r]`` (the offset tapering to zero over the
     last ``lookahead`` before the goal), turns at most the support side's limits, steps in
     place for ``waits[r]`` steps, then strides ``strides[r]`` (the first step clipped into the
-    window if ``has_window``), never past the goal and not at all once within ``goal_radius``.
+    window if ``has_window``), never past the goal, and stands still (no stride, no turn) once its
+    body, the midpoint of its last two nodes, is within ``goal_radius``: the episode is over there.
     Side ``+1`` is left; the limits ``(lo, hi)`` are those of the foot swinging from that support.
     """
     n_roll = offsets.size
@@ -102,7 +103,11 @@ def pursue_lanes(node_x: float, node_y: float, axis_x: float, axis_y: float, goa
         x, y, h = node_x, node_y, heading0
         nodes[r, 0, 0], nodes[r, 0, 1], headings[r, 0] = x, y, h
         side = side0
+        arrived = False
         for d in range(1, depth + 1):
+            if arrived:
+                nodes[r, d, 0], nodes[r, d, 1], headings[r, d] = x, y, h
+                continue
             ahead = (x - node_x) * axis_x + (y - node_y) * axis_y + lookahead
             taper = min(max((length - ahead) / lookahead, 0.0), 1.0)
             along = min(ahead, length)
@@ -117,9 +122,11 @@ def pursue_lanes(node_x: float, node_y: float, axis_x: float, axis_y: float, goa
             if d == 1 and has_window:
                 stride = min(max(stride, window_lo), window_hi)
             dist = math.hypot(goal_x - x, goal_y - y)
-            stride = 0.0 if dist <= goal_radius else min(stride, dist)
-            x = x + stride * math.cos(h)
-            y = y + stride * math.sin(h)
+            stride = min(stride, dist)
+            x_new = x + stride * math.cos(h)
+            y_new = y + stride * math.sin(h)
+            arrived = math.hypot(0.5 * (x + x_new) - goal_x, 0.5 * (y + y_new) - goal_y) <= goal_radius
+            x, y = x_new, y_new
             nodes[r, d, 0], nodes[r, d, 1], headings[r, d] = x, y, h
             side = -side
     return nodes, headings
@@ -156,30 +163,34 @@ def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes
                vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray, a_y: np.ndarray,
                ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray, radius: np.ndarray, horizon: np.ndarray,
                grid: np.ndarray, grid_low_x: float, grid_low_y: float, resolution: float,
-               status: np.ndarray) -> None:
-    """:func:`.walks.walks_free` for a :class:`.prediction.BodyModel`, one walk after the other, into ``status``.
+               status: np.ndarray, blocked_at: np.ndarray) -> None:
+    """:func:`.walks.walks_survival` for a :class:`.prediction.BodyModel`, one walk after the other, into
+    ``status`` and ``blocked_at``.
 
     ``status[r]``: 1 free, 0 blocked, 2 undecided (a point outside the static grid was not
-    blocked otherwise: the caller measures that walk exactly). The body of step ``d`` moves
+    blocked otherwise: the caller measures that walk exactly); ``blocked_at[r]`` [s]: the time
+    of the walk's first blocked point (``inf`` unless blocked). The body of step ``d`` moves
     from ``bodies[d]`` to ``bodies[d + 1]`` during ``[d T, (d + 1) T]``, sampled at the
     fractions ``samples``, shifted by ``shift`` [m] towards the step's support foot, and
-    needs ``needed`` [m] of clearance; once a walk has reached the goal it is not checked further.
+    needs ``needed`` [m] of clearance; once a walk's body has reached the goal region it is not checked further
+    (the env ends the episode when the robot centre, the midpoint of the feet, is within the goal tolerance).
     """
     n_roll, n_nodes, _ = nodes.shape
     n_shapes = pos_x.size
     nx, ny = grid.shape
     for r in range(n_roll):
         result = 1
+        blocked_at[r] = np.inf
         ax, ay = body_x, body_y
         side = side0
         for d in range(n_nodes - 1):
-            if d > 0 and math.hypot(nodes[r, d, 0] - goal_x, nodes[r, d, 1] - goal_y) <= goal_radius:
-                break  # reached the goal at node d: the episode is over
             px_prev = prev_x if d == 0 else nodes[r, d - 1, 0]
             py_prev = prev_y if d == 0 else nodes[r, d - 1, 1]
             if d > 0:
                 ax = 0.5 * (px_prev + nodes[r, d, 0])
                 ay = 0.5 * (py_prev + nodes[r, d, 1])
+                if math.hypot(ax - goal_x, ay - goal_y) <= goal_radius:
+                    break  # the body reached the goal at the end of step d - 1: the episode is over
             bx = 0.5 * (nodes[r, d, 0] + nodes[r, d + 1, 0])
             by = 0.5 * (nodes[r, d, 1] + nodes[r, d + 1, 1])
             h = headings[r, d]
@@ -221,6 +232,7 @@ def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes
                             break
                 if blocked:
                     result = 0
+                    blocked_at[r] = ti
                     break
             if result == 0:
                 break

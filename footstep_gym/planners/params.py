@@ -28,6 +28,7 @@ class AdditionsParams:
     """
 
     waiting_walks: bool = plain()  # stage 1: a second tier of slower / waiting walks when no period is free
+    centred_period: bool = plain()  # stage 1: the middle of the window of free periods (a scan), not its longest end
     plan_commitment: bool = plain()  # stage 1: the previous step's plan stays a walk and bounds the search
     long_lookahead: bool = plain()  # stage 1: goal-directed rollouts over the horizon; off: one-step fan (Fig. 2)
     unsteady_horizons: bool = plain()  # shapes whose velocity changed are predicted only unsteady_horizon_s
@@ -38,6 +39,7 @@ class AdditionsParams:
     rrt_seeds: bool = plain()  # stage 2: stage 1's free walks are the tree's first branches
     step_cost: bool = plain()  # stage 2: rrt.step_cost_m per step in the path cost (off: length only)
     fallback: bool = plain()  # stage 2 without a goal path: the spot that stays free longest (off: nearest goal)
+    feasibility_rescue: bool = plain()  # stage 3: if Table 1's increments find nothing feasible, the whole box
     distance_field: bool = plain()  # static shapes read off a distance grid (speed; conservative by res/sqrt 2)
     region_pruning: bool = plain()  # shapes that cannot reach the planning box are left out (speed; exact)
 

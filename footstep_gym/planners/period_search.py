@@ -38,7 +38,10 @@ Our additions, each a switch of ``configs/planner.yaml`` (section ``additions``)
   one of the walks and bounds the search from below (a greedy planner that re-plans from
   scratch can otherwise put off forever a plan that starts with "wait three steps");
 * ``waiting_walks``: only if no period lets the robot go on at full stride, the search
-  is repeated with walks that slow down or first step in place (let the obstacle pass).
+  is repeated with walks that slow down or first step in place (let the obstacle pass);
+* ``centred_period``: :func:`centred_free_period` instead of the bisection: the middle of the
+  window of free periods rather than its longest end (a crowd closes in from behind on a
+  robot that walks at the edge of the window), and the longest-surviving period when none is free.
 """
 
 from __future__ import annotations
@@ -87,6 +90,35 @@ def longest_free_period(collides: Callable[[float], bool], t_short: float, t_nom
         else:
             lo = mid
     return PeriodSearchResult(lo, False, True, 2 + iterations)
+
+
+def centred_free_period(survival: Callable[[float], float], t_short: float, t_nominal: float,
+                        iterations: int) -> PeriodSearchResult:
+    """The middle of the range of free periods in ``[t_short, t_nominal]`` (switch ``additions.centred_period``).
+
+    ``survival(T)`` [s] is how long the best walk at period ``T`` stays free (``inf``: free).
+    The periods tried are a grid of ``2**iterations + 1`` (the bisection's resolution). Among
+    moving obstacles "free" need not be monotone in ``T``: in a crowd that walks with the robot,
+    walks that are too quick run into the member ahead and walks that are too slow are caught
+    from behind, so the free periods form a window whose *longest* end (the bisection's answer)
+    is its edge, where any prediction error is a collision. The middle of the window that holds
+    the longest free period is as far from both edges as the grid allows; the door and the
+    crossing, whose window reaches down to ``t_short``, then walk a little quicker than they must.
+    With no free period: the one whose best walk stays free longest (ties: the longest), rather
+    than ``t_short``.
+    """
+    if t_short > t_nominal:
+        raise ValueError(f"t_short={t_short} must not exceed t_nominal={t_nominal}")
+    grid = np.linspace(t_short, t_nominal, 2 ** iterations + 1)
+    alive = np.array([survival(float(T)) for T in grid])
+    free = np.isinf(alive)
+    if not free.any():
+        return PeriodSearchResult(float(grid[0]), False, False, grid.size)
+    hi = int(np.flatnonzero(free)[-1])
+    lo = hi
+    while lo > 0 and free[lo - 1]:
+        lo -= 1
+    return PeriodSearchResult(float(grid[(lo + hi + 1) // 2]), bool(free[-1]), True, grid.size)
 
 
 def shortest_feasible_period(robot: Robot, com_local: Sequence[float], vel_local: Sequence[float],
@@ -187,6 +219,7 @@ class PeriodSearch:
         self._windows_of: Snapshot | None = None  # the snapshot whose stride windows are remembered
         self._windows: dict[float, tuple[float, float] | None] = {}
         self.lipm_windows = add.lipm_windows
+        self.centred_period = add.centred_period
         waits = tuple(int(w) for w in ps.rollout_wait_steps if w > 0)
         fractions = tuple(ps.rollout_stride_fractions)
         if not self.long_lookahead:
@@ -265,7 +298,10 @@ class PeriodSearch:
             floor = self.t0
         kept = (committed is not None and floor <= committed.period <= t_n
                 and walks.committed_free(committed.period))
-        result = longest_free_period(walks, committed.period if kept else floor, t_n, self.iterations)
+        if self.centred_period:  # the committed walk is one of the walks; the window is not bracketed by it
+            result = centred_free_period(walks.survival, floor, t_n, self.iterations)
+        else:
+            result = longest_free_period(walks, committed.period if kept else floor, t_n, self.iterations)
         free_walks = tuple(walks.free_walks(result.period)) if result.any_free else ()
         return PeriodChoice(result.period, result.any_free, free_walks,
                             self.stride_window(snapshot, result.period), floor, result.nominal_free,

@@ -186,11 +186,12 @@ class RepairChoice:
     feasible_before: bool  # the stage-2 command was feasible (the PSO did not run)
     feasible: bool  # the command sent is feasible for the LIPM (as predicted from the snapshot)
     pso: PSOResult | None  # None when the PSO did not run
+    rescued: bool = False  # Table 1's increments held nothing feasible: the PSO searched the whole command box
 
     def diagnostics(self) -> dict[str, object]:
         """The record as ``policy.last_info`` entries."""
         out: dict[str, object] = dict(feasible_pre_pso=self.feasible_before, pso_ran=self.pso is not None,
-                                      predicted_feasible=self.feasible)
+                                      predicted_feasible=self.feasible, pso_rescue=self.rescued)
         if self.pso is not None:
             out.update(pso_iterations=self.pso.iterations, pso_value=self.pso.value)
         return out
@@ -202,9 +203,13 @@ class CommandRepair:
     ``vary_period=False`` (the fixed-period planner): ``ΔT_SS = ΔT_DS = 0``.
     """
 
-    def __init__(self, robot: Robot, params: PSOParams, vary_period: bool = True) -> None:
+    def __init__(self, robot: Robot, params: PSOParams, vary_period: bool = True, rescue: bool = False) -> None:
         self.robot = robot
         self.delta_low, self.delta_high = params.delta_bounds(vary_period=vary_period)
+        # The rescue (switch additions.feasibility_rescue): increments as wide as the command box allows
+        # (the period only where it may vary), when Table 1's ranges hold nothing feasible.
+        span = (robot.command_high - robot.command_low) * np.array([1.0, 1.0, 1.0, vary_period, vary_period])
+        self.rescue_low, self.rescue_high = (-span, span) if rescue else (None, None)
         self.settings = dict(
             particles=params.particles, iterations=params.iterations, inertia=params.inertia, c1=params.c1,
             c2=params.c2, patience=params.patience, tolerance=params.tolerance, max_velocity=params.max_velocity,
@@ -219,4 +224,9 @@ class CommandRepair:
             return RepairChoice(reference, True, True, None)
         rep = repair_command(self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, reference,
                              rng, delta_low=self.delta_low, delta_high=self.delta_high, **self.settings)
+        if not rep.feasible and self.rescue_low is not None:
+            rep = repair_command(self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side,
+                                 reference, rng, delta_low=self.rescue_low, delta_high=self.rescue_high,
+                                 **self.settings)
+            return RepairChoice(rep.command, False, rep.feasible, rep.pso, rescued=True)
         return RepairChoice(rep.command, False, rep.feasible, rep.pso)

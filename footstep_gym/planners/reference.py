@@ -177,7 +177,8 @@ class PeriodAwarePlanner(_Planner):
         super().__init__(robot, config, seed, name)
         self.period_search = PeriodSearch(robot, config, vary_period=self.vary_period)  # stage 1
         self.path_search = PathSearch(robot, config)  # stage 2
-        self.repair = CommandRepair(robot, config.pso, vary_period=self.vary_period)  # stage 3
+        self.repair = CommandRepair(robot, config.pso, vary_period=self.vary_period,  # stage 3
+                                    rescue=config.additions.feasibility_rescue)
         self.half_width = 0.5 * robot.nominal_side_stride
         add, pp = config.additions, config.prediction
         self.commit_tolerance = config.period_search.commit_tolerance_m if add.plan_commitment else None

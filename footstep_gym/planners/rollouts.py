@@ -1,7 +1,9 @@
 """``ObstacleCollision(T)`` of Algorithm 1: the walks stage 1 checks at a period ``T``.
 
 Two predicates, both answering "which of these walks at period ``T`` stay free?"
-(:meth:`free_walks`) and "does ``T`` collide?" (``__call__``: every walk collides):
+(:meth:`free_walks`), "does ``T`` collide?" (``__call__``: every walk collides) and "how long
+does the best walk at ``T`` stay free?" (:meth:`survival`, for a period search that is not a
+bisection):
 
 * :class:`NextNodeFan` — the paper's check (Fig. 2): the next node at ``Max_step_size``
   in each of a fan of directions across the hardware angle limits (the "selectable
@@ -29,7 +31,7 @@ import numpy as np
 from footstep_gym import footstep
 from footstep_gym.footstep import LEFT, RIGHT
 from footstep_gym.planners import kernels
-from footstep_gym.planners.walks import BodyCheck, CommittedPlan, WalkStart, trim_at_goal, walks_free
+from footstep_gym.planners.walks import BodyCheck, CommittedPlan, WalkStart, trim_at_goal, walks_survival
 from footstep_gym.robot import Robot
 
 #: ``(lo, hi)`` [m] of the first step's front stride the LIPM accepts at period ``T``, or ``None`` (no limit).
@@ -64,10 +66,14 @@ class _Walks(ABC):
         return (np.concatenate([nodes, walk[idx][None]], axis=0),
                 np.concatenate([headings, walk_headings[idx][None]], axis=0))
 
+    def _survival(self, nodes: np.ndarray, headings: np.ndarray, period: float,
+                  body: BodyCheck | None = None) -> np.ndarray:
+        return walks_survival(self.body if body is None else body, self.start, nodes, headings, period,
+                              self.edge_samples, self.goal, self.goal_radius)
+
     def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float,
               body: BodyCheck | None = None) -> np.ndarray:
-        return walks_free(self.body if body is None else body, self.start, nodes, headings, period,
-                          self.edge_samples, self.goal, self.goal_radius)
+        return np.isinf(self._survival(nodes, headings, period, body))
 
     def committed_free(self, period: float) -> bool:
         """Whether the committed walk alone is still free at ``period`` [s] (``False`` without one)."""
@@ -102,6 +108,16 @@ class _Walks(ABC):
             return True
         nodes, headings = self._with_committed(nodes[:1], headings[:1])
         return not bool(self._free(nodes[-1:], headings[-1:], period, self.committed_body)[0])
+
+    def survival(self, period: float) -> float:
+        """How long [s] the walk at ``period`` [s] that stays free longest does so (the committed one
+        included); ``inf`` where ``ObstacleCollision(period)`` is false."""
+        nodes, headings = self.nodes(period)
+        best = float(self._survival(nodes, headings, period).max())
+        if self.committed is not None and not np.isinf(best):
+            nodes, headings = self._with_committed(nodes[:1], headings[:1])
+            best = max(best, float(self._survival(nodes[-1:], headings[-1:], period, self.committed_body)[0]))
+        return best
 
 
 class GoalRollouts(_Walks):
@@ -187,7 +203,7 @@ class NextNodeFan(_Walks):
         window = self.first_stride(period) if self.first_stride is not None else None
         stride = self._strides if window is None else np.clip(self._strides, *window)
         dist = float(np.linalg.norm(self.goal - self.start.node))
-        stride = np.zeros_like(stride) if dist <= self.goal_radius else np.minimum(stride, dist)
+        stride = np.minimum(stride, dist)
         n = self._headings.size
         nodes = np.empty((n, 2, 2))
         nodes[:, 0] = self.start.node

@@ -13,8 +13,9 @@ the support foot's node towards the goal:
 4. :meth:`_steer` — the distance is clamped to ``step_size`` (steps 9-10);
 5. :meth:`_edges_free` — node and edge are checked against the obstacles (steps 11-12);
 6. :meth:`_insert` — the node joins the tree with cost = parent's cost + edge length
-   (step 13) + ``step_cost`` (see below); nodes within ``goal_radius`` of the goal are
-   remembered (steps 14-16);
+   (step 13) + ``step_cost`` (see below); nodes whose step brings the body within
+   ``goal_radius`` of the goal are remembered (steps 14-16; the env measures the robot
+   centre, the midpoint of the feet, so the body and not the node must reach the goal);
 7. after ``n_paths`` goal nodes (or all iterations) the least-cost path is returned
    (step 19). No shortcutting: the path's edges are the tree's edges.
 
@@ -80,7 +81,8 @@ class RRTPath:
     ``headings[i]`` [rad] is the heading of node ``i`` (its support foot's yaw: the
     direction of the edge into it; the root's is the current support foot's yaw);
     ``sides[i]`` the side of the foot placed at node ``i``; ``cost`` the cumulative
-    length [m] (plus the step costs); ``reached_goal`` whether the last node lies in the goal region.
+    length [m] (plus the step costs); ``reached_goal`` whether the last step brings the body (the
+    midpoint of the last two nodes, where the env measures the robot centre) into the goal region.
     """
 
     nodes: np.ndarray
@@ -177,8 +179,6 @@ class ModifiedRRT:
         self._body = body
         self._first_stride = first_stride
         self._box = self._sampling_box(start.node, goal)
-        if np.linalg.norm(start.node - goal) <= goal_radius:
-            self.goal_nodes.append(0)
         for seed in seeds:
             self._insert_seed(np.asarray(seed, dtype=float))
         done = 0
@@ -189,9 +189,9 @@ class ModifiedRRT:
             parents = self._nearest_nodes(samples)
             delta = self._restrict_to_angle_limits(parents, samples, rng)
             new_xy, new_heading, length = self._steer(parents, samples, delta)
-            # A node already in the goal region ends its path: extending it would only add
+            # A node whose body is already in the goal region ends its path: extending it would only add
             # steps in place that count as more "paths" (n_paths) without being any.
-            free = ~self._in_goal(tree.xy[parents])
+            free = ~self._in_goal(tree.body[parents]) | (parents == 0)
             free[free] = self._edges_free(parents[free], new_xy[free])
             self._insert(parents[free], new_xy[free], new_heading[free], length[free])
         if not self.goal_nodes:
@@ -345,12 +345,12 @@ class ModifiedRRT:
 
     def _append(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray, *, side: np.ndarray,
                 cost: np.ndarray, depth: np.ndarray, body: np.ndarray) -> None:
-        """Write the new nodes after the last one and remember those in the goal region."""
+        """Write the new nodes after the last one and remember those whose body is in the goal region."""
         tree = self.tree
         sl = slice(tree.n, tree.n + len(parents))
         tree.xy[sl], tree.heading[sl], tree.parent[sl] = new_xy, heading, parents
         tree.side[sl], tree.cost[sl], tree.depth[sl], tree.body[sl] = side, cost, depth, body
-        self.goal_nodes.extend((tree.n + np.flatnonzero(self._in_goal(new_xy))).tolist())
+        self.goal_nodes.extend((tree.n + np.flatnonzero(self._in_goal(body))).tolist())
         tree.n += len(parents)
 
 

@@ -88,41 +88,49 @@ def walks_free(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: n
     ``[(d-1) T, d T]`` with ``T = period`` [s]) keeps its body free of every obstacle.
 
     Each body segment is checked at ``edge_samples`` points by ``body.free`` with the
-    support foot's normal of its step (the CoM sway). Once a walk has reached the goal
-    region (``goal (2,)``, ``goal_radius`` [m]) the episode is over: later steps are not checked.
+    support foot's normal of its step (the CoM sway). Once a walk's body (the midpoint of its
+    last two nodes, where the env measures the robot centre) has reached the goal region
+    (``goal (2,)``, ``goal_radius`` [m]) the episode is over: later steps are not checked.
     """
+    return np.isinf(walks_survival(body, start, nodes, headings, period, edge_samples, goal, goal_radius))
+
+
+def walks_survival(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
+                   edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """``(R,)`` [s]: the time of each walk's first blocked body point, ``inf`` for a free walk
+    (the checks of :func:`walks_free`, which is ``isinf`` of this)."""
     if isinstance(body, BodyModel):
-        return _walks_free_compiled(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
-    return walks_free_numpy(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
+        return _walks_survival_compiled(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
+    return walks_survival_numpy(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
 
 
-def _walks_free_compiled(body: BodyModel, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
-                         edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
-    """:func:`walks_free` in one compiled loop (:func:`.kernels.walks_free`); walks it cannot decide
-    (a point beyond the static grid) are measured by :func:`walks_free_numpy`."""
+def _walks_survival_compiled(body: BodyModel, start: WalkStart, nodes: np.ndarray, headings: np.ndarray,
+                             period: float, edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """:func:`walks_survival` in one compiled loop (:func:`.kernels.walks_free`); walks it cannot decide
+    (a point beyond the static grid) are measured by :func:`walks_survival_numpy`."""
     pred = body.predictor
     shift, grow = body.sway(period)
     field = pred.static_field
     grid, low, res = (field.grid, field.low, field.resolution) if field is not None else (_NO_GRID, _ORIGIN, 1.0)
-    e = pred.exact_shapes
     status = np.empty(len(nodes), dtype=np.int64)
+    blocked_at = np.empty(len(nodes))
     kernels.walks_free(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
                        float(start.body[1]), np.ascontiguousarray(nodes, dtype=float),
                        np.ascontiguousarray(headings, dtype=float), int(start.side), float(period),
                        np.linspace(0.0, 1.0, edge_samples), float(goal[0]), float(goal[1]), float(goal_radius),
                        float(shift), float(body.robot.body_radius + body.margin + grow), *pred.kernel_shapes,
-                       pred.kernel_radius, pred.kernel_horizon, grid, float(low[0]), float(low[1]), float(res), status)
-    free = status == 1
+                       pred.kernel_radius, pred.kernel_horizon, grid, float(low[0]), float(low[1]), float(res),
+                       status, blocked_at)
     undecided = np.flatnonzero(status == 2)
     if undecided.size:
-        free[undecided] = walks_free_numpy(body, start, nodes[undecided], headings[undecided], period, edge_samples,
-                                           goal, goal_radius)
-    return free
+        blocked_at[undecided] = walks_survival_numpy(body, start, nodes[undecided], headings[undecided], period,
+                                                     edge_samples, goal, goal_radius)
+    return blocked_at
 
 
-def walks_free_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
-                     edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
-    """:func:`walks_free` in numpy, for any :class:`BodyCheck` (the reference of the compiled loop)."""
+def walks_survival_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray,
+                         period: float, edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """:func:`walks_survival` in numpy, for any :class:`BodyCheck` (the reference of the compiled loop)."""
     n_roll, n_nodes, _ = nodes.shape
     prev = np.concatenate([np.tile(start.previous_node, (n_roll, 1, 1)), nodes[:, :-1]], axis=1)
     bodies = 0.5 * (prev + nodes)  # body at the end of step d = midpoint(n[d-1], n[d])
@@ -135,12 +143,22 @@ def walks_free_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headi
     normals = support_normal(headings[:, :-1], sides[None, :]).reshape(-1, 2)
     normals = np.repeat(normals, edge_samples, axis=0)
     free = body.free(pts, times, normals, period).reshape(n_roll, -1)
-    reached = np.linalg.norm(nodes[:, 1:] - goal, axis=-1) <= goal_radius
+    reached = np.linalg.norm(bodies[:, 1:] - goal, axis=-1) <= goal_radius
     done_before = np.concatenate([np.zeros((n_roll, 1), bool), np.cumsum(reached, axis=1)[:, :-1] > 0], axis=1)
-    return (free | np.repeat(done_before, edge_samples, axis=1)).all(axis=1)
+    blocked = ~(free | np.repeat(done_before, edge_samples, axis=1))
+    first = np.argmax(blocked, axis=1)
+    return np.where(blocked.any(axis=1), times.reshape(n_roll, -1)[np.arange(n_roll), first], np.inf)
+
+
+def walks_free_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
+                     edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """:func:`walks_free` in numpy, for any :class:`BodyCheck` (the reference of the compiled loop)."""
+    return np.isinf(walks_survival_numpy(body, start, nodes, headings, period, edge_samples, goal, goal_radius))
 
 
 def trim_at_goal(nodes: np.ndarray, goal: np.ndarray, goal_radius: float) -> np.ndarray:
-    """A walk's nodes ``(k + 1, 2)`` up to (and including) the first one in the goal region."""
-    inside = np.flatnonzero(np.linalg.norm(nodes[1:] - goal, axis=1) <= goal_radius)
+    """A walk's nodes ``(k + 1, 2)`` up to (and including) the first step that brings its body (the
+    midpoint of the step's two nodes) into the goal region."""
+    bodies = 0.5 * (nodes[:-1] + nodes[1:])
+    inside = np.flatnonzero(np.linalg.norm(bodies - goal, axis=1) <= goal_radius)
     return nodes[: inside[0] + 2] if inside.size else nodes

@@ -14,7 +14,7 @@ import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym.planners.params import load_planner_config
-from footstep_gym.planners.period_search import PeriodSearch, centred_free_period, longest_free_period
+from footstep_gym.planners.period_search import PeriodSearch, centred_free_period, longest_free_period, stride_windows
 from footstep_gym.planners.reference import PAPER
 from footstep_gym.planners.walks import walk_start
 from planner_helpers import EPS
@@ -240,3 +240,25 @@ def test_centred_scan_keeps_to_the_window_of_the_longest_free_period():
 def test_centred_scan_with_nothing_free_walks_as_fast_as_allowed(blocked_at):
     res = centred_free_period(window(2.0, 3.0, blocked_at), T0, TN, 4)
     assert res.period == T0 and not res.any_free and not res.nominal_free
+
+
+@pytest.mark.parametrize("start_period", [0.8, 0.4])
+def test_stride_windows_of_a_scan_match_the_scalar_lipm(start_period):
+    """The scan's stride windows, all periods in one batched LIPM call, against the scalar check of each
+    command: the shortest and longest front stride on the grid the scalar LIPM accepts at each period."""
+    from footstep_gym import footstep, lipm
+    from footstep_gym.robot import load_robot
+
+    robot = load_robot()
+    t_ds = robot.nominal_t_ds
+    command = (0.08, robot.nominal_side_stride, 0.0, start_period - t_ds, t_ds)
+    com, vel = lipm.steady_state(robot, command, footstep.RIGHT)
+    periods = np.linspace(0.3, 0.8, 17)
+    got = stride_windows(robot, (com.real, com.imag), (vel.real, vel.imag), footstep.RIGHT, periods, 0.1, 11)
+    strides = np.linspace(0.0, 0.1, 11)
+    for T, window in zip(periods, got):
+        ok = [all(lipm.check_step(robot, com, vel, (S, robot.nominal_side_stride, 0.0, max(T - t_ds, robot.t_ss[0]),
+                                                       t_ds), footstep.RIGHT)[:2]) for S in strides]
+        want = (strides[ok.index(True)], strides[len(ok) - 1 - ok[::-1].index(True)]) if any(ok) else None
+        assert window == (pytest.approx(want) if want is not None else None), (T, window, want)
+    assert any(w is None or w != (0.0, 0.1) for w in got)  # the LIPM limits some period from this state

@@ -92,6 +92,11 @@ def longest_free_period(collides: Callable[[float], bool], t_short: float, t_nom
     return PeriodSearchResult(lo, False, True, 2 + iterations)
 
 
+def period_grid(t_short: float, t_nominal: float, iterations: int) -> np.ndarray:
+    """The ``2**iterations + 1`` periods [s] :func:`centred_free_period` tries (the bisection's resolution)."""
+    return np.linspace(t_short, t_nominal, 2 ** iterations + 1)
+
+
 def centred_free_period(survival: Callable[[float], float], t_short: float, t_nominal: float,
                         iterations: int) -> PeriodSearchResult:
     """The middle of the range of free periods in ``[t_short, t_nominal]`` (switch ``additions.centred_period``).
@@ -109,7 +114,7 @@ def centred_free_period(survival: Callable[[float], float], t_short: float, t_no
     """
     if t_short > t_nominal:
         raise ValueError(f"t_short={t_short} must not exceed t_nominal={t_nominal}")
-    grid = np.linspace(t_short, t_nominal, 2 ** iterations + 1)
+    grid = period_grid(t_short, t_nominal, iterations)
     alive = np.array([survival(float(T)) for T in grid])
     free = np.isinf(alive)
     if not free.any():
@@ -154,19 +159,27 @@ def stride_window(robot: Robot, com_local: Sequence[float], vel_local: Sequence[
     with one batched :func:`lipm.check_steps`. ``None`` when none is feasible (the PSO has
     to sort it out).
     """
+    return stride_windows(robot, com_local, vel_local, support_side, [period], max_stride, grid)[0]
+
+
+def stride_windows(robot: Robot, com_local: Sequence[float], vel_local: Sequence[float], support_side: int,
+                   periods: Sequence[float], max_stride: float, grid: int) -> list[tuple[float, float] | None]:
+    """:func:`stride_window` for each of ``periods`` [s], all in one batched :func:`lipm.check_steps`."""
     strides = np.linspace(0.0, max_stride, grid)
     t_ds = robot.nominal_t_ds
-    cmd = np.empty((grid, 5))
-    cmd[:, 0] = strides
-    cmd[:, 1] = robot.nominal_side_stride
-    cmd[:, 2] = 0.0
-    cmd[:, 3] = max(period - t_ds, robot.t_ss[0])
-    cmd[:, 4] = t_ds
-    ok = lipm.check_steps(robot, com_local, vel_local, cmd, support_side).feasible
-    if not ok.any():
-        return None
-    idx = np.flatnonzero(ok)
-    return float(strides[idx[0]]), float(strides[idx[-1]])
+    p = np.asarray(periods, dtype=float)
+    cmd = np.empty((p.size, grid, 5))
+    cmd[..., 0] = strides[None, :]
+    cmd[..., 1] = robot.nominal_side_stride
+    cmd[..., 2] = 0.0
+    cmd[..., 3] = np.maximum(p - t_ds, robot.t_ss[0])[:, None]
+    cmd[..., 4] = t_ds
+    ok = lipm.check_steps(robot, com_local, vel_local, cmd.reshape(-1, 5), support_side).feasible.reshape(p.size, grid)
+    out: list[tuple[float, float] | None] = []
+    for row in ok:
+        idx = np.flatnonzero(row)
+        out.append((float(strides[idx[0]]), float(strides[idx[-1]])) if idx.size else None)
+    return out
 
 
 _UNKNOWN = object()  # a stride window not yet computed
@@ -255,10 +268,21 @@ class PeriodSearch:
             self._windows_of, self._windows = snapshot, {}
         window = self._windows.get(period, _UNKNOWN)
         if window is _UNKNOWN:
-            window = self._windows[period] = stride_window(
-                self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, period, self.step_size,
-                self.stride_grid)
+            self.remember_stride_windows(snapshot, [period])
+            window = self._windows[period]
         return window
+
+    def remember_stride_windows(self, snapshot: Snapshot, periods: Sequence[float]) -> None:
+        """Compute the stride windows of ``periods`` [s] the search is about to ask for, in one LIPM call."""
+        if not self.lipm_windows:
+            return
+        if self._windows_of is not snapshot:
+            self._windows_of, self._windows = snapshot, {}
+        todo = [float(T) for T in periods if float(T) not in self._windows]
+        if todo:
+            windows = stride_windows(self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, todo,
+                                     self.step_size, self.stride_grid)
+            self._windows.update(zip(todo, windows))
 
     def walks(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck, body: BodyCheck,
               committed: CommittedPlan | None, wait_steps: Sequence[int],
@@ -299,6 +323,7 @@ class PeriodSearch:
         kept = (committed is not None and floor <= committed.period <= t_n
                 and walks.committed_free(committed.period))
         if self.centred_period:  # the committed walk is one of the walks; the window is not bracketed by it
+            self.remember_stride_windows(snapshot, period_grid(floor, t_n, self.iterations))
             result = centred_free_period(walks.survival, floor, t_n, self.iterations)
         else:
             result = longest_free_period(walks, committed.period if kept else floor, t_n, self.iterations)

@@ -10,6 +10,8 @@ midpoints of consecutive nodes: step ``d`` moves it from ``(n[d-2] + n[d-1]) / 2
 
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass
 from typing import Protocol, Sequence
 
@@ -117,7 +119,7 @@ def _walks_survival_compiled(body: BodyModel, start: WalkStart, nodes: np.ndarra
     kernels.walks_free(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
                        float(start.body[1]), np.ascontiguousarray(nodes, dtype=float),
                        np.ascontiguousarray(headings, dtype=float), int(start.side), float(period),
-                       np.linspace(0.0, 1.0, edge_samples), float(goal[0]), float(goal[1]), float(goal_radius),
+                       _fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius),
                        float(shift), float(body.robot.body_radius + body.margin + grow), *pred.kernel_shapes,
                        pred.kernel_radius, pred.kernel_horizon, grid, float(low[0]), float(low[1]), float(res),
                        status, blocked_at)
@@ -126,6 +128,14 @@ def _walks_survival_compiled(body: BodyModel, start: WalkStart, nodes: np.ndarra
         blocked_at[undecided] = walks_survival_numpy(body, start, nodes[undecided], headings[undecided], period,
                                                      edge_samples, goal, goal_radius)
     return blocked_at
+
+
+@functools.lru_cache(maxsize=8)
+def _fractions(samples: int) -> np.ndarray:
+    """``samples`` fractions of a step, ends included (read-only: shared between calls)."""
+    out = np.linspace(0.0, 1.0, samples)
+    out.flags.writeable = False
+    return out
 
 
 def walks_survival_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray,

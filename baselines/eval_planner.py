@@ -340,6 +340,12 @@ def write_outputs(settings: Settings, cells: list[Cell], results: list[EpisodeRe
     }
     files.append(out / "run.json")
     files[-1].write_text(json.dumps(run_info, indent=2) + "\n", encoding="utf-8")
+    if settings.profile == "ablation":
+        from footstep_gym.planners.ablation import BASE
+
+        table = (f"{table}\n## What each addition buys\n\nEach cell: success [Wilson 95 % CI] (difference to {BASE}); "
+                 f"steps / time (s) / path (m) over the successes; median planning time per footstep.\n\n"
+                 f"{report.ablation_table(records, BASE)}")
     summary = out / "summary.md"
     listing = "\n".join(f"- `{p.relative_to(out)}`" for p in files + [summary])
     seeds = settings.seeds

@@ -224,6 +224,28 @@ def test_cli_one_episode_per_env(tmp_path):
     assert json.loads((out / "run.json").read_text())["seeds"] == [FIRST_TEST_SEED]
 
 
+def test_ablation_end_to_end(tmp_path):
+    """``--ablation``: period-aware, each addition off in turn and the paper's planner, on every scene given;
+    the summary's table of what each addition buys has one row per policy and one column per setting."""
+    from footstep_gym.planners import ablation_variants
+
+    out = tmp_path / "ablation"
+    proc = run_cli("--ablation", "--episodes", "1", "--env", "crossing", "--env", "crowd", "--crowd-speed", "0.2",
+                   "--no-figures", "--out", str(out), "--workers", "2", timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    records = json.loads((out / "results.json").read_text())
+    variants = ablation_variants()
+    assert [r["policy"] for r in records] == list(variants) * 2
+    assert {r["scenario"] for r in records} == {"crossing", "crowd"}
+    for r in records:
+        check_record(r)
+    summary = (out / "summary.md").read_text()
+    table = summary[summary.index("## What each addition buys"):]
+    rows = [line for line in table.splitlines() if line.startswith("| period-aware") or line.startswith("| paper-")]
+    assert [row.split(" | ")[0][2:] for row in rows] == list(variants)
+    assert all(row.count(" ms") == 2 for row in rows)  # a cell per setting
+
+
 def _without_timing(records: list[dict]) -> list[dict]:
     return [{k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in records]
 

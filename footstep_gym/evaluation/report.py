@@ -49,6 +49,37 @@ def markdown_table(records: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def ablation_table(records: list[dict[str, Any]], base: str) -> str:
+    """What each addition buys: one row per policy (``base``, then its variants), one column per setting.
+
+    A cell gives the success rate with its Wilson 95 % interval, then steps / time [s] / path [m]
+    (means over the successes) and the median planning time [ms]; a variant's success is followed
+    by its difference to ``base`` in the same setting where they differ.
+    """
+    settings = list(dict.fromkeys((r["scenario"], tuple(r["params"].items())) for r in records))
+    policies = list(dict.fromkeys(r["policy"] for r in records))
+    by_key = {(r["scenario"], tuple(r["params"].items()), r["policy"]): r for r in records}
+    names = [f"{scenario} {', '.join(f'{v:g}' for _, v in params)}".strip() for scenario, params in settings]
+    lines = ["| policy | " + " | ".join(names) + " |", "|---|" + "---:|" * len(names)]
+    for policy in policies:
+        cells = []
+        for scenario, params in settings:
+            r = by_key.get((scenario, params, policy))
+            if r is None:
+                cells.append("–")
+                continue
+            lo, hi = r["success_ci95"]
+            text = f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]"
+            ref = by_key.get((scenario, params, base))
+            if policy != base and ref is not None and ref["success_rate"] != r["success_rate"]:
+                text += f" ({r['success_rate'] - ref['success_rate']:+.2f})"
+            text += (f"; {_fmt(r['mean_steps'], 1)} / {_fmt(r['mean_time'], 1)} / {_fmt(r['mean_path_length'])}"
+                     f"; {_fmt(r['plan_ms_median'], 1)} ms")
+            cells.append(text)
+        lines.append(f"| {policy} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def csv_rows(records: list[dict[str, Any]]) -> tuple[list[str], list[dict[str, Any]]]:
     """``results.csv`` columns and rows: params flattened to ``param_<key>``, lists joined by spaces."""
     param_keys = sorted({k for r in records for k in r["params"]})

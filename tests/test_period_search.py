@@ -215,7 +215,7 @@ def test_centred_scan_takes_the_middle_of_the_free_window(lo, hi, iterations):
     """A crowd's window: too quick runs into the member ahead, too slow is caught from behind."""
     calls = []
     survival = window(lo, hi)
-    res = centred_free_period(lambda T: calls.append(T) or survival(T), T0, TN, iterations)
+    res = centred_free_period(lambda Ts: [calls.append(T) or survival(T) for T in Ts], T0, TN, iterations)
     grid = np.linspace(T0, TN, 2 ** iterations + 1)
     inside = grid[(grid >= lo) & (grid <= hi)]
     assert res.any_free and res.evaluations == len(calls) == grid.size
@@ -230,7 +230,7 @@ def test_centred_scan_takes_the_middle_of_the_free_window(lo, hi, iterations):
 def test_centred_scan_keeps_to_the_window_of_the_longest_free_period():
     """Two windows: the one that holds the longest free period is taken, as the bisection would."""
     survival = lambda T: math.inf if (0.3 <= T <= 0.35 or 0.6 <= T <= 0.7) else 2.0  # noqa: E731
-    res = centred_free_period(survival, T0, TN, 4)
+    res = centred_free_period(lambda Ts: [survival(T) for T in Ts], T0, TN, 4)
     assert 0.6 <= res.period <= 0.7
     # where the bisection, whose predicate is assumed monotone, ends at the window's edge
     assert longest_free_period(lambda T: math.isfinite(survival(T)), T0, TN, 4).period != res.period
@@ -238,7 +238,8 @@ def test_centred_scan_keeps_to_the_window_of_the_longest_free_period():
 
 @pytest.mark.parametrize("blocked_at", [1.0, lambda T: 3.0 * T, lambda T: 5.0 - T])
 def test_centred_scan_with_nothing_free_walks_as_fast_as_allowed(blocked_at):
-    res = centred_free_period(window(2.0, 3.0, blocked_at), T0, TN, 4)
+    survival = window(2.0, 3.0, blocked_at)
+    res = centred_free_period(lambda Ts: [survival(T) for T in Ts], T0, TN, 4)
     assert res.period == T0 and not res.any_free and not res.nominal_free
 
 

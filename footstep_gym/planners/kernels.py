@@ -158,9 +158,9 @@ def grid_clearance(xs: np.ndarray, ys: np.ndarray, centres: np.ndarray, circle_r
 
 @numba.njit(cache=True, fastmath=False)
 def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes: np.ndarray, headings: np.ndarray,
-               side0: int, period: float, samples: np.ndarray, goal_x: float, goal_y: float, goal_radius: float,
-               shift: float, needed: float, pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray,
-               vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray, a_y: np.ndarray,
+               n_nodes: np.ndarray, side0: int, period: np.ndarray, samples: np.ndarray, goal_x: float,
+               goal_y: float, goal_radius: float, shift: np.ndarray, needed: np.ndarray, pos_x: np.ndarray,
+               pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray, a_y: np.ndarray,
                ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray, radius: np.ndarray, horizon: np.ndarray,
                grid: np.ndarray, grid_low_x: float, grid_low_y: float, resolution: float,
                status: np.ndarray, blocked_at: np.ndarray) -> None:
@@ -169,13 +169,15 @@ def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes
 
     ``status[r]``: 1 free, 0 blocked, 2 undecided (a point outside the static grid was not
     blocked otherwise: the caller measures that walk exactly); ``blocked_at[r]`` [s]: the time
-    of the walk's first blocked point (``inf`` unless blocked). The body of step ``d`` moves
+    of the walk's first blocked point (``inf`` unless blocked). Walk ``r`` has its own period
+    ``T = period[r]`` [s] and its first ``n_nodes[r]`` nodes (so that one call checks walks at
+    several periods). The body of step ``d`` moves
     from ``bodies[d]`` to ``bodies[d + 1]`` during ``[d T, (d + 1) T]``, sampled at the
-    fractions ``samples``, shifted by ``shift`` [m] towards the step's support foot, and
-    needs ``needed`` [m] of clearance; once a walk's body has reached the goal region it is not checked further
+    fractions ``samples``, shifted by ``shift[r]`` [m] towards the step's support foot, and
+    needs ``needed[r]`` [m] of clearance; once a walk's body has reached the goal region it is not checked further
     (the env ends the episode when the robot centre, the midpoint of the feet, is within the goal tolerance).
     """
-    n_roll, n_nodes, _ = nodes.shape
+    n_roll = nodes.shape[0]
     n_shapes = pos_x.size
     nx, ny = grid.shape
     for r in range(n_roll):
@@ -183,7 +185,8 @@ def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes
         blocked_at[r] = np.inf
         ax, ay = body_x, body_y
         side = side0
-        for d in range(n_nodes - 1):
+        walk_period, walk_shift, walk_needed = period[r], shift[r], needed[r]
+        for d in range(n_nodes[r] - 1):
             px_prev = prev_x if d == 0 else nodes[r, d - 1, 0]
             py_prev = prev_y if d == 0 else nodes[r, d - 1, 1]
             if d > 0:
@@ -196,19 +199,19 @@ def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes
             h = headings[r, d]
             nrm_x = -side * math.sin(h)
             nrm_y = side * math.cos(h)
-            t0 = d * period
-            t1 = (d + 1) * period
+            t0 = d * walk_period
+            t1 = (d + 1) * walk_period
             for k in range(samples.size):
                 s = samples[k]
-                x = ax + s * (bx - ax) + shift * nrm_x
-                y = ay + s * (by - ay) + shift * nrm_y
+                x = ax + s * (bx - ax) + walk_shift * nrm_x
+                y = ay + s * (by - ay) + walk_shift * nrm_y
                 ti = t0 + s * (t1 - t0)
                 blocked = False
                 if nx > 0:
                     gi = np.rint((x - grid_low_x) / resolution)
                     gj = np.rint((y - grid_low_y) / resolution)
                     if 0 <= gi < nx and 0 <= gj < ny:
-                        blocked = grid[int(gi), int(gj)] < needed
+                        blocked = grid[int(gi), int(gj)] < walk_needed
                     else:
                         result = 2
                 if not blocked:
@@ -226,7 +229,7 @@ def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes
                         if ab2[q] > 0:
                             u = min(max((apx * ux + apy * uy) / ab2[q], 0.0), 1.0)
                         dx, dy = apx - u * ux, apy - u * uy
-                        lim = radius[q] + needed
+                        lim = radius[q] + walk_needed
                         if dx * dx + dy * dy < lim * lim:
                             blocked = True
                             break

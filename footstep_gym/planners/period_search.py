@@ -97,12 +97,12 @@ def period_grid(t_short: float, t_nominal: float, iterations: int) -> np.ndarray
     return np.linspace(t_short, t_nominal, 2 ** iterations + 1)
 
 
-def centred_free_period(survival: Callable[[float], float], t_short: float, t_nominal: float,
+def centred_free_period(survivals: Callable[[np.ndarray], np.ndarray], t_short: float, t_nominal: float,
                         iterations: int) -> PeriodSearchResult:
     """The middle of the range of free periods in ``[t_short, t_nominal]`` (switch ``additions.centred_period``).
 
-    ``survival(T)`` [s] is how long the best walk at period ``T`` stays free (``inf``: free).
-    The periods tried are a grid of ``2**iterations + 1`` (the bisection's resolution). Among
+    ``survivals(periods)`` [s] is how long the best walk at each period stays free (``inf``: free),
+    asked once for all the periods tried: a grid of ``2**iterations + 1`` (the bisection's resolution). Among
     moving obstacles "free" need not be monotone in ``T``: in a crowd that walks with the robot,
     walks that are too quick run into the member ahead and walks that are too slow are caught
     from behind, so the free periods form a window whose *longest* end (the bisection's answer)
@@ -115,7 +115,7 @@ def centred_free_period(survival: Callable[[float], float], t_short: float, t_no
     if t_short > t_nominal:
         raise ValueError(f"t_short={t_short} must not exceed t_nominal={t_nominal}")
     grid = period_grid(t_short, t_nominal, iterations)
-    alive = np.array([survival(float(T)) for T in grid])
+    alive = np.asarray(survivals(grid), dtype=float)
     free = np.isinf(alive)
     if not free.any():
         return PeriodSearchResult(float(grid[0]), False, False, grid.size)
@@ -324,7 +324,7 @@ class PeriodSearch:
                 and walks.committed_free(committed.period))
         if self.centred_period:  # the committed walk is one of the walks; the window is not bracketed by it
             self.remember_stride_windows(snapshot, period_grid(floor, t_n, self.iterations))
-            result = centred_free_period(walks.survival, floor, t_n, self.iterations)
+            result = centred_free_period(walks.survivals, floor, t_n, self.iterations)
         else:
             result = longest_free_period(walks, committed.period if kept else floor, t_n, self.iterations)
         free_walks = tuple(walks.free_walks(result.period)) if result.any_free else ()

@@ -2,8 +2,8 @@
 
 Two predicates, both answering "which of these walks at period ``T`` stay free?"
 (:meth:`free_walks`), "does ``T`` collide?" (``__call__``: every walk collides) and "how long
-does the best walk at ``T`` stay free?" (:meth:`survival`, for a period search that is not a
-bisection):
+does the best walk at each of these periods stay free?" (:meth:`survivals`, for a period search
+that scans rather than bisects):
 
 * :class:`NextNodeFan` — the paper's check (Fig. 2): the next node at ``Max_step_size``
   in each of a fan of directions across the hardware angle limits (the "selectable
@@ -31,7 +31,8 @@ import numpy as np
 from footstep_gym import footstep
 from footstep_gym.footstep import LEFT, RIGHT
 from footstep_gym.planners import kernels
-from footstep_gym.planners.walks import BodyCheck, CommittedPlan, WalkStart, trim_at_goal, walks_survival
+from footstep_gym.planners.walks import (BodyCheck, CommittedPlan, WalkStart, trim_at_goal, walks_survival,
+                                         walks_survival_at)
 from footstep_gym.robot import Robot
 
 #: ``(lo, hi)`` [m] of the first step's front stride the LIPM accepts at period ``T``, or ``None`` (no limit).
@@ -109,14 +110,18 @@ class _Walks(ABC):
         nodes, headings = self._with_committed(nodes[:1], headings[:1])
         return not bool(self._free(nodes[-1:], headings[-1:], period, self.committed_body)[0])
 
-    def survival(self, period: float) -> float:
-        """How long [s] the walk at ``period`` [s] that stays free longest does so (the committed one
-        included); ``inf`` where ``ObstacleCollision(period)`` is false."""
-        nodes, headings = self.nodes(period)
-        best = float(self._survival(nodes, headings, period).max())
-        if self.committed is not None and not np.isinf(best):
-            nodes, headings = self._with_committed(nodes[:1], headings[:1])
-            best = max(best, float(self._survival(nodes[-1:], headings[-1:], period, self.committed_body)[0]))
+    def survivals(self, periods: Sequence[float]) -> np.ndarray:
+        """``(P,)`` [s]: for each of ``periods`` [s], how long the walk at that period that stays free
+        longest does so (the committed one included); ``inf`` where ``ObstacleCollision(T)`` is false.
+        All walks of all periods are checked in one compiled call."""
+        periods = [float(T) for T in periods]
+        groups = [self.nodes(T) for T in periods]
+        common = (self.edge_samples, self.goal, self.goal_radius)
+        best = np.array([t.max() for t in walks_survival_at(self.body, self.start, groups, periods, *common)])
+        if self.committed is not None:
+            committed = [tuple(a[-1:] for a in self._with_committed(n[:1], h[:1])) for n, h in groups]
+            kept = walks_survival_at(self.committed_body, self.start, committed, periods, *common)
+            best = np.maximum(best, [t[0] for t in kept])
         return best
 
 

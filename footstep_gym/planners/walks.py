@@ -101,33 +101,53 @@ def walks_survival(body: BodyCheck, start: WalkStart, nodes: np.ndarray, heading
                    edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
     """``(R,)`` [s]: the time of each walk's first blocked body point, ``inf`` for a free walk
     (the checks of :func:`walks_free`, which is ``isinf`` of this)."""
+    return walks_survival_at(body, start, [(nodes, headings)], [period], edge_samples, goal, goal_radius)[0]
+
+
+def walks_survival_at(body: BodyCheck, start: WalkStart, walks: Sequence[tuple[np.ndarray, np.ndarray]],
+                      periods: Sequence[float], edge_samples: int, goal: np.ndarray,
+                      goal_radius: float) -> list[np.ndarray]:
+    """:func:`walks_survival` of several groups of walks, group ``i`` (``(nodes, headings)``) at ``periods[i]``
+    [s]: with a :class:`BodyModel`, all in one compiled call (a period search asks about many periods)."""
     if isinstance(body, BodyModel):
-        return _walks_survival_compiled(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
-    return walks_survival_numpy(body, start, nodes, headings, period, edge_samples, goal, goal_radius)
+        return _walks_survival_compiled(body, start, walks, periods, edge_samples, goal, goal_radius)
+    return [walks_survival_numpy(body, start, n, h, T, edge_samples, goal, goal_radius)
+            for (n, h), T in zip(walks, periods)]
 
 
-def _walks_survival_compiled(body: BodyModel, start: WalkStart, nodes: np.ndarray, headings: np.ndarray,
-                             period: float, edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
-    """:func:`walks_survival` in one compiled loop (:func:`.kernels.walks_free`); walks it cannot decide
+def _walks_survival_compiled(body: BodyModel, start: WalkStart, walks: Sequence[tuple[np.ndarray, np.ndarray]],
+                             periods: Sequence[float], edge_samples: int, goal: np.ndarray,
+                             goal_radius: float) -> list[np.ndarray]:
+    """:func:`walks_survival_at` in one compiled loop (:func:`.kernels.walks_free`); walks it cannot decide
     (a point beyond the static grid) are measured by :func:`walks_survival_numpy`."""
     pred = body.predictor
-    shift, grow = body.sway(period)
     field = pred.static_field
     grid, low, res = (field.grid, field.low, field.resolution) if field is not None else (_NO_GRID, _ORIGIN, 1.0)
-    status = np.empty(len(nodes), dtype=np.int64)
-    blocked_at = np.empty(len(nodes))
+    counts = [len(n) for n, _ in walks]
+    rows, depth = sum(counts), max(n.shape[1] for n, _ in walks)
+    nodes = np.empty((rows, depth, 2))  # a row's nodes beyond its own n_nodes are never read
+    headings = np.empty((rows, depth))
+    n_nodes = np.empty(rows, dtype=np.int64)
+    period, shift, needed = np.empty(rows), np.empty(rows), np.empty(rows)
+    first = np.cumsum([0, *counts])
+    for (n, h), T, a, b in zip(walks, periods, first[:-1], first[1:]):
+        nodes[a:b, : n.shape[1]], headings[a:b, : n.shape[1]], n_nodes[a:b] = n, h, n.shape[1]
+        sway_shift, grow = body.sway(T)
+        period[a:b], shift[a:b], needed[a:b] = T, sway_shift, body.robot.body_radius + body.margin + grow
+    status = np.empty(rows, dtype=np.int64)
+    blocked_at = np.empty(rows)
     kernels.walks_free(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
-                       float(start.body[1]), np.ascontiguousarray(nodes, dtype=float),
-                       np.ascontiguousarray(headings, dtype=float), int(start.side), float(period),
-                       _fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius),
-                       float(shift), float(body.robot.body_radius + body.margin + grow), *pred.kernel_shapes,
-                       pred.kernel_radius, pred.kernel_horizon, grid, float(low[0]), float(low[1]), float(res),
-                       status, blocked_at)
-    undecided = np.flatnonzero(status == 2)
-    if undecided.size:
-        blocked_at[undecided] = walks_survival_numpy(body, start, nodes[undecided], headings[undecided], period,
-                                                     edge_samples, goal, goal_radius)
-    return blocked_at
+                       float(start.body[1]), nodes, headings, n_nodes, int(start.side), period,
+                       _fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius), shift, needed,
+                       *pred.kernel_shapes, pred.kernel_radius, pred.kernel_horizon, grid, float(low[0]),
+                       float(low[1]), float(res), status, blocked_at)
+    out = [blocked_at[a:b] for a, b in zip(first[:-1], first[1:])]
+    for (n, h), T, times, st in zip(walks, periods, out, np.split(status, first[1:-1])):
+        undecided = np.flatnonzero(st == 2)
+        if undecided.size:
+            times[undecided] = walks_survival_numpy(body, start, n[undecided], h[undecided], T, edge_samples, goal,
+                                                    goal_radius)
+    return out
 
 
 @functools.lru_cache(maxsize=8)

@@ -148,30 +148,18 @@ def test_survivals_of_many_periods_in_one_call_match_one_period_at_a_time(robot,
     """:meth:`GoalRollouts.survivals` checks the walks of every period of a scan in one compiled call (each
     row with its own period, sway and depth): the same times as checking each period on its own, and
     ``inf`` exactly where ``ObstacleCollision(T)`` is false."""
-    from footstep_gym.planners.walks import CommittedPlan, walk_start
+    from footstep_gym.planners.walks import walk_start
 
     snap = snapshot_after(env_id, kwargs, steps)
     start = walk_start(snap, 0.5 * robot.nominal_side_stride)
     body = BodyModel(ObstaclePredictor(snap, horizon=30.0), robot, 0.02)
-    ahead = start.node + np.outer(np.arange(6), [0.06, 0.0])
-    committed = CommittedPlan(ahead, np.full(6, start.heading), 0.5)
     periods = np.linspace(0.3, 0.8, 17)
-    finite = []
-    for plan in (None, committed):
-        rollouts = GoalRollouts(body, robot, start, snap.goal, snap.goal_tolerance, horizon=30.0, step_size=0.1,
-                                lane_offsets=(-0.13, 0.0, 0.13), stride_fractions=(0.7, 1.0), lookahead=0.3,
-                                edge_samples=3, wait_steps=(0, 3), committed=plan)
-        got = rollouts.survivals(periods)
-        want = []
-        for T in periods:
-            nodes, headings = rollouts.nodes(T)
-            best = walks_survival(body, start, nodes, headings, T, 3, rollouts.goal, rollouts.goal_radius).max()
-            if plan is not None:
-                n, h = rollouts._with_committed(nodes[:1], headings[:1])
-                best = max(best, walks_survival(body, start, n[-1:], h[-1:], T, 3, rollouts.goal,
-                                                rollouts.goal_radius)[0])
-            want.append(best)
-        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
-        np.testing.assert_array_equal(np.isinf(got), [not rollouts(T) for T in periods])
-        finite.append(bool(np.isfinite(got).any()))
-    assert any(finite) or env_id == "FootstepCrossing-v0"  # the times themselves were compared (the car is far yet)
+    rollouts = GoalRollouts(body, robot, start, snap.goal, snap.goal_tolerance, horizon=30.0, step_size=0.1,
+                            lane_offsets=(-0.13, 0.0, 0.13), stride_fractions=(0.7, 1.0), lookahead=0.3,
+                            edge_samples=3, wait_steps=(0, 3))
+    got = rollouts.survivals(periods)
+    want = [walks_survival(body, start, *rollouts.nodes(T), T, 3, rollouts.goal, rollouts.goal_radius).max()
+            for T in periods]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(np.isinf(got), [not rollouts(T) for T in periods])
+    assert np.isfinite(got).any() or env_id == "FootstepCrossing-v0"  # the times were compared (the car is far yet)

@@ -108,5 +108,5 @@ def test_overrides_apply_on_top_of_a_policys_own_switches():
     policy = make_policy("paper-period-aware", additions_fallback=True, rrt_iterations=50)
     assert policy.config.additions.fallback and not policy.config.additions.waiting_walks
     assert policy.config.rrt.iterations == 50
-    policy = make_policy("period-aware", additions={"plan_commitment": False})
-    assert not policy.config.additions.plan_commitment and policy.config.additions.waiting_walks
+    policy = make_policy("period-aware", additions={"centred_period": False})
+    assert not policy.config.additions.centred_period and policy.config.additions.waiting_walks

@@ -1,7 +1,6 @@
 """Stage 1 (:mod:`footstep_gym.planners.period_search`): :func:`longest_free_period` (Algorithm 1 as its text
 describes it) on hand-made monotone predicates ``collides(T) = T > T*`` whose answer ``T*`` is known; the
-centred scan (:func:`centred_free_period`) on hand-made windows of free periods; the stage's record; the kept
-plan bracketing the search from below.
+centred scan (:func:`centred_free_period`) on hand-made windows of free periods; the stage's record.
 """
 
 from __future__ import annotations
@@ -90,35 +89,6 @@ def test_binary_search_rejects_inverted_interval():
         longest_free_period(lambda t: False, 0.9, 0.8, 6)
 
 
-# ====================================================================== the planner keeps its plan
-@pytest.mark.parametrize("door_speed,seed", [(17.0, 0), (17.0, 2), (14.0, 4)])
-def test_kept_plan_brackets_the_period_search_from_below(door_speed, seed):
-    """With the bisection (``centred_period`` off), whenever the previous step's plan is kept, the period
-    searched is no shorter than that plan's (the previous step's search result). Episodes 17/2 and 14/4
-    each have a kept step where a search from the reachable floor instead would return a shorter period."""
-    from footstep_gym.planners import make_policy
-
-    env = gym.make("FootstepDoor-v0", door_speed=door_speed)
-    u = env.unwrapped
-    policy = make_policy("period-aware", u.robot, seed=0, additions={"centred_period": False})
-    policy.reset(seed=seed)
-    obs, _ = env.reset(seed=seed)
-    previous, kept = None, 0
-    for _ in range(60):
-        action = policy.act(obs, u.sensing())
-        info = policy.last_info
-        if info["plan_kept"]:
-            assert previous is not None
-            assert info["period_search"] >= previous - 1e-9, (info["period_search"], previous)
-            kept += 1
-        previous = info["period_search"]
-        obs, _, terminated, truncated, _ = env.step(action)
-        if terminated or truncated:
-            break
-    env.close()
-    assert kept >= 3  # the property was exercised
-
-
 # ====================================================================== the stage: PeriodSearch -> PeriodChoice
 class Closes:
     """Body check blocking every point at times ``t > at`` [s]."""
@@ -163,11 +133,11 @@ def test_paper_search_returns_the_longest_period_whose_next_node_is_free(crossin
     The paper's T0 is the configured one (no LIPM floor): the search runs on [0.3, 0.8] with N passes."""
     robot, snap, start = crossing_start
     search = paper_search(robot)
-    choice = search(snap, start, Closes(t_star), Closes(t_star), None)
+    choice = search(snap, start, Closes(t_star))
     n = load_planner_config().period_search.iterations
     assert choice.floor == T0
     assert t_star - (TN - T0) / 2 ** n - EPS <= choice.period <= t_star + EPS
-    assert choice.any_free and not choice.nominal_free and not choice.plan_kept and not choice.waiting_walks
+    assert choice.any_free and not choice.nominal_free and not choice.waiting_walks
     assert choice.evaluations == 2 + n
     assert choice.first_stride is None  # no LIPM window in the paper's planner
     assert choice.free_walks and all(w.shape == (2, 2) for w in choice.free_walks)
@@ -175,17 +145,17 @@ def test_paper_search_returns_the_longest_period_whose_next_node_is_free(crossin
 
 def test_paper_search_keeps_nominal_when_free_and_t0_when_nothing_is(crossing_start):
     robot, snap, start = crossing_start
-    free = paper_search(robot)(snap, start, Closes(np.inf), Closes(np.inf), None)
+    free = paper_search(robot)(snap, start, Closes(np.inf))
     assert (free.period, free.nominal_free, free.evaluations) == (TN, True, 1)
-    blocked = paper_search(robot)(snap, start, Closes(-1.0), Closes(-1.0), None)
+    blocked = paper_search(robot)(snap, start, Closes(-1.0))
     assert (blocked.period, blocked.any_free, blocked.free_walks, blocked.evaluations) == (T0, False, (), 2)
 
 
 def test_paper_fixed_period_only_checks_the_nominal_period(crossing_start):
     robot, snap, start = crossing_start
     search = paper_search(robot, vary_period=False)
-    assert search(snap, start, Closes(1.0), Closes(1.0), None).period == TN
-    closed = search(snap, start, Closes(0.5), Closes(0.5), None)
+    assert search(snap, start, Closes(1.0)).period == TN
+    closed = search(snap, start, Closes(0.5))
     assert (closed.period, closed.any_free, closed.evaluations) == (TN, False, 1)
 
 
@@ -195,12 +165,12 @@ def test_second_tier_finds_a_waiting_walk_when_no_period_clears_the_way(crossing
     robot, snap, start = crossing_start
     zone = Zone(0.1, 0.6, 4.0)
     on = PeriodSearch(robot, load_planner_config())
-    choice = on(snap, start, zone, zone, None)
+    choice = on(snap, start, zone)
     assert choice.any_free and choice.waiting_walks
     steps = np.linalg.norm(np.diff(choice.free_walks[0], axis=0), axis=1)
     assert np.all(steps[:3] == 0.0)  # the best free walk first steps in place
     off = PeriodSearch(robot, load_planner_config({"additions_waiting_walks": False}))
-    blocked = off(snap, start, zone, zone, None)
+    blocked = off(snap, start, zone)
     assert not blocked.any_free and not blocked.waiting_walks and blocked.period == blocked.floor
 
 

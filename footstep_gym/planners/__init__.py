@@ -55,10 +55,10 @@ from footstep_gym.planners.reference import (
 )
 from footstep_gym.planners.rollouts import GoalRollouts, NextNodeFan
 from footstep_gym.planners.rrt import ModifiedRRT, PathChoice, PathSearch, RRTPath
-from footstep_gym.planners.walks import CommittedPlan, WalkStart, node_of_foot, walk_start
+from footstep_gym.planners.walks import WalkStart, node_of_foot, walk_start
 
 __all__ = [
-    "PAPER", "POLICIES", "AdditionsParams", "BodyModel", "CommandRepair", "CommittedPlan", "FixedPeriodPlanner",
+    "PAPER", "POLICIES", "AdditionsParams", "BodyModel", "CommandRepair", "FixedPeriodPlanner",
     "GoalRollouts", "ModifiedRRT", "NextNodeFan", "ObstaclePredictor", "PSOOnlyParams", "PSOOnlyPlanner",
     "PSOParams", "PSOResult", "PathChoice", "PathSearch", "PeriodAwarePlanner", "PeriodChoice", "PeriodSearch",
     "PeriodSearchParams", "PeriodSearchResult", "PlannerConfig", "Policy", "PolicySpec", "PredictionParams",

@@ -3,7 +3,7 @@
 Every switch of ``configs/planner.yaml``'s ``additions`` section (read from
 :class:`~.params.AdditionsParams`, so a new switch joins the ablation by itself) gives
 one variant, named ``period-aware-no-<switch>`` with the switch's underscores as
-hyphens (``period-aware-no-waiting-walks``, ``period-aware-no-plan-commitment``, ...).
+hyphens (``period-aware-no-waiting-walks``, ``period-aware-no-centred-period``, ...).
 :func:`~.reference.make_policy` builds any of them::
 
     for name in ablation_variants():

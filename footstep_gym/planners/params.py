@@ -29,7 +29,6 @@ class AdditionsParams:
 
     waiting_walks: bool = plain()  # stage 1: a second tier of slower / waiting walks when no period is free
     centred_period: bool = plain()  # stage 1: the middle of the window of free periods (a scan), not its longest end
-    plan_commitment: bool = plain()  # stage 1: the previous step's plan stays a walk and bounds the search
     long_lookahead: bool = plain()  # stage 1: goal-directed rollouts over the horizon; off: one-step fan (Fig. 2)
     unsteady_horizons: bool = plain()  # shapes whose velocity changed are predicted only unsteady_horizon_s
     lipm_windows: bool = plain()  # T0 = shortest period reachable now; first stride inside the LIPM's window
@@ -77,7 +76,6 @@ class PeriodSearchParams:
     rollout_depth_slack: float = positive()  # rollouts span ceil(distance / shortest stride x this) steps ...
     rollout_extra_steps: int = nonnegative()  # ... + the longest wait + this many
     fan_directions: int = positive()  # one-step check (long_lookahead off): headings across the angle limits
-    commit_tolerance_m: float = nonnegative()  # [m] previous plan kept if the robot stands this close to its node
     extra_margin_m: float = nonnegative()  # [m] more clearance in the search than in the RRT: slack in the timing
 
     def validate(self) -> None:

@@ -34,9 +34,6 @@ Our additions, each a switch of ``configs/planner.yaml`` (section ``additions``)
   so the first step of the walks and of the RRT keeps to the front strides the LIPM accepts;
 * ``long_lookahead``: goal-directed rollouts over the prediction horizon instead of the
   one-step check;
-* ``plan_commitment``: the previous step's plan, while still free at its own period, is
-  one of the walks and bounds the search from below (a greedy planner that re-plans from
-  scratch can otherwise put off forever a plan that starts with "wait three steps");
 * ``waiting_walks``: only if no period lets the robot go on at full stride, the search
   is repeated with walks that slow down or first step in place (let the obstacle pass);
 * ``centred_period``: :func:`centred_free_period` instead of the bisection: the middle of the
@@ -54,7 +51,7 @@ import numpy as np
 from footstep_gym import lipm
 from footstep_gym.planners.params import PlannerConfig
 from footstep_gym.planners.rollouts import GoalRollouts, NextNodeFan
-from footstep_gym.planners.walks import BodyCheck, CommittedPlan, WalkStart
+from footstep_gym.planners.walks import BodyCheck, WalkStart
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot
 
@@ -191,19 +188,17 @@ class PeriodChoice:
 
     period: float  # [s] T for the next step
     any_free: bool  # some walk was free at some period tried
-    free_walks: tuple[np.ndarray, ...]  # free walks (k + 1, 2) [m] at ``period``, best first (committed first)
+    free_walks: tuple[np.ndarray, ...]  # free walks (k + 1, 2) [m] at ``period``, best first
     first_stride: tuple[float, float] | None  # [m] front strides the LIPM accepts now at ``period`` (None: any)
-    floor: float  # [s] the lower end of the search (T0, or the kept plan's period)
+    floor: float  # [s] the lower end of the search (T0)
     nominal_free: bool  # ObstacleCollision(T_n) was false
     evaluations: int  # calls of ObstacleCollision
-    plan_kept: bool  # the committed plan was free at its own period
     waiting_walks: bool  # the period came from the second tier (slower / waiting walks)
 
     def diagnostics(self) -> dict[str, object]:
         """The record as ``policy.last_info`` entries."""
         return dict(period_search=self.period, period_floor=self.floor, nominal_free=self.nominal_free,
-                    search_evaluations=self.evaluations, plan_kept=self.plan_kept,
-                    waiting_walks=self.waiting_walks)
+                    search_evaluations=self.evaluations, waiting_walks=self.waiting_walks)
 
 
 class PeriodSearch:
@@ -241,18 +236,16 @@ class PeriodSearch:
         self.slower_walks: tuple[tuple[int, ...], tuple[float, ...]] | None = (
             ((0, *waits), fractions) if add.waiting_walks and (waits or any(f < 1.0 for f in fractions)) else None)
 
-    def __call__(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck, body: BodyCheck,
-                 committed: CommittedPlan | None) -> PeriodChoice:
-        """The period for the next step from ``snapshot`` (walks from ``start``).
+    def __call__(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck) -> PeriodChoice:
+        """The period for the next step from ``snapshot`` (walks from ``start``, checked by ``search_body``).
 
-        ``search_body`` checks the walks; ``body`` (the RRT's) checks the ``committed`` plan.
         Algorithm 1 asks whether the robot can go on now at full stride (Fig. 2: the next
         node at Max_step_size); only if no period in ``[T0, T_n]`` lets it, and
         ``additions.waiting_walks`` is on, is the same search repeated with the second tier.
         """
-        choice = self._search(snapshot, start, search_body, body, committed, (0,), (1.0,), second_tier=False)
+        choice = self._search(snapshot, start, search_body, (0,), (1.0,), second_tier=False)
         if not choice.any_free and self.slower_walks is not None:
-            later = self._search(snapshot, start, search_body, body, committed, *self.slower_walks, second_tier=True)
+            later = self._search(snapshot, start, search_body, *self.slower_walks, second_tier=True)
             if later.any_free:
                 return later
         return choice
@@ -284,12 +277,11 @@ class PeriodSearch:
                                      self.step_size, self.stride_grid)
             self._windows.update(zip(todo, windows))
 
-    def walks(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck, body: BodyCheck,
-              committed: CommittedPlan | None, wait_steps: Sequence[int],
+    def walks(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck, wait_steps: Sequence[int],
               fractions: Sequence[float]) -> GoalRollouts | NextNodeFan:
         """``ObstacleCollision``: the rollouts (``long_lookahead``) or the paper's one-step fan."""
         window = (lambda T: self.stride_window(snapshot, T)) if self.lipm_windows else None
-        common = dict(edge_samples=self.edge_samples, first_stride=window, committed=committed, committed_body=body)
+        common = dict(edge_samples=self.edge_samples, first_stride=window)
         if not self.long_lookahead:
             return NextNodeFan(search_body, self.robot, start, snapshot.goal, snapshot.goal_tolerance,
                                step_size=self.step_size, stride_fractions=fractions,
@@ -299,35 +291,27 @@ class PeriodSearch:
                             stride_fractions=fractions, lookahead=self.lookahead, wait_steps=wait_steps,
                             depth_slack=self.depth_slack, extra_steps=self.extra_steps, **common)
 
-    def _search(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck, body: BodyCheck,
-                committed: CommittedPlan | None, wait_steps: Sequence[int], fractions: Sequence[float], *,
-                second_tier: bool) -> PeriodChoice:
-        """One search over one library of walks (``second_tier``: the slower / waiting one).
-
-        If the committed plan still holds at its period, that period is known to be free
-        and becomes the search's lower end (so the result is never shorter).
-        """
-        walks = self.walks(snapshot, start, search_body, body, committed, wait_steps, fractions)
+    def _search(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck, wait_steps: Sequence[int],
+                fractions: Sequence[float], *, second_tier: bool) -> PeriodChoice:
+        """One search over one library of walks (``second_tier``: the slower / waiting one)."""
+        walks = self.walks(snapshot, start, search_body, wait_steps, fractions)
         t_n = self.robot.nominal_period
         if not self.vary_period:
             free_walks = tuple(walks.free_walks(t_n))
-            kept = committed is not None and walks.committed_free(t_n)
             return PeriodChoice(t_n, bool(free_walks), free_walks, self.stride_window(snapshot, t_n), t_n,
-                                bool(free_walks), 1, kept, second_tier)
+                                bool(free_walks), 1, second_tier)
         if self.lipm_windows:
             strides = (float(snapshot.previous_command[0]), self.step_size)
             floor = shortest_feasible_period(self.robot, snapshot.com_local, snapshot.vel_local,
                                              snapshot.support_side, strides, self.t0, t_n, self.floor_grid)
         else:
             floor = self.t0
-        kept = (committed is not None and floor <= committed.period <= t_n
-                and walks.committed_free(committed.period))
-        if self.centred_period:  # the committed walk is one of the walks; the window is not bracketed by it
+        if self.centred_period:
             self.remember_stride_windows(snapshot, period_grid(floor, t_n, self.iterations))
             result = centred_free_period(walks.survivals, floor, t_n, self.iterations)
         else:
-            result = longest_free_period(walks, committed.period if kept else floor, t_n, self.iterations)
+            result = longest_free_period(walks, floor, t_n, self.iterations)
         free_walks = tuple(walks.free_walks(result.period)) if result.any_free else ()
         return PeriodChoice(result.period, result.any_free, free_walks,
                             self.stride_window(snapshot, result.period), floor, result.nominal_free,
-                            result.evaluations, kept, second_tier)
+                            result.evaluations, second_tier)

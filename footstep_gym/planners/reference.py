@@ -29,7 +29,7 @@ each a unit returning a record:
    increments (eq. 5-8), only if that command is infeasible.
 
 What we add to the paper's planner is a set of named switches (``configs/planner.yaml``,
-section ``additions``: the second tier of the period search, plan commitment, the long
+section ``additions``: the second tier of the period search, the centred period, the long
 look-ahead, short horizons for unsteady shapes, the LIPM's windows, the fallback, ...).
 ``paper-period-aware`` and ``paper-fixed-period`` are the same classes with every switch
 off: the paper's algorithm and nothing else. ``<policy>-no-<switch>`` names a policy with
@@ -74,7 +74,7 @@ from footstep_gym.planners.prediction import (
 )
 from footstep_gym.planners.pso import CommandRepair
 from footstep_gym.planners.rrt import PathChoice, PathSearch
-from footstep_gym.planners.walks import CommittedPlan, WalkStart, walk_start
+from footstep_gym.planners.walks import WalkStart, walk_start
 from footstep_gym.robot import Robot, load_robot
 from footstep_gym.sensing import Snapshot
 
@@ -181,7 +181,6 @@ class PeriodAwarePlanner(_Planner):
                                     rescue=config.additions.feasibility_rescue)
         self.half_width = 0.5 * robot.nominal_side_stride
         add, pp = config.additions, config.prediction
-        self.commit_tolerance = config.period_search.commit_tolerance_m if add.plan_commitment else None
         self.unsteady = ((pp.unsteady_horizon_s, pp.unsteady_speed_mps, pp.unsteady_turn_rad_s)
                          if add.unsteady_horizons else None)
         self.horizon = pp.horizon_s
@@ -189,22 +188,19 @@ class PeriodAwarePlanner(_Planner):
         self.search_margin = pp.safety_margin_m + (config.period_search.extra_margin_m if add.search_margin else 0.0)
         self.com_sway = add.com_sway
         self.region_pruning = add.region_pruning
-        self._plan_ahead: CommittedPlan | None = None  # the rest of the last goal path, at its period
         self._previous_snapshot: Snapshot | None = None  # what was sensed one step ago
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
-        self._plan_ahead = None
         self._previous_snapshot = None
 
     # -------------------------------------------------------------- the three stages
     def _plan(self, snapshot: Snapshot) -> tuple[np.ndarray, dict[str, Any]]:
         start = walk_start(snapshot, self.half_width)
         body, search_body, unsteady = self._predict(snapshot, start)
-        committed = self._committed(start)
 
         t0 = time.perf_counter()
-        period = self.period_search(snapshot, start, search_body, body, committed)  # Algorithm 1
+        period = self.period_search(snapshot, start, search_body)  # Algorithm 1
         t1 = time.perf_counter()
         path = self.path_search(snapshot, start, body, period.period, period.free_walks,  # Algorithm 2
                                 period.first_stride, self.rng)
@@ -212,7 +208,6 @@ class PeriodAwarePlanner(_Planner):
         repair = self.repair(snapshot, path.command, self.rng)  # eq. (5)-(8), only if infeasible
         t3 = time.perf_counter()
 
-        self._plan_ahead = self._next_commitment(path, period.period)
         info: dict[str, Any] = dict(unsteady_shapes=unsteady, **period.diagnostics(), **path.diagnostics(),
                                     stride_window=period.first_stride, **repair.diagnostics())
         info.update(time_period_search_ms=1e3 * (t1 - t0), time_rrt_ms=1e3 * (t2 - t1), time_pso_ms=1e3 * (t3 - t2),
@@ -231,24 +226,6 @@ class PeriodAwarePlanner(_Planner):
         body = BodyModel(predictor, self.robot, self.margin, sway=self.com_sway)
         search_body = BodyModel(predictor, self.robot, self.search_margin, sway=self.com_sway)
         return body, search_body, len(unsteady)
-
-    def _committed(self, start: WalkStart) -> CommittedPlan | None:
-        """The previous step's goal path from the node the robot now stands on (switch ``plan_commitment``).
-
-        ``None`` if there is none or the robot did not land where it planned to (by more
-        than ``commit_tolerance_m``: the PSO moved the step, or a fall-back was taken).
-        """
-        plan = self._plan_ahead
-        if plan is None or np.linalg.norm(plan.nodes[0] - start.node) > self.commit_tolerance:
-            return None
-        return CommittedPlan(np.concatenate([start.node[None], plan.nodes[1:]]),
-                             np.concatenate([[start.heading], plan.headings[1:]]), plan.period)
-
-    def _next_commitment(self, path: PathChoice, period: float) -> CommittedPlan | None:
-        """What the next step may commit to: the rest of a goal path (nodes after the first), at ``period``."""
-        if self.commit_tolerance is None or not (path.path.reached_goal and path.path.n_steps):
-            return None
-        return CommittedPlan(path.path.nodes[1:], path.path.headings[1:], period)
 
 
 class FixedPeriodPlanner(PeriodAwarePlanner):
@@ -351,8 +328,8 @@ def switch_of(label: str) -> str:
 
 
 def variant_name(policy: str, switch: str) -> str:
-    """The name of ``policy`` with switch ``switch`` off: ``period-aware`` + ``plan_commitment`` ->
-    ``period-aware-no-plan-commitment``."""
+    """The name of ``policy`` with switch ``switch`` off: ``period-aware`` + ``waiting_walks`` ->
+    ``period-aware-no-waiting-walks``."""
     return f"{policy}{VARIANT_SEPARATOR}{switch.replace('_', '-')}"
 
 

@@ -16,9 +16,6 @@ that scans rather than bisects):
 
 Both evaluate from scratch at every call (the walk geometry is memoised, the verdicts
 are not): the period search (:mod:`.period_search`) keeps what it needs in its record.
-With a :class:`~.walks.CommittedPlan` (switch ``additions.plan_commitment``), the
-previous step's plan joins the walks, re-timed at every period tried, and leads the
-free walks when it holds.
 """
 
 from __future__ import annotations
@@ -31,8 +28,7 @@ import numpy as np
 from footstep_gym import footstep
 from footstep_gym.footstep import LEFT, RIGHT
 from footstep_gym.planners import kernels
-from footstep_gym.planners.walks import (BodyCheck, CommittedPlan, WalkStart, trim_at_goal, walks_survival,
-                                         walks_survival_at)
+from footstep_gym.planners.walks import BodyCheck, WalkStart, trim_at_goal, walks_free, walks_survival_at
 from footstep_gym.robot import Robot
 
 #: ``(lo, hi)`` [m] of the first step's front stride the LIPM accepts at period ``T``, or ``None`` (no limit).
@@ -40,11 +36,10 @@ StrideWindow = Callable[[float], "tuple[float, float] | None"]
 
 
 class _Walks(ABC):
-    """What both predicates share: the committed plan, the body check, the ordering of free walks."""
+    """What both predicates share: the body check and the ordering of free walks."""
 
     def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
-                 goal_radius: float, *, edge_samples: int, first_stride: StrideWindow | None = None,
-                 committed: CommittedPlan | None = None, committed_body: BodyCheck | None = None) -> None:
+                 goal_radius: float, *, edge_samples: int, first_stride: StrideWindow | None = None) -> None:
         self.body = body
         self.robot = robot
         self.start = start
@@ -52,77 +47,38 @@ class _Walks(ABC):
         self.goal_radius = goal_radius
         self.edge_samples = edge_samples
         self.first_stride = first_stride
-        self.committed = committed
-        self.committed_body = committed_body if committed_body is not None else body
 
     @abstractmethod
     def nodes(self, period: float) -> tuple[np.ndarray, np.ndarray]:
         """Walk nodes ``(R, D + 1, 2)`` [m] and headings ``(R, D + 1)`` [rad] (index 0: the start) at ``period`` [s]."""
 
-    def _with_committed(self, nodes: np.ndarray, headings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The walks plus the committed walk, padded (standing at its end) or cut to the same depth."""
-        walk, walk_headings = self.committed.nodes, self.committed.headings
-        n_nodes = nodes.shape[1]
-        idx = np.minimum(np.arange(n_nodes), len(walk) - 1)
-        return (np.concatenate([nodes, walk[idx][None]], axis=0),
-                np.concatenate([headings, walk_headings[idx][None]], axis=0))
-
-    def _survival(self, nodes: np.ndarray, headings: np.ndarray, period: float,
-                  body: BodyCheck | None = None) -> np.ndarray:
-        return walks_survival(self.body if body is None else body, self.start, nodes, headings, period,
-                              self.edge_samples, self.goal, self.goal_radius)
-
-    def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float,
-              body: BodyCheck | None = None) -> np.ndarray:
-        return np.isinf(self._survival(nodes, headings, period, body))
-
-    def committed_free(self, period: float) -> bool:
-        """Whether the committed walk alone is still free at ``period`` [s] (``False`` without one)."""
-        if self.committed is None or len(self.committed.nodes) < 2:
-            return False
-        return bool(self._free(self.committed.nodes[None], self.committed.headings[None], period,
-                               self.committed_body)[0])
+    def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float) -> np.ndarray:
+        return walks_free(self.body, self.start, nodes, headings, period, self.edge_samples, self.goal,
+                          self.goal_radius)
 
     def free_walks(self, period: float, limit: int | None = None) -> list[np.ndarray]:
-        """Free walks ``(k + 1, 2)`` [m] at ``period`` [s]: the committed one if free, then those ending
-        nearest the goal (ties: the shortest), each cut at its first node in the goal region."""
+        """Free walks ``(k + 1, 2)`` [m] at ``period`` [s], those ending nearest the goal first (ties: the
+        shortest), each cut at the step that brings its body into the goal region."""
         nodes, headings = self.nodes(period)
         ok = self._free(nodes, headings, period)
-        if self.committed is not None:
-            nodes, headings = self._with_committed(nodes, headings)
-            ok = np.append(ok, self._free(nodes[-1:], headings[-1:], period, self.committed_body))
         walks = [trim_at_goal(nodes[i], self.goal, self.goal_radius) for i in np.flatnonzero(ok)]
-        order = sorted(range(len(walks)), key=lambda i: (round(float(np.linalg.norm(walks[i][-1] - self.goal)), 3),
-                                                         len(walks[i])))
-        if self.committed is not None and ok[-1]:  # the committed walk (last row) leads if free
-            order.remove(len(walks) - 1)
-            order.insert(0, len(walks) - 1)
-        walks = [walks[i] for i in order]
+        walks.sort(key=lambda w: (round(float(np.linalg.norm(w[-1] - self.goal)), 3), len(w)))
         return walks[:limit] if limit is not None else walks
 
     def __call__(self, period: float) -> bool:
-        """``ObstacleCollision(period)``: every walk collides (the committed one included)."""
+        """``ObstacleCollision(period)``: every walk collides."""
         nodes, headings = self.nodes(period)
-        if self._free(nodes, headings, period).any():
-            return False
-        if self.committed is None:
-            return True
-        nodes, headings = self._with_committed(nodes[:1], headings[:1])
-        return not bool(self._free(nodes[-1:], headings[-1:], period, self.committed_body)[0])
+        return not self._free(nodes, headings, period).any()
 
     def survivals(self, periods: Sequence[float]) -> np.ndarray:
         """``(P,)`` [s]: for each of ``periods`` [s], how long the walk at that period that stays free
-        longest does so (the committed one included); ``inf`` where ``ObstacleCollision(T)`` is false.
-        All walks of all periods are checked in one compiled call."""
+        longest does so; ``inf`` where ``ObstacleCollision(T)`` is false. All walks of all periods are
+        checked in one compiled call."""
         periods = [float(T) for T in periods]
         groups = [self.nodes(T) for T in periods]
-        common = (self.edge_samples, self.goal, self.goal_radius)
-        best = np.array([t.max() for t in walks_survival_at(self.body, self.start, groups, periods, *common)])
-        if self.committed is not None:
-            committed = [tuple(a[-1:] for a in self._with_committed(n[:1], h[:1])) for n, h in groups]
-            kept = walks_survival_at(self.committed_body, self.start, committed, periods, *common)
-            best = np.maximum(best, [t[0] for t in kept])
-        return best
+        times = walks_survival_at(self.body, self.start, groups, periods, self.edge_samples, self.goal,
+                                  self.goal_radius)
+        return np.array([t.max() for t in times])
 
 
 class GoalRollouts(_Walks):
@@ -144,10 +100,8 @@ class GoalRollouts(_Walks):
                  goal_radius: float, *, horizon: float, step_size: float, lane_offsets: Sequence[float],
                  stride_fractions: Sequence[float], lookahead: float, edge_samples: int,
                  wait_steps: Sequence[int] = (0,), depth_slack: float = 1.2, extra_steps: int = 2,
-                 first_stride: StrideWindow | None = None, committed: CommittedPlan | None = None,
-                 committed_body: BodyCheck | None = None) -> None:
-        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples,
-                         first_stride=first_stride, committed=committed, committed_body=committed_body)
+                 first_stride: StrideWindow | None = None) -> None:
+        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, first_stride=first_stride)
         self.horizon = horizon
         self.lookahead = lookahead
         off, frac, wait = np.meshgrid(np.asarray(lane_offsets, float), np.asarray(stride_fractions, float),
@@ -195,10 +149,8 @@ class NextNodeFan(_Walks):
 
     def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
                  goal_radius: float, *, step_size: float, stride_fractions: Sequence[float], directions: int,
-                 edge_samples: int, first_stride: StrideWindow | None = None,
-                 committed: CommittedPlan | None = None, committed_body: BodyCheck | None = None) -> None:
-        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples,
-                         first_stride=first_stride, committed=committed, committed_body=committed_body)
+                 edge_samples: int, first_stride: StrideWindow | None = None) -> None:
+        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, first_stride=first_stride)
         lo, hi = footstep.turn_bounds(start.side, robot)
         turn, frac = np.meshgrid(np.linspace(lo, hi, directions), np.asarray(stride_fractions, float), indexing="ij")
         self._headings = float(start.heading) + turn.ravel()

@@ -1,4 +1,4 @@
-"""Data shared by the planner's stages: where a walk starts, the committed plan, and the body check of a walk.
+"""Data shared by the planner's stages: where a walk starts, and the body check of a walk.
 
 A *walk* is a chain of nodes (robot centres in the paper's footstep convention, Fig. 5)
 starting at the support foot's node, one step per period. Stage 1 checks whole walks
@@ -51,19 +51,6 @@ class WalkStart:
     side: int
     body: np.ndarray  # (2,) [m]
     previous_node: np.ndarray  # (2,) [m]
-
-
-@dataclass(frozen=True)
-class CommittedPlan:
-    """The rest of the previous step's goal path, from the node the robot now stands on.
-
-    ``nodes (k + 1, 2)`` [m] with the current node first, ``headings (k + 1,)`` [rad], and
-    the ``period`` [s] it was planned at.
-    """
-
-    nodes: np.ndarray
-    headings: np.ndarray
-    period: float
 
 
 def node_of_foot(foot_pose: Sequence[float], side: int, half_width: float) -> np.ndarray:

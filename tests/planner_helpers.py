@@ -29,7 +29,7 @@ PSO_SETTINGS = dict(particles=30, iterations=40, inertia=0.7, c1=1.5, c2=1.5, pa
                     deviation_weight=100.0, infeasible_penalty=1000.0, violation_weight=10000.0)
 #: RRT settings (the paper's Max_step_size = the robot's longest front stride, 10 cm).
 RRT_SETTINGS = dict(iterations=400, batch_size=10, step_size=0.10, goal_sample_rate=0.2, n_paths=3,
-                    sample_margin=0.5, edge_samples=4, step_cost=0.01)
+                    sample_margin=0.5, edge_samples=4)
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +86,7 @@ def wrap(a):
     return (a + np.pi) % (2 * np.pi) - np.pi
 
 
-def check_tree_edges(tree, start, robot, step_size, step_cost):
+def check_tree_edges(tree, start, robot, step_size):
     """Every edge of the tree, re-derived from node coordinates only."""
     n = tree.n
     assert n >= 2
@@ -113,7 +113,7 @@ def check_tree_edges(tree, start, robot, step_size, step_cost):
         assert lo - 1e-9 <= turn <= hi + 1e-9, (i, turn, lo, hi)
         side[i] = -side[p]
         depth[i] = depth[p] + 1
-        cost[i] = cost[p] + length + step_cost
+        cost[i] = cost[p] + length
     # the tree's own bookkeeping agrees with the geometry
     np.testing.assert_allclose(wrap(tree.heading[:n] - heading), 0.0, atol=1e-9)
     np.testing.assert_array_equal(tree.side[:n], side)
@@ -122,7 +122,7 @@ def check_tree_edges(tree, start, robot, step_size, step_cost):
     return heading, side, cost
 
 
-def check_path(path, start, goal, goal_radius, robot, step_size, step_cost):
+def check_path(path, start, goal, goal_radius, robot, step_size):
     nodes = path.nodes
     assert nodes.ndim == 2 and nodes.shape[1] == 2 and len(nodes) >= 2
     np.testing.assert_array_equal(nodes[0], start.node)
@@ -140,8 +140,8 @@ def check_path(path, start, goal, goal_radius, robot, step_size, step_cost):
         turn = wrap(heading[k + 1] - heading[k])
         assert lo - 1e-9 <= turn <= hi + 1e-9, (k, turn, lo, hi)
     np.testing.assert_allclose(wrap(path.headings - heading), 0.0, atol=1e-9)
-    # cost = cumulative length + step cost per step
-    assert path.cost == pytest.approx(lengths.sum() + step_cost * path.n_steps, abs=1e-9)
+    # cost = cumulative length (Algorithm 2)
+    assert path.cost == pytest.approx(lengths.sum(), abs=1e-9)
     if path.reached_goal:
         # the last step brings the body (the midpoint of its two nodes) into the goal region
         assert np.linalg.norm(0.5 * (nodes[-2] + nodes[-1]) - goal) <= goal_radius + 1e-12

@@ -27,10 +27,10 @@ def test_rrt_free_space_reaches_goal_within_hardware_limits(robot, body_kind, si
     rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 800})
     path = rrt.plan(start, goal, radius, body, period=0.8, rng=np.random.default_rng(1))
     assert path is not None and path.reached_goal
-    check_path(path, start, goal, radius, robot, RRT_SETTINGS["step_size"], RRT_SETTINGS["step_cost"])
+    check_path(path, start, goal, radius, robot, RRT_SETTINGS["step_size"])
     # at least the straight-line number of steps
     assert path.n_steps >= math.ceil((np.linalg.norm(goal - start.node) - radius) / RRT_SETTINGS["step_size"])
-    _, _, cost = check_tree_edges(rrt.tree, start, robot, RRT_SETTINGS["step_size"], RRT_SETTINGS["step_cost"])
+    _, _, cost = check_tree_edges(rrt.tree, start, robot, RRT_SETTINGS["step_size"])
     # the kept path is the least-cost of the tree's nodes whose step brings the body (midpoint of the
     # node and its parent) into the goal region
     tree = rrt.tree
@@ -92,8 +92,8 @@ def test_rrt_angle_limits_bind(robot):
     rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 3000})
     path = rrt.plan(start, goal, radius, AlwaysFree(), period=0.8, rng=np.random.default_rng(3))
     assert path is not None
-    check_path(path, start, goal, radius, robot, RRT_SETTINGS["step_size"], RRT_SETTINGS["step_cost"])
-    check_tree_edges(rrt.tree, start, robot, RRT_SETTINGS["step_size"], RRT_SETTINGS["step_cost"])
+    check_path(path, start, goal, radius, robot, RRT_SETTINGS["step_size"])
+    check_tree_edges(rrt.tree, start, robot, RRT_SETTINGS["step_size"])
     # the fewest steps after which the heading can point backwards (|heading| > pi/2), turning
     # either way with the largest turn the alternating feet allow (Fig. 4 limits)
     fewest = []
@@ -150,8 +150,8 @@ def test_rrt_goes_around_a_wall(robot, seed):
     rrt = ModifiedRRT(robot, **settings)
     path = rrt.plan(start, goal, radius, wall, period=0.8, rng=np.random.default_rng(seed))
     assert path is not None
-    check_path(path, start, goal, radius, robot, settings["step_size"], settings["step_cost"])
-    check_tree_edges(rrt.tree, start, robot, settings["step_size"], settings["step_cost"])
+    check_path(path, start, goal, radius, robot, settings["step_size"])
+    check_tree_edges(rrt.tree, start, robot, settings["step_size"])
     pts, times = body_samples(path, start, 0.8, settings["edge_samples"])
     assert not wall.blocked(pts, times).any()
     # between two free samples (<= step_size / (edge_samples - 1) apart) the body can clip
@@ -172,7 +172,7 @@ def test_rrt_blocked_wall_gives_none_and_partial_on_start_side(robot):
     assert rrt.plan(start, goal, 0.1, wall, period=0.8, rng=np.random.default_rng(0)) is None
     partial = rrt.best_partial_path()
     assert not partial.reached_goal
-    check_path(partial, start, goal, 0.1, robot, RRT_SETTINGS["step_size"], RRT_SETTINGS["step_cost"])
+    check_path(partial, start, goal, 0.1, robot, RRT_SETTINGS["step_size"])
     # body midpoints stay before the wall, so nodes stay within half a step of it
     pts, times = body_samples(partial, start, 0.8, 50)
     assert np.all(pts[:, 0] < 0.6)
@@ -219,8 +219,8 @@ def test_rrt_is_time_aware_races_a_closing_gate(robot, seed):
     rrt = ModifiedRRT(robot, **settings)
     path = rrt.plan(start, goal, radius, gate, period=period, rng=np.random.default_rng(seed))
     assert path is not None
-    check_path(path, start, goal, radius, robot, settings["step_size"], settings["step_cost"])
-    check_tree_edges(rrt.tree, start, robot, settings["step_size"], settings["step_cost"])  # depths too
+    check_path(path, start, goal, radius, robot, settings["step_size"])
+    check_tree_edges(rrt.tree, start, robot, settings["step_size"])  # depths too
     pts, times = body_samples(path, start, period, settings["edge_samples"])
     assert not gate.blocked(pts, times).any()
     beyond = np.flatnonzero(pts[:, 0] > 0.5)
@@ -304,7 +304,7 @@ def test_best_partial_path_waits_where_it_stays_free(robot):
     assert safe.sum() > 1
     assert np.linalg.norm(end - goal) <= dist[safe].min() + 1e-5
     assert np.linalg.norm(end - goal) > np.linalg.norm(greedy.nodes[-1] - goal)
-    check_path(stay, start, goal, 0.1, robot, RRT_SETTINGS["step_size"], RRT_SETTINGS["step_cost"])
+    check_path(stay, start, goal, 0.1, robot, RRT_SETTINGS["step_size"])
 
 
 def test_best_partial_path_takes_the_spot_hit_last(robot):

@@ -36,7 +36,6 @@ class AdditionsParams:
     com_sway: bool = plain()  # the body circle follows the LIPM's lateral sway (off: robot radius only)
     time_aware_rrt: bool = plain()  # stage 2: node d checked at [(d-1)T, dT]; off: all against obstacles at T
     rrt_seeds: bool = plain()  # stage 2: stage 1's free walks are the tree's first branches
-    step_cost: bool = plain()  # stage 2: rrt.step_cost_m per step in the path cost (off: length only)
     fallback: bool = plain()  # stage 2 without a goal path: the spot that stays free longest (off: nearest goal)
     feasibility_rescue: bool = plain()  # stage 3: if Table 1's increments find nothing feasible, the whole box
     distance_field: bool = plain()  # static shapes read off a distance grid (speed; conservative by res/sqrt 2)
@@ -106,7 +105,6 @@ class RRTParams:
     goal_sample_rate: float = nonnegative()  # probability that a sample is the goal
     n_paths: int = positive()  # goal-reaching paths collected before the least-cost one is taken
     sample_margin_m: float = nonnegative()  # [m] the sampling box extends this far beyond start and goal
-    step_cost_m: float = nonnegative()  # [m] added to the cost per step (0: pure cumulative length)
     seed_paths: int = nonnegative()  # free rollouts of the period search inserted as first branches
     fallback_clearance_weight: float = nonnegative()  # no path to the goal: metres of progress worth 1 m of clearance
     fallback_clearance_cap_m: float = nonnegative()  # [m] clearance beyond this earns nothing more

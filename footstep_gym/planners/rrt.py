@@ -13,7 +13,7 @@ the support foot's node towards the goal:
 4. :meth:`_steer` — the distance is clamped to ``step_size`` (steps 9-10);
 5. :meth:`_edges_free` — node and edge are checked against the obstacles (steps 11-12);
 6. :meth:`_insert` — the node joins the tree with cost = parent's cost + edge length
-   (step 13) + ``step_cost`` (see below); nodes whose step brings the body within
+   (step 13); nodes whose step brings the body within
    ``goal_radius`` of the goal are remembered (steps 14-16; the env measures the robot
    centre, the midpoint of the feet, so the body and not the node must reach the goal);
 7. after ``n_paths`` goal nodes (or all iterations) the least-cost path is returned
@@ -40,10 +40,6 @@ short edges (small steps) let it wait for an obstacle to pass.
 * ``seeds`` (``rrt_seeds``): walks already known to be collision-free (the period search's free
   rollouts) are inserted as branches before sampling, so the tree never does worse
   than the evidence that chose the period;
-* ``step_cost`` (``step_cost``) [m per step] is added to every edge's length in the cost (0: the
-  paper's pure cumulative length). In a time-aware tree a step is also time: of two
-  equally long paths the one with fewer, longer steps arrives earlier, so it is
-  preferred (the period search's rollouts at half and full stride trace the same line);
 * ``first_stride`` (``lipm_windows``): the first step's length is kept inside the strides the LIPM accepts
   from the current CoM state (at a short period the robot cannot stop in one step);
 * :meth:`ModifiedRRT.best_partial_path` with ``stay_until`` (``fallback``): when no path reaches the goal, the branch to
@@ -81,7 +77,7 @@ class RRTPath:
     ``headings[i]`` [rad] is the heading of node ``i`` (its support foot's yaw: the
     direction of the edge into it; the root's is the current support foot's yaw);
     ``sides[i]`` the side of the foot placed at node ``i``; ``cost`` the cumulative
-    length [m] (plus the step costs); ``reached_goal`` whether the last step brings the body (the
+    length [m]; ``reached_goal`` whether the last step brings the body (the
     midpoint of the last two nodes, where the env measures the robot centre) into the goal region.
     """
 
@@ -135,15 +131,14 @@ class ModifiedRRT:
     ``step_size``: largest distance between nodes [m]; ``goal_sample_rate``: probability
     a sample is the goal; ``n_paths``: goal nodes collected before stopping;
     ``sample_margin``: the sampling box extends this far [m] beyond start and goal;
-    ``edge_samples``: points checked along each body segment; ``step_cost``: cost [m]
-    added per step; ``clearance_weight`` [m of goal distance per m], ``clearance_cap`` [m]:
+    ``edge_samples``: points checked along each body segment; ``clearance_weight`` [m of goal distance per m], ``clearance_cap`` [m]:
     how :meth:`best_partial_path` trades clearance for progress; ``time_aware``: a node at
     depth ``d`` is checked during ``[(d - 1) T, d T]`` (else every point at ``T``).
     """
 
     def __init__(self, robot: Robot, *, iterations: int, batch_size: int, step_size: float,
                  goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int,
-                 step_cost: float = 0.0, clearance_weight: float = 0.0, clearance_cap: float = 0.0,
+                 clearance_weight: float = 0.0, clearance_cap: float = 0.0,
                  time_aware: bool = True) -> None:
         self.robot = robot
         self.iterations = iterations
@@ -153,7 +148,6 @@ class ModifiedRRT:
         self.n_paths = n_paths
         self.sample_margin = sample_margin
         self.edge_samples = edge_samples
-        self.step_cost = step_cost
         self.clearance_weight = clearance_weight
         self.clearance_cap = clearance_cap
         self.time_aware = time_aware
@@ -329,7 +323,7 @@ class ModifiedRRT:
         tree = self.tree
         k = len(parents)
         self._append(parents, new_xy, heading, side=-tree.side[0] * (-1) ** np.arange(k),
-                     cost=np.cumsum(length + self.step_cost), depth=np.arange(1, k + 1),
+                     cost=np.cumsum(length), depth=np.arange(1, k + 1),
                      body=0.5 * (np.concatenate([tree.xy[:1], new_xy[:-1]]) + new_xy))
 
     def _in_goal(self, xy: np.ndarray) -> np.ndarray:
@@ -340,7 +334,7 @@ class ModifiedRRT:
         """Steps 12-16: append the nodes, with cumulative length as cost; note goal nodes."""
         tree = self.tree
         self._append(parents, new_xy, heading, side=-tree.side[parents],
-                     cost=tree.cost[parents] + length + self.step_cost, depth=tree.depth[parents] + 1,
+                     cost=tree.cost[parents] + length, depth=tree.depth[parents] + 1,
                      body=0.5 * (tree.xy[parents] + new_xy))
 
     def _append(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray, *, side: np.ndarray,
@@ -381,7 +375,6 @@ class PathSearch:
             robot, iterations=c.rrt.iterations, batch_size=c.rrt.batch_size, step_size=c.rrt.step_size_m,
             goal_sample_rate=c.rrt.goal_sample_rate, n_paths=c.rrt.n_paths,
             sample_margin=c.rrt.sample_margin_m, edge_samples=c.prediction.edge_samples,
-            step_cost=c.rrt.step_cost_m if add.step_cost else 0.0,
             clearance_weight=c.rrt.fallback_clearance_weight, clearance_cap=c.rrt.fallback_clearance_cap_m,
             time_aware=add.time_aware_rrt)
         self.seed_paths = c.rrt.seed_paths if add.rrt_seeds else 0

@@ -1,8 +1,8 @@
 """The compiled kernels (:mod:`footstep_gym.planners.kernels`) against the numpy code they replace.
 
-On real snapshots of the three scenes (with and without the static distance grid, with
-per-shape horizons), random points and times, and random walks: the same booleans as
-the numpy expressions, and the same lane pursuit as a numpy version written here.
+On real snapshots of the three scenes (with per-shape horizons), random points and times, and random
+walks: the same booleans and times as the numpy expressions, and the same lane pursuit as a numpy version
+written here.
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym import footstep
-from footstep_gym.planners.distance_field import StaticDistanceField
 from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor
 from footstep_gym.planners.rollouts import GoalRollouts
 from footstep_gym.planners.walks import WalkStart, walks_free, walks_free_numpy, walks_survival, walks_survival_numpy
@@ -35,13 +34,10 @@ def snapshot_after(env_id, kwargs, steps, seed=0):
 
 
 def predictors(snap):
-    """Exact shapes only; with the distance grid; with a short horizon for the first moving shape."""
-    lo, hi = np.asarray(snap.com) - 1.5, np.asarray(snap.com) + 2.5
-    field = StaticDistanceField(snap.obstacles, (lo, hi), 0.01)
+    """Every shape to the horizon; with a short horizon for the first moving shape."""
     moving = [v.name for v in snap.obstacles if not v.static]
     yield ObstaclePredictor(snap, horizon=30.0)
-    yield ObstaclePredictor(snap, horizon=30.0, static_field=field)
-    yield ObstaclePredictor(snap, horizon=30.0, static_field=field, horizons={moving[0]: 0.7})
+    yield ObstaclePredictor(snap, horizon=30.0, horizons={moving[0]: 0.7})
 
 
 @pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
@@ -49,7 +45,7 @@ def test_points_free_matches_numpy(env_id, kwargs, steps):
     snap = snapshot_after(env_id, kwargs, steps)
     rng = np.random.default_rng(0)
     centre = np.asarray(snap.com)
-    pts = centre + rng.uniform(-1.0, 2.5, (20000, 2))  # some beyond the grid's box
+    pts = centre + rng.uniform(-1.0, 2.5, (20000, 2))
     times = rng.uniform(0.0, 5.0, 20000)
     for pred in predictors(snap):
         for safe in (0.0, 0.11, 0.2):
@@ -62,7 +58,7 @@ def test_points_free_matches_numpy(env_id, kwargs, steps):
 @pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
 @pytest.mark.parametrize("period", [0.3, 0.55, 0.8])
 def test_walks_free_matches_numpy(robot, env_id, kwargs, steps, period):
-    """Random walks of 10 cm steps from near the robot (some reaching a goal nearby, some leaving the grid)."""
+    """Random walks of 10 cm steps from near the robot (some reaching a goal nearby)."""
     snap = snapshot_after(env_id, kwargs, steps)
     rng = np.random.default_rng(1)
     centre = np.asarray(snap.com)

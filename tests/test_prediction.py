@@ -1,7 +1,6 @@
 """:class:`ObstaclePredictor` against the snapshot's own prediction, a direct geometric computation and
 pymunk's ground truth (the door and the crossing car move at constant (angular) velocity), and against
-the simulator's future, which it must not see; shorter horizons for shapes whose motion changed; the
-region pruning.
+the simulator's future, which it must not see; shorter horizons for shapes whose motion changed.
 """
 
 from __future__ import annotations
@@ -268,80 +267,7 @@ def test_steady_motion_horizons_turn_and_speed_changes_of_one_shape():
     assert steady_motion_horizons(prev, snap, 1.5, 0.03, TURN_TOL) == {}
 
 
-# ====================================================================== prediction: region pruning, per-shape horizons
-REGION_CASES = [
-    # env, steps, kwargs, box (low, high) relative to the robot's CoM, horizon [s], whether shapes get pruned
-    ("FootstepDoor-v0", 1, dict(door_speed=17.0), (-0.5, -0.5), (0.5, 0.5), 4.0, True),  # rod, drum out of reach
-    ("FootstepCrossing-v0", 1, dict(crossing_x=0.5), (-0.3, -0.3), (0.3, 0.3), 1.0, True),  # car arrives after 1 s
-    ("FootstepCrossing-v0", 1, dict(crossing_x=0.5), (-0.3, -0.3), (0.8, 0.3), 4.0, False),  # car drives in
-    ("FootstepCrowd-v0", 1, {}, (0.2, -0.15), (0.6, 0.15), 1.0, True),  # members behind the ring centre
-    ("FootstepCrowd-v0", 2, {}, (0.5, -0.15), (0.9, 0.15), 4.0, True),  # members ahead walk into the box
-]
-
-
-def box_edge_distance(points, lo, hi):
-    """Distance from points inside the box to its boundary."""
-    return np.minimum(points - lo, hi - points).min(axis=1)
-
-
-@pytest.mark.parametrize("env_id,steps,kwargs,off_lo,off_hi,horizon,prunes", REGION_CASES)
-def test_region_pruning_changes_no_answer_inside_the_box(env_id, steps, kwargs, off_lo, off_hi, horizon, prunes):
-    """A shape left out never comes into the box before the horizon, so for a point in the box it is
-    at least as far as the box's boundary: ``min(clearance, edge distance)`` is unchanged, and so is
-    ``free(.., safe)`` for points at least ``safe`` inside the box."""
-    env, snap = snapshot_after(env_id, steps, **kwargs)
-    env.close()
-    com = np.asarray(snap.com)
-    lo, hi = com + np.asarray(off_lo), com + np.asarray(off_hi)
-    full = ObstaclePredictor(snap, horizon=horizon)
-    pruned = ObstaclePredictor(snap, horizon=horizon, region=(lo, hi))
-    assert pruned.n_shapes <= full.n_shapes
-    assert (pruned.n_shapes < full.n_shapes) == prunes
-    rng = np.random.default_rng(11)
-    pts = lo + (hi - lo) * rng.random((3000, 2))
-    times = rng.uniform(0.0, horizon, 3000)
-    edge = box_edge_distance(pts, lo, hi)
-    c_full, c_pruned = full.clearance(pts, times), pruned.clearance(pts, times)
-    assert np.all(c_pruned >= c_full - 1e-12)  # pruning only ever removes shapes
-    np.testing.assert_allclose(np.minimum(c_pruned, edge), np.minimum(c_full, edge), rtol=0, atol=1e-12)
-    near = c_full < edge  # the nearest surface is inside the box: the very same clearance
-    np.testing.assert_allclose(c_pruned[near], c_full[near], rtol=0, atol=1e-12)
-    for safe in (0.0, 0.05, 0.12):
-        inside = edge >= safe
-        np.testing.assert_array_equal(pruned.free(pts[inside], times[inside], safe),
-                                      full.free(pts[inside], times[inside], safe))
-    if env_id != "FootstepCrossing-v0" or not prunes:
-        # not vacuous: obstacles are near enough to some points to decide their freedom
-        assert near.sum() > 50
-        assert not full.free(pts, times, 0.12).all()
-
-
-def test_region_pruning_drops_the_door_and_drum_from_a_box_clear_of_them():
-    """A box in the corridor left of the door: out of reach of the rod (0.51 m) and the drum (0.55 m)."""
-    env, snap = snapshot_after("FootstepDoor-v0", 0)
-    env.close()
-    lo, hi = np.array([-1.6, -0.6]), np.array([-0.9, -0.1])
-    full = ObstaclePredictor(snap, horizon=5.0)
-    pruned = ObstaclePredictor(snap, horizon=5.0, region=(lo, hi))
-    assert full.n_shapes == len(snap.obstacles)
-    assert pruned.n_shapes < full.n_shapes
-    pts = lo + (hi - lo) * np.random.default_rng(2).random((500, 2))
-    times = np.random.default_rng(3).uniform(0.0, 5.0, 500)
-    np.testing.assert_allclose(pruned.clearance(pts, times), full.clearance(pts, times), rtol=0, atol=1e-12)
-
-
-@pytest.mark.filterwarnings("ignore:invalid value encountered in multiply:RuntimeWarning")
-def test_region_pruning_with_infinite_horizon_and_a_turning_rod():
-    env, snap = snapshot_after("FootstepDoor-v0", 0)
-    env.close()
-    lo, hi = np.array([-1.6, -0.6]), np.array([-0.9, -0.1])
-    pruned = ObstaclePredictor(snap, region=(lo, hi))  # horizon = inf (the default)
-    full = ObstaclePredictor(snap)
-    pts = lo + (hi - lo) * np.random.default_rng(2).random((200, 2))
-    times = np.random.default_rng(3).uniform(0.0, 20.0, 200)
-    np.testing.assert_allclose(pruned.clearance(pts, times), full.clearance(pts, times), rtol=0, atol=1e-12)
-
-
+# ====================================================================== prediction: per-shape horizons
 def test_per_shape_horizon_ignores_that_shape_after_it_only():
     """``horizons={"car": 1.0}``: the car is checked up to 1 s, then ignored; the rest is unchanged."""
     env, snap = snapshot_after("FootstepCrossing-v0", 1, crossing_x=0.5)
@@ -358,11 +284,6 @@ def test_per_shape_horizon_ignores_that_shape_after_it_only():
     assert np.all(np.isinf(d_short[~before]))
     np.testing.assert_array_equal(short.free(centre, t, 0.0), ~before)
     assert not full.free(centre, t, 0.0).any()
-    # with region pruning, the shorter horizon decides what can reach the box: 1 s is not enough for the car
-    com = np.asarray(snap.com)
-    box = (com - 0.3, com + 0.3)
-    assert ObstaclePredictor(snap, horizon=4.0, region=box).n_shapes == 1
-    assert ObstaclePredictor(snap, horizon=4.0, region=box, horizons={"car": 1.0}).n_shapes == 0
 
 
 def test_per_shape_horizon_on_the_door_leaves_walls_checked():

@@ -5,17 +5,15 @@ at this time, clear of every predicted shape?"); in numpy each question costs a 
 array temporaries and Python-level calls. These kernels loop over points and shapes
 once, stopping at the first shape that blocks a point:
 
-* :func:`points_free` — :meth:`.prediction.ObstaclePredictor.free` for the exactly measured
-  shapes (thick segments moving at constant velocity and angular velocity, docs/model.md §5)
-  plus the static distance grid;
-* :func:`walks_free` — :func:`.walks.walks_free` with a :class:`.prediction.BodyModel`: the
-  body points of whole walks generated and checked in one loop, each walk stopping at its
-  first blocked point;
-* :func:`pursue_lanes` — the pure pursuit of :class:`.rollouts.GoalRollouts`;
-* :func:`grid_clearance` — the distances of :class:`.distance_field.StaticDistanceField`.
+* :func:`points_free` — :meth:`.prediction.ObstaclePredictor.free`: points against thick
+  segments moving at constant velocity and angular velocity (docs/model.md §5);
+* :func:`walks_survival` — :func:`.walks.walks_survival` with a :class:`.prediction.BodyModel`:
+  the body points of whole walks (each at its own period) generated and checked in one loop,
+  each walk stopping at its first blocked point;
+* :func:`pursue_lanes` — the pure pursuit of :class:`.rollouts.GoalRollouts`.
 
 Compiled on first use and cached on disk (``cache=True``): the first call of a fresh
-install costs the compilation (about 2-4 s for all three), later processes load them
+install costs the compilation (a few seconds for all three), later processes load them
 in milliseconds.
 """
 
@@ -31,50 +29,36 @@ import numpy as np
 def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, pos_x: np.ndarray, pos_y: np.ndarray,
                 vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray,
                 a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray, need2: np.ndarray,
-                horizon: np.ndarray, grid: np.ndarray, grid_low_x: float, grid_low_y: float, resolution: float,
-                static_need: float, out: np.ndarray, outside: np.ndarray) -> None:
+                horizon: np.ndarray, out: np.ndarray) -> None:
     """Whether each point ``(px[i], py[i])`` [m] at time ``t[i]`` [s] clears every shape, into ``out`` (bool).
 
     Shape ``s`` (body-frame segment ``a``..``a + ab``, rotated by ``angle + omega t`` and carried by
     ``pos + vel t``) blocks a point closer than ``sqrt(need2[s])`` to its centre line, for times
-    up to ``horizon[s]``. With a ``grid`` (static shapes' clearance lower bounds, nodes
-    ``low + resolution * (i, j)``) a point whose nearest node reads less than ``static_need``
-    is blocked; a point outside the grid is flagged in ``outside`` for the caller to measure.
+    up to ``horizon[s]``.
     """
     n = px.size
     n_shapes = pos_x.size
-    nx, ny = grid.shape
     for i in range(n):
         x, y, ti = px[i], py[i], t[i]
         ok = True
-        outside[i] = False
-        if nx > 0:
-            gi = np.rint((x - grid_low_x) / resolution)
-            gj = np.rint((y - grid_low_y) / resolution)
-            if 0 <= gi < nx and 0 <= gj < ny:
-                if grid[int(gi), int(gj)] < static_need:
-                    ok = False
-            else:
-                outside[i] = True
-        if ok:
-            for s in range(n_shapes):
-                if ti > horizon[s]:
-                    continue
-                ang = angle[s] + omega[s] * ti
-                c, sn = math.cos(ang), math.sin(ang)
-                ox = pos_x[s] + vel_x[s] * ti + (c * a_x[s] - sn * a_y[s])
-                oy = pos_y[s] + vel_y[s] * ti + (sn * a_x[s] + c * a_y[s])
-                apx, apy = x - ox, y - oy
-                bx = c * ab_x[s] - sn * ab_y[s]
-                by = sn * ab_x[s] + c * ab_y[s]
-                u = 0.0
-                if ab2[s] > 0:
-                    u = (apx * bx + apy * by) / ab2[s]
-                    u = min(max(u, 0.0), 1.0)
-                dx, dy = apx - u * bx, apy - u * by
-                if dx * dx + dy * dy < need2[s]:
-                    ok = False
-                    break
+        for s in range(n_shapes):
+            if ti > horizon[s]:
+                continue
+            ang = angle[s] + omega[s] * ti
+            c, sn = math.cos(ang), math.sin(ang)
+            ox = pos_x[s] + vel_x[s] * ti + (c * a_x[s] - sn * a_y[s])
+            oy = pos_y[s] + vel_y[s] * ti + (sn * a_x[s] + c * a_y[s])
+            apx, apy = x - ox, y - oy
+            bx = c * ab_x[s] - sn * ab_y[s]
+            by = sn * ab_x[s] + c * ab_y[s]
+            u = 0.0
+            if ab2[s] > 0:
+                u = (apx * bx + apy * by) / ab2[s]
+                u = min(max(u, 0.0), 1.0)
+            dx, dy = apx - u * bx, apy - u * by
+            if dx * dx + dy * dy < need2[s]:
+                ok = False
+                break
         out[i] = ok
 
 
@@ -133,55 +117,25 @@ def pursue_lanes(node_x: float, node_y: float, axis_x: float, axis_y: float, goa
 
 
 @numba.njit(cache=True, fastmath=False)
-def grid_clearance(xs: np.ndarray, ys: np.ndarray, centres: np.ndarray, circle_radii: np.ndarray,
-                   seg_a: np.ndarray, seg_b: np.ndarray, seg_radii: np.ndarray) -> np.ndarray:
-    """Distance [m] from each grid node ``(xs[i], ys[j])`` to the nearest circle / thick segment surface, ``(nx, ny)``."""
-    out = np.empty((xs.size, ys.size))
-    for i in range(xs.size):
-        for j in range(ys.size):
-            x, y = xs[i], ys[j]
-            best = np.inf
-            for k in range(circle_radii.size):
-                best = min(best, math.hypot(x - centres[k, 0], y - centres[k, 1]) - circle_radii[k])
-            for k in range(seg_radii.size):
-                ax, ay = seg_a[k, 0], seg_a[k, 1]
-                bx, by = seg_b[k, 0] - ax, seg_b[k, 1] - ay
-                px, py = x - ax, y - ay
-                den = bx * bx + by * by
-                u = 0.0
-                if den > 0:
-                    u = min(max((px * bx + py * by) / den, 0.0), 1.0)
-                best = min(best, math.hypot(px - u * bx, py - u * by) - seg_radii[k])
-            out[i, j] = best
-    return out
+def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes: np.ndarray,
+                   headings: np.ndarray, n_nodes: np.ndarray, side0: int, period: np.ndarray, samples: np.ndarray,
+                   goal_x: float, goal_y: float, goal_radius: float, shift: np.ndarray, needed: np.ndarray,
+                   pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray,
+                   omega: np.ndarray, a_x: np.ndarray, a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray,
+                   ab2: np.ndarray, radius: np.ndarray, horizon: np.ndarray, blocked_at: np.ndarray) -> None:
+    """:func:`.walks.walks_survival` for a :class:`.prediction.BodyModel`, one walk after the other: into
+    ``blocked_at[r]`` [s] the time of walk ``r``'s first blocked point (``inf`` if it stays free).
 
-
-@numba.njit(cache=True, fastmath=False)
-def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes: np.ndarray, headings: np.ndarray,
-               n_nodes: np.ndarray, side0: int, period: np.ndarray, samples: np.ndarray, goal_x: float,
-               goal_y: float, goal_radius: float, shift: np.ndarray, needed: np.ndarray, pos_x: np.ndarray,
-               pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray, a_y: np.ndarray,
-               ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray, radius: np.ndarray, horizon: np.ndarray,
-               grid: np.ndarray, grid_low_x: float, grid_low_y: float, resolution: float,
-               status: np.ndarray, blocked_at: np.ndarray) -> None:
-    """:func:`.walks.walks_survival` for a :class:`.prediction.BodyModel`, one walk after the other, into
-    ``status`` and ``blocked_at``.
-
-    ``status[r]``: 1 free, 0 blocked, 2 undecided (a point outside the static grid was not
-    blocked otherwise: the caller measures that walk exactly); ``blocked_at[r]`` [s]: the time
-    of the walk's first blocked point (``inf`` unless blocked). Walk ``r`` has its own period
-    ``T = period[r]`` [s] and its first ``n_nodes[r]`` nodes (so that one call checks walks at
-    several periods). The body of step ``d`` moves
-    from ``bodies[d]`` to ``bodies[d + 1]`` during ``[d T, (d + 1) T]``, sampled at the
-    fractions ``samples``, shifted by ``shift[r]`` [m] towards the step's support foot, and
-    needs ``needed[r]`` [m] of clearance; once a walk's body has reached the goal region it is not checked further
-    (the env ends the episode when the robot centre, the midpoint of the feet, is within the goal tolerance).
+    Walk ``r`` has its own period ``T = period[r]`` [s] and its first ``n_nodes[r]`` nodes (so that
+    one call checks walks at several periods). The body of step ``d`` moves from ``bodies[d]`` to
+    ``bodies[d + 1]`` during ``[d T, (d + 1) T]``, sampled at the fractions ``samples``, shifted by
+    ``shift[r]`` [m] towards the step's support foot, and needs ``needed[r]`` [m] of clearance; once
+    a walk's body has reached the goal region it is not checked further (the env ends the episode
+    when the robot centre, the midpoint of the feet, is within the goal tolerance).
     """
     n_roll = nodes.shape[0]
     n_shapes = pos_x.size
-    nx, ny = grid.shape
     for r in range(n_roll):
-        result = 1
         blocked_at[r] = np.inf
         ax, ay = body_x, body_y
         side = side0
@@ -206,38 +160,26 @@ def walks_free(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes
                 x = ax + s * (bx - ax) + walk_shift * nrm_x
                 y = ay + s * (by - ay) + walk_shift * nrm_y
                 ti = t0 + s * (t1 - t0)
-                blocked = False
-                if nx > 0:
-                    gi = np.rint((x - grid_low_x) / resolution)
-                    gj = np.rint((y - grid_low_y) / resolution)
-                    if 0 <= gi < nx and 0 <= gj < ny:
-                        blocked = grid[int(gi), int(gj)] < walk_needed
-                    else:
-                        result = 2
-                if not blocked:
-                    for q in range(n_shapes):
-                        if ti > horizon[q]:
-                            continue
-                        ang = angle[q] + omega[q] * ti
-                        c, sn = math.cos(ang), math.sin(ang)
-                        ox = pos_x[q] + vel_x[q] * ti + (c * a_x[q] - sn * a_y[q])
-                        oy = pos_y[q] + vel_y[q] * ti + (sn * a_x[q] + c * a_y[q])
-                        apx, apy = x - ox, y - oy
-                        ux = c * ab_x[q] - sn * ab_y[q]
-                        uy = sn * ab_x[q] + c * ab_y[q]
-                        u = 0.0
-                        if ab2[q] > 0:
-                            u = min(max((apx * ux + apy * uy) / ab2[q], 0.0), 1.0)
-                        dx, dy = apx - u * ux, apy - u * uy
-                        lim = radius[q] + walk_needed
-                        if dx * dx + dy * dy < lim * lim:
-                            blocked = True
-                            break
-                if blocked:
-                    result = 0
-                    blocked_at[r] = ti
+                for q in range(n_shapes):
+                    if ti > horizon[q]:
+                        continue
+                    ang = angle[q] + omega[q] * ti
+                    c, sn = math.cos(ang), math.sin(ang)
+                    ox = pos_x[q] + vel_x[q] * ti + (c * a_x[q] - sn * a_y[q])
+                    oy = pos_y[q] + vel_y[q] * ti + (sn * a_x[q] + c * a_y[q])
+                    apx, apy = x - ox, y - oy
+                    ux = c * ab_x[q] - sn * ab_y[q]
+                    uy = sn * ab_x[q] + c * ab_y[q]
+                    u = 0.0
+                    if ab2[q] > 0:
+                        u = min(max((apx * ux + apy * uy) / ab2[q], 0.0), 1.0)
+                    dx, dy = apx - u * ux, apy - u * uy
+                    lim = radius[q] + walk_needed
+                    if dx * dx + dy * dy < lim * lim:
+                        blocked_at[r] = ti
+                        break
+                if blocked_at[r] < np.inf:
                     break
-            if result == 0:
+            if blocked_at[r] < np.inf:
                 break
             side = -side
-        status[r] = result

@@ -38,8 +38,6 @@ class AdditionsParams:
     rrt_seeds: bool = plain()  # stage 2: stage 1's free walks are the tree's first branches
     fallback: bool = plain()  # stage 2 without a goal path: the spot that stays free longest (off: nearest goal)
     feasibility_rescue: bool = plain()  # stage 3: if Table 1's increments find nothing feasible, the whole box
-    distance_field: bool = plain()  # static shapes read off a distance grid (speed; conservative by res/sqrt 2)
-    region_pruning: bool = plain()  # shapes that cannot reach the planning box are left out (speed; exact)
 
 
 @dataclass(frozen=True)
@@ -50,8 +48,6 @@ class PredictionParams:
     unsteady_horizon_s: float = positive()  # [s] ... but only this far for shapes whose velocity changed since the last step
     unsteady_speed_mps: float = nonnegative()  # [m/s] a velocity change above this makes a shape unsteady
     unsteady_turn_rad_s: float = nonnegative()  # [rad/s] likewise for the angular velocity
-    static_field_resolution_m: float = positive()  # [m] grid of the static shapes' distance field (additions.distance_field)
-    static_field_padding_m: float = nonnegative()  # [m] the field extends this far beyond the region asked for
     safety_margin_m: float = nonnegative()  # [m] added to robot.body_radius in every collision check
     edge_samples: int = positive()  # points checked along each body-path segment (>= 2)
 

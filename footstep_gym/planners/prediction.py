@@ -26,7 +26,6 @@ import numpy as np
 
 from footstep_gym import footstep, lipm
 from footstep_gym.planners import kernels
-from footstep_gym.planners.distance_field import StaticDistanceField
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import ObstacleView, Snapshot
 
@@ -59,57 +58,20 @@ def steady_motion_horizons(previous: Snapshot | None, snapshot: Snapshot, short_
     return out
 
 
-def _may_enter(view: ObstacleView, region: tuple[np.ndarray, np.ndarray], horizon: float) -> bool:
-    """Whether any point of ``view`` can lie inside the box ``region`` at some time in ``[0, horizon]``.
-
-    The shape stays within ``reach`` of its body's position, which moves along the segment
-    ``position + velocity * [0, horizon]`` (rotation does not move it): the shape may enter
-    the box iff that segment passes within ``reach`` of it (tested on a fine sampling of the
-    segment, conservatively padded by the sampling step).
-    """
-    lo, hi = (np.asarray(r, dtype=float) for r in region)
-    a, b = np.asarray(view.a, dtype=float), np.asarray(view.b if view.kind == "segment" else view.a, dtype=float)
-    reach = max(float(np.hypot(*a)), float(np.hypot(*b))) + float(view.radius)
-    p = np.asarray(view.position, dtype=float)
-    v = np.asarray(view.velocity, dtype=float)
-    if not np.isfinite(horizon) and np.any(v != 0.0):
-        return True
-    travel = v * horizon if (_moves(view) and np.any(v != 0.0)) else np.zeros(2)  # a pure turn does not travel
-    n = int(min(max(np.ceil(np.hypot(*travel) / max(reach, 1e-3)), 1), 1000))
-    pts = p + np.linspace(0.0, 1.0, n + 1)[:, None] * travel
-    gap = np.hypot(*np.maximum(np.maximum(lo - pts, pts - hi), 0.0).T)
-    return bool(gap.min() <= reach + 0.5 * np.hypot(*travel) / n)
-
-
 class ObstaclePredictor:
     """Clearance of body points at given times against the obstacles of a :class:`Snapshot`.
 
     ``horizon`` [s]: moving obstacles are predicted up to this time and ignored beyond it
     (``np.inf``: always predicted). ``moving_only``: leave obstacles that do not move out.
-    ``static_field``: a :class:`~footstep_gym.planners.distance_field.StaticDistanceField` of
-    the snapshot's static shapes; :meth:`free` and :meth:`clearance` then read those shapes'
-    part from it (a conservative bound, far cheaper) and measure only the others exactly.
     ``horizons``: ``{shape name: horizon [s]}``, a shorter horizon for shapes whose motion
     is known to be less predictable (see :func:`steady_motion_horizons`).
-    ``region``: ``(low (2,), high (2,))`` [m], a box holding every point that will be asked
-    about; shapes that cannot come within it before the horizon (their reach circle swept
-    along their velocity) are left out. That changes no answer of :meth:`free` for points at
-    least the safe distance inside the box (the planners pad their box so that all theirs
-    are); :meth:`clearance` near the box's edge may then exceed the true one.
     """
 
     def __init__(self, snapshot: Snapshot, horizon: float = np.inf, moving_only: bool = False,
-                 region: tuple[np.ndarray, np.ndarray] | None = None,
-                 horizons: dict[str, float] | None = None,
-                 static_field: StaticDistanceField | None = None) -> None:
+                 horizons: dict[str, float] | None = None) -> None:
         self.horizon = float(horizon)
-        if static_field is not None and static_field.key != StaticDistanceField.geometry_key(snapshot.obstacles):
-            raise ValueError("static_field was built for other static shapes than the snapshot's")
-        self.static_field = static_field
         horizons = horizons or {}
-        views = [v for v in snapshot.obstacles if (_moves(v) or not moving_only)
-                 and (region is None or (static_field is not None and v.static)  # the field answers for these
-                      or _may_enter(v, region, min(self.horizon, horizons.get(v.name, np.inf))))]
+        views = [v for v in snapshot.obstacles if _moves(v) or not moving_only]
         n = len(views)
         # Per shape: moving shapes are predicted up to their own horizon (``horizons[name]``, else ``horizon``).
         self._horizon = np.array([min(self.horizon, horizons.get(v.name, np.inf)) if _moves(v) else np.inf
@@ -130,43 +92,31 @@ class ObstaclePredictor:
         self._ab = cplx([v.b if v.kind == "segment" else v.a for v in views]) - self._a  # 0 for a circle
         self._ab2 = np.abs(self._ab) ** 2
         self._radius = col([v.radius for v in views])
-        # free() and clearance() measure these shapes exactly; the static ones come from the field if any.
-        self._exact = (np.flatnonzero([not v.static for v in views]) if static_field is not None
-                       else np.arange(n))
-        e = self._exact
-        # The exact shapes as the compiled kernel reads them (x and y apart, contiguous).
-        self.exact_shapes = e
-        self.kernel_radius = np.ascontiguousarray(self._radius[e])
-        self.kernel_horizon = np.ascontiguousarray(self._horizon[e])
+        # The shapes as the compiled kernels read them (x and y apart, contiguous).
+        self.kernel_radius = np.ascontiguousarray(self._radius)
+        self.kernel_horizon = np.ascontiguousarray(self._horizon)
         self.kernel_shapes = tuple(np.ascontiguousarray(a) for a in (
-            self._position[e].real, self._position[e].imag, self._velocity[e].real, self._velocity[e].imag,
-            self._angle[e], self._omega[e], self._a[e].real, self._a[e].imag, self._ab[e].real, self._ab[e].imag,
-            self._ab2[e]))
+            self._position.real, self._position.imag, self._velocity.real, self._velocity.imag,
+            self._angle, self._omega, self._a.real, self._a.imag, self._ab.real, self._ab.imag, self._ab2))
 
     @property
     def n_shapes(self) -> int:
         return self._radius.size
 
-    def _distance2(self, points: np.ndarray, times: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
-        """Squared distances ``(N, S)`` from each point to each shape's centre line (``inf``: not checked).
-
-        ``idx``: only these shapes (columns), default all.
-        """
-        sel = slice(None) if idx is None else idx
+    def _distance2(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
+        """Squared distances ``(N, S)`` from each point to each shape's centre line (``inf``: not checked)."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         p = pts[:, 0] + 1j * pts[:, 1]
         tt = np.broadcast_to(np.asarray(times, dtype=float), p.shape)[:, None]
-        rot = np.exp(1j * (self._angle[sel] + self._omega[sel] * tt))
-        ap = p[:, None] - (self._position[sel] + self._velocity[sel] * tt + rot * self._a[sel])
-        ab = rot * self._ab[sel]
-        ab2 = self._ab2[sel]
-        u = (ap * ab.conj()).real / np.where(ab2 > 0, ab2, 1.0)
+        rot = np.exp(1j * (self._angle + self._omega * tt))
+        ap = p[:, None] - (self._position + self._velocity * tt + rot * self._a)
+        ab = rot * self._ab
+        u = (ap * ab.conj()).real / np.where(self._ab2 > 0, self._ab2, 1.0)
         np.clip(u, 0.0, 1.0, out=u)
         d = ap - u * ab
         d2 = d.real ** 2 + d.imag ** 2
-        horizon = self._horizon[sel]
-        if np.isfinite(horizon).any():
-            d2[tt > horizon] = np.inf
+        if np.isfinite(self._horizon).any():
+            d2[tt > self._horizon] = np.inf
         return d2
 
     def distances(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -177,52 +127,33 @@ class ObstaclePredictor:
         return np.sqrt(self._distance2(points, times)) - self._radius
 
     def clearance(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
-        """Distance [m] from each point (at its own time) to the nearest shape surface, ``(N,)``.
-
-        With a ``static_field`` the static shapes' part is its conservative lower bound.
-        """
+        """Distance [m] from each point (at its own time) to the nearest shape surface, ``(N,)``."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        out = np.full(len(pts), np.inf)
-        if self._exact.size:
-            d = np.sqrt(self._distance2(pts, times, self._exact)) - self._radius[self._exact]
-            out = d.min(axis=1)
-        if self.static_field is not None:
-            out = np.minimum(out, self.static_field.clearance(pts))
-        return out
+        if not self.n_shapes:
+            return np.full(len(pts), np.inf)
+        return (np.sqrt(self._distance2(pts, times)) - self._radius).min(axis=1)
 
     def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
-        """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots for exact shapes).
+        """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots).
 
         One compiled loop (:func:`.kernels.points_free`) over points and shapes; the numpy
         expression it replaces is :meth:`free_numpy` (the tests hold the two equal).
         """
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         times = np.broadcast_to(np.asarray(times, dtype=float), pts.shape[:1])
-        k = self.kernel_shapes
-        field = self.static_field
-        grid, low, res = (field.grid, field.low, field.resolution) if field is not None else (_NO_GRID, _ORIGIN, 1.0)
         out = np.empty(len(pts), dtype=bool)
-        outside = np.empty(len(pts), dtype=bool)
         kernels.points_free(np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]),
-                            np.ascontiguousarray(times), *k, (self._radius[self._exact] + safe_distance) ** 2,
-                            self._horizon[self._exact], grid, float(low[0]), float(low[1]), float(res),
-                            float(safe_distance), out, outside)
-        if field is not None and outside.any():
-            out[outside] &= field.clearance(pts[outside]) >= safe_distance
+                            np.ascontiguousarray(times), *self.kernel_shapes, (self._radius + safe_distance) ** 2,
+                            self.kernel_horizon, out)
         return out
 
     def free_numpy(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
         """:meth:`free` in plain numpy (the reference the compiled kernel is tested against)."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        ok = (self._distance2(pts, times, self._exact) >= (self._radius[self._exact] + safe_distance) ** 2).all(axis=1)
-        if self.static_field is not None:
-            ok &= self.static_field.clearance(pts) >= safe_distance
-        return ok
+        return (self._distance2(pts, times) >= (self._radius + safe_distance) ** 2).all(axis=1)
 
 
 _SAMPLES_CACHE: dict[int, np.ndarray] = {}
-_NO_GRID = np.empty((0, 0))  # no static distance grid: the kernel measures every shape
-_ORIGIN = np.zeros(2)
 
 
 def body_path_points(starts: np.ndarray, ends: np.ndarray, t_start: np.ndarray, t_end: np.ndarray,

@@ -63,7 +63,6 @@ import numpy as np
 
 from footstep_gym import footstep, lipm
 from footstep_gym.planners import pso
-from footstep_gym.planners.distance_field import StaticDistanceField
 from footstep_gym.planners.params import AdditionsParams, PlannerConfig, load_planner_config
 from footstep_gym.planners.period_search import PeriodSearch
 from footstep_gym.planners.prediction import (
@@ -111,36 +110,11 @@ class _Planner(Policy):
         self.config = config
         self._seed = seed
         self.rng = np.random.default_rng(seed)
-        self._field: StaticDistanceField | None = None  # static shapes' distances, kept across steps
 
     def reset(self, seed: int | None = None) -> None:
         if seed is not None:
             self.rng = np.random.default_rng(seed)
         self.last_info = {}
-        self._field: StaticDistanceField | None = None
-
-    def static_field(self, snapshot: Snapshot, region: tuple[np.ndarray, np.ndarray]) -> StaticDistanceField | None:
-        """The distance field of the snapshot's static shapes over ``region``: built once, reused while it
-        covers the region and the static shapes are unchanged (``None`` with ``additions.distance_field`` off)."""
-        res = self.config.prediction.static_field_resolution_m
-        if not self.config.additions.distance_field:
-            return None
-        field = self._field
-        if (field is None or field.key != StaticDistanceField.geometry_key(snapshot.obstacles)
-                or not field.covers(region)):
-            pad = self.config.prediction.static_field_padding_m
-            field = StaticDistanceField(snapshot.obstacles, (region[0] - pad, region[1] + pad), res)
-            self._field = field
-        return field
-
-    def region(self, node: np.ndarray, goal: Any) -> tuple[np.ndarray, np.ndarray]:
-        """A box [m] that holds every body point the planner checks: the RRT's sampling box grown
-        by a step (angle-limit re-draws), the body's radius, the margins and the CoM sway."""
-        c = self.config
-        pad = (c.rrt.sample_margin_m + c.rrt.step_size_m + self.robot.body_radius + c.prediction.safety_margin_m
-               + c.period_search.extra_margin_m + 0.5 * self.robot.stride_side[1])
-        goal = np.asarray(goal, dtype=float)
-        return np.minimum(node, goal) - pad, np.maximum(node, goal) + pad
 
     def act(self, observation: Any, snapshot: Snapshot | None) -> np.ndarray:
         if snapshot is None:
@@ -187,7 +161,6 @@ class PeriodAwarePlanner(_Planner):
         self.margin = pp.safety_margin_m
         self.search_margin = pp.safety_margin_m + (config.period_search.extra_margin_m if add.search_margin else 0.0)
         self.com_sway = add.com_sway
-        self.region_pruning = add.region_pruning
         self._previous_snapshot: Snapshot | None = None  # what was sensed one step ago
 
     def reset(self, seed: int | None = None) -> None:
@@ -220,9 +193,7 @@ class PeriodAwarePlanner(_Planner):
         unsteady = (steady_motion_horizons(self._previous_snapshot, snapshot, *self.unsteady)
                     if self.unsteady is not None else {})
         self._previous_snapshot = snapshot
-        region = self.region(start.node, snapshot.goal)
-        predictor = ObstaclePredictor(snapshot, horizon=self.horizon, region=region if self.region_pruning else None,
-                                      horizons=unsteady, static_field=self.static_field(snapshot, region))
+        predictor = ObstaclePredictor(snapshot, horizon=self.horizon, horizons=unsteady)
         body = BodyModel(predictor, self.robot, self.margin, sway=self.com_sway)
         search_body = BodyModel(predictor, self.robot, self.search_margin, sway=self.com_sway)
         return body, search_body, len(unsteady)
@@ -264,9 +235,7 @@ class PSOOnlyPlanner(_Planner):
         """``f(FC (P, 5))``: distance to goal + predicted-collision and infeasibility penalties."""
         robot, cfg = self.robot, self.config
         p = cfg.pso_only
-        region = self.region(np.asarray(snapshot.com, dtype=float), snapshot.goal)
-        predictor = ObstaclePredictor(snapshot, horizon=cfg.prediction.horizon_s,
-                                      static_field=self.static_field(snapshot, region))
+        predictor = ObstaclePredictor(snapshot, horizon=cfg.prediction.horizon_s)
         side = snapshot.support_side
         support = np.asarray(snapshot.support_foot, dtype=float)
         goal = np.asarray(snapshot.goal, dtype=float)

@@ -20,8 +20,6 @@ import numpy as np
 from footstep_gym.planners import kernels
 from footstep_gym.planners.prediction import BodyModel, body_path_points, support_normal
 
-_NO_GRID = np.empty((0, 0))  # no static distance grid: the kernel measures every shape
-_ORIGIN = np.zeros(2)
 
 
 class BodyCheck(Protocol):
@@ -105,11 +103,8 @@ def walks_survival_at(body: BodyCheck, start: WalkStart, walks: Sequence[tuple[n
 def _walks_survival_compiled(body: BodyModel, start: WalkStart, walks: Sequence[tuple[np.ndarray, np.ndarray]],
                              periods: Sequence[float], edge_samples: int, goal: np.ndarray,
                              goal_radius: float) -> list[np.ndarray]:
-    """:func:`walks_survival_at` in one compiled loop (:func:`.kernels.walks_free`); walks it cannot decide
-    (a point beyond the static grid) are measured by :func:`walks_survival_numpy`."""
+    """:func:`walks_survival_at` in one compiled loop (:func:`.kernels.walks_survival`)."""
     pred = body.predictor
-    field = pred.static_field
-    grid, low, res = (field.grid, field.low, field.resolution) if field is not None else (_NO_GRID, _ORIGIN, 1.0)
     counts = [len(n) for n, _ in walks]
     rows, depth = sum(counts), max(n.shape[1] for n, _ in walks)
     nodes = np.empty((rows, depth, 2))  # a row's nodes beyond its own n_nodes are never read
@@ -121,20 +116,12 @@ def _walks_survival_compiled(body: BodyModel, start: WalkStart, walks: Sequence[
         nodes[a:b, : n.shape[1]], headings[a:b, : n.shape[1]], n_nodes[a:b] = n, h, n.shape[1]
         sway_shift, grow = body.sway(T)
         period[a:b], shift[a:b], needed[a:b] = T, sway_shift, body.robot.body_radius + body.margin + grow
-    status = np.empty(rows, dtype=np.int64)
     blocked_at = np.empty(rows)
-    kernels.walks_free(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
-                       float(start.body[1]), nodes, headings, n_nodes, int(start.side), period,
-                       _fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius), shift, needed,
-                       *pred.kernel_shapes, pred.kernel_radius, pred.kernel_horizon, grid, float(low[0]),
-                       float(low[1]), float(res), status, blocked_at)
-    out = [blocked_at[a:b] for a, b in zip(first[:-1], first[1:])]
-    for (n, h), T, times, st in zip(walks, periods, out, np.split(status, first[1:-1])):
-        undecided = np.flatnonzero(st == 2)
-        if undecided.size:
-            times[undecided] = walks_survival_numpy(body, start, n[undecided], h[undecided], T, edge_samples, goal,
-                                                    goal_radius)
-    return out
+    kernels.walks_survival(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
+                           float(start.body[1]), nodes, headings, n_nodes, int(start.side), period,
+                           _fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius), shift,
+                           needed, *pred.kernel_shapes, pred.kernel_radius, pred.kernel_horizon, blocked_at)
+    return [blocked_at[a:b] for a, b in zip(first[:-1], first[1:])]
 
 
 @functools.lru_cache(maxsize=8)

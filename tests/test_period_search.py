@@ -185,8 +185,8 @@ def test_centred_scan_takes_the_middle_of_the_free_window(lo, hi, iterations):
     """A crowd's window: too quick runs into the member ahead, too slow is caught from behind."""
     calls = []
     survival = window(lo, hi)
-    res = centred_free_period(lambda Ts: [calls.append(T) or survival(T) for T in Ts], T0, TN, iterations)
     grid = np.linspace(T0, TN, 2 ** iterations + 1)
+    res = centred_free_period(lambda Ts: [calls.append(T) or survival(T) for T in Ts], grid)
     inside = grid[(grid >= lo) & (grid <= hi)]
     assert res.any_free and res.evaluations == len(calls) == grid.size
     np.testing.assert_allclose(sorted(calls), grid)
@@ -200,7 +200,7 @@ def test_centred_scan_takes_the_middle_of_the_free_window(lo, hi, iterations):
 def test_centred_scan_keeps_to_the_window_of_the_longest_free_period():
     """Two windows: the one that holds the longest free period is taken, as the bisection would."""
     survival = lambda T: math.inf if (0.3 <= T <= 0.35 or 0.6 <= T <= 0.7) else 2.0  # noqa: E731
-    res = centred_free_period(lambda Ts: [survival(T) for T in Ts], T0, TN, 4)
+    res = centred_free_period(lambda Ts: [survival(T) for T in Ts], np.linspace(T0, TN, 17))
     assert 0.6 <= res.period <= 0.7
     # where the bisection, whose predicate is assumed monotone, ends at the window's edge
     assert longest_free_period(lambda T: math.isfinite(survival(T)), T0, TN, 4).period != res.period
@@ -209,7 +209,7 @@ def test_centred_scan_keeps_to_the_window_of_the_longest_free_period():
 @pytest.mark.parametrize("blocked_at", [1.0, lambda T: 3.0 * T, lambda T: 5.0 - T])
 def test_centred_scan_with_nothing_free_walks_as_fast_as_allowed(blocked_at):
     survival = window(2.0, 3.0, blocked_at)
-    res = centred_free_period(lambda Ts: [survival(T) for T in Ts], T0, TN, 4)
+    res = centred_free_period(lambda Ts: [survival(T) for T in Ts], np.linspace(T0, TN, 17))
     assert res.period == T0 and not res.any_free and not res.nominal_free
 
 
@@ -233,3 +233,21 @@ def test_stride_windows_of_a_scan_match_the_scalar_lipm(start_period):
         want = (strides[ok.index(True)], strides[len(ok) - 1 - ok[::-1].index(True)]) if any(ok) else None
         assert window == (pytest.approx(want) if want is not None else None), (T, window, want)
     assert any(w is None or w != (0.0, 0.1) for w in got)  # the LIPM limits some period from this state
+
+
+def test_centred_scan_rejects_a_grid_that_is_not_ascending():
+    with pytest.raises(ValueError, match="ascending"):
+        centred_free_period(lambda Ts: [math.inf] * len(Ts), np.array([0.8, 0.3]))
+    with pytest.raises(ValueError, match="non-empty"):
+        centred_free_period(lambda Ts: [], np.array([]))
+
+
+def test_the_stage_scans_the_configured_periods_from_the_reachable_floor(crossing_start):
+    """``scan_periods`` periods from the LIPM's floor to T_n, every one asked once."""
+    robot, snap, start = crossing_start
+    config = load_planner_config()
+    choice = PeriodSearch(robot, config)(snap, start, Closes(np.inf))
+    assert choice.evaluations == config.period_search.scan_periods
+    assert choice.any_free and choice.nominal_free
+    grid = np.linspace(choice.floor, TN, config.period_search.scan_periods)
+    assert choice.period == pytest.approx(grid[(grid.size) // 2])  # all free: the middle of the whole range

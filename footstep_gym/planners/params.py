@@ -62,6 +62,7 @@ class PeriodSearchParams:
 
     t0_s: float = positive()  # [s] shortest period T0 the search may return
     iterations: int = positive()  # N: resolution (T_n - T0) / 2**N
+    scan_periods: int = positive()  # periods the centred scan tries between T0 and T_n (additions.centred_period)
     floor_grid: int = positive()  # periods tried for the shortest period reachable in one step
     stride_grid: int = positive()  # strides tried for the first step's feasible stride window
     rollout_lane_offsets_m: list = plain()  # [m] rollout lanes beside the straight line to the goal
@@ -86,7 +87,7 @@ class PeriodSearchParams:
                               f"got {self.rollout_wait_steps}")
         if self.rollout_depth_slack < 1:
             raise ConfigError(f"period_search.rollout_depth_slack must be >= 1, got {self.rollout_depth_slack}")
-        for name in ("floor_grid", "stride_grid", "fan_directions"):
+        for name in ("scan_periods", "floor_grid", "stride_grid", "fan_directions"):
             if getattr(self, name) < 2:
                 raise ConfigError(f"period_search.{name} must be >= 2, got {getattr(self, name)}")
 

@@ -89,38 +89,29 @@ def longest_free_period(collides: Callable[[float], bool], t_short: float, t_nom
     return PeriodSearchResult(lo, False, True, 2 + iterations)
 
 
-def period_grid(t_short: float, t_nominal: float, iterations: int) -> np.ndarray:
-    """The ``2**iterations + 1`` periods [s] :func:`centred_free_period` tries (the bisection's resolution)."""
-    return np.linspace(t_short, t_nominal, 2 ** iterations + 1)
-
-
-def centred_free_period(survivals: Callable[[np.ndarray], np.ndarray], t_short: float, t_nominal: float,
-                        iterations: int) -> PeriodSearchResult:
-    """The middle of the range of free periods in ``[t_short, t_nominal]`` (switch ``additions.centred_period``).
+def centred_free_period(survivals: Callable[[np.ndarray], np.ndarray], periods: np.ndarray) -> PeriodSearchResult:
+    """The middle of the window of free periods among ``periods`` [s] (ascending; switch ``additions.centred_period``).
 
     ``survivals(periods)`` [s] is how long the best walk at each period stays free (``inf``: free),
-    asked once for all the periods tried: a grid of ``2**iterations + 1`` (the bisection's resolution). Among
-    moving obstacles "free" need not be monotone in ``T``: in a crowd that walks with the robot,
-    walks that are too quick run into the member ahead and walks that are too slow are caught
-    from behind, so the free periods form a window whose *longest* end (the bisection's answer)
-    is its edge, where any prediction error is a collision. The middle of the window that holds
-    the longest free period is as far from both edges as the grid allows; the door and the
-    crossing, whose window reaches down to ``t_short``, then walk a little quicker than they must.
-    With no free period: the one whose best walk stays free longest (ties: the longest), rather
-    than ``t_short``.
+    asked once for all of them. Among moving obstacles "free" need not be monotone in ``T``: in a
+    crowd that walks with the robot, walks that are too quick run into the member ahead and walks
+    that are too slow are caught from behind, so the free periods form a window whose *longest*
+    end (the bisection's answer) is its edge, where any prediction error is a collision. The middle
+    of the window that holds the longest free period is as far from both edges as the grid allows;
+    the door and the crossing, whose window reaches down to the shortest period, then walk a
+    little quicker than they must. With no free period: the shortest, as the bisection.
     """
-    if t_short > t_nominal:
-        raise ValueError(f"t_short={t_short} must not exceed t_nominal={t_nominal}")
-    grid = period_grid(t_short, t_nominal, iterations)
-    alive = np.asarray(survivals(grid), dtype=float)
-    free = np.isinf(alive)
+    periods = np.asarray(periods, dtype=float)
+    if periods.ndim != 1 or periods.size == 0 or np.any(np.diff(periods) < 0):
+        raise ValueError(f"periods must be a non-empty ascending 1-D array, got {periods!r}")
+    free = np.isinf(np.asarray(survivals(periods), dtype=float))
     if not free.any():
-        return PeriodSearchResult(float(grid[0]), False, False, grid.size)
+        return PeriodSearchResult(float(periods[0]), False, False, periods.size)
     hi = int(np.flatnonzero(free)[-1])
     lo = hi
     while lo > 0 and free[lo - 1]:
         lo -= 1
-    return PeriodSearchResult(float(grid[(lo + hi + 1) // 2]), bool(free[-1]), True, grid.size)
+    return PeriodSearchResult(float(periods[(lo + hi + 1) // 2]), bool(free[-1]), True, periods.size)
 
 
 def shortest_feasible_period(robot: Robot, com_local: Sequence[float], vel_local: Sequence[float],
@@ -213,6 +204,7 @@ class PeriodSearch:
         self.vary_period = vary_period
         self.t0 = min(ps.t0_s, robot.nominal_period)
         self.iterations = ps.iterations
+        self.scan_periods = ps.scan_periods
         self.floor_grid = ps.floor_grid
         self.stride_grid = ps.stride_grid
         self.step_size = config.rrt.step_size_m
@@ -307,8 +299,9 @@ class PeriodSearch:
         else:
             floor = self.t0
         if self.centred_period:
-            self.remember_stride_windows(snapshot, period_grid(floor, t_n, self.iterations))
-            result = centred_free_period(walks.survivals, floor, t_n, self.iterations)
+            periods = np.linspace(floor, t_n, self.scan_periods)
+            self.remember_stride_windows(snapshot, periods)
+            result = centred_free_period(walks.survivals, periods)
         else:
             result = longest_free_period(walks, floor, t_n, self.iterations)
         free_walks = tuple(walks.free_walks(result.period)) if result.any_free else ()

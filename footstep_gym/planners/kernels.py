@@ -25,6 +25,26 @@ import numba
 import numpy as np
 
 
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _gap2(x: float, y: float, t: float, q: int, pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray,
+          vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray, a_y: np.ndarray,
+          ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray) -> float:
+    """Squared distance [m^2] from ``(x, y)`` to shape ``q``'s centre line at time ``t`` [s]: the body-frame
+    segment ``a``..``a + ab`` rotated by ``angle + omega t`` and carried by ``pos + vel t``."""
+    ang = angle[q] + omega[q] * t
+    c, sn = math.cos(ang), math.sin(ang)
+    ox = pos_x[q] + vel_x[q] * t + (c * a_x[q] - sn * a_y[q])
+    oy = pos_y[q] + vel_y[q] * t + (sn * a_x[q] + c * a_y[q])
+    apx, apy = x - ox, y - oy
+    bx = c * ab_x[q] - sn * ab_y[q]
+    by = sn * ab_x[q] + c * ab_y[q]
+    u = 0.0
+    if ab2[q] > 0:
+        u = min(max((apx * bx + apy * by) / ab2[q], 0.0), 1.0)
+    dx, dy = apx - u * bx, apy - u * by
+    return dx * dx + dy * dy
+
+
 @numba.njit(cache=True, fastmath=False)
 def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, pos_x: np.ndarray, pos_y: np.ndarray,
                 vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray,
@@ -44,19 +64,7 @@ def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, pos_x: np.ndarray
         for s in range(n_shapes):
             if ti > horizon[s]:
                 continue
-            ang = angle[s] + omega[s] * ti
-            c, sn = math.cos(ang), math.sin(ang)
-            ox = pos_x[s] + vel_x[s] * ti + (c * a_x[s] - sn * a_y[s])
-            oy = pos_y[s] + vel_y[s] * ti + (sn * a_x[s] + c * a_y[s])
-            apx, apy = x - ox, y - oy
-            bx = c * ab_x[s] - sn * ab_y[s]
-            by = sn * ab_x[s] + c * ab_y[s]
-            u = 0.0
-            if ab2[s] > 0:
-                u = (apx * bx + apy * by) / ab2[s]
-                u = min(max(u, 0.0), 1.0)
-            dx, dy = apx - u * bx, apy - u * by
-            if dx * dx + dy * dy < need2[s]:
+            if _gap2(x, y, ti, s, pos_x, pos_y, vel_x, vel_y, angle, omega, a_x, a_y, ab_x, ab_y, ab2) < need2[s]:
                 ok = False
                 break
         out[i] = ok
@@ -163,19 +171,9 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
                 for q in range(n_shapes):
                     if ti > horizon[q]:
                         continue
-                    ang = angle[q] + omega[q] * ti
-                    c, sn = math.cos(ang), math.sin(ang)
-                    ox = pos_x[q] + vel_x[q] * ti + (c * a_x[q] - sn * a_y[q])
-                    oy = pos_y[q] + vel_y[q] * ti + (sn * a_x[q] + c * a_y[q])
-                    apx, apy = x - ox, y - oy
-                    ux = c * ab_x[q] - sn * ab_y[q]
-                    uy = sn * ab_x[q] + c * ab_y[q]
-                    u = 0.0
-                    if ab2[q] > 0:
-                        u = min(max((apx * ux + apy * uy) / ab2[q], 0.0), 1.0)
-                    dx, dy = apx - u * ux, apy - u * uy
                     lim = radius[q] + walk_needed
-                    if dx * dx + dy * dy < lim * lim:
+                    if _gap2(x, y, ti, q, pos_x, pos_y, vel_x, vel_y, angle, omega, a_x, a_y, ab_x, ab_y,
+                             ab2) < lim * lim:
                         blocked_at[r] = ti
                         break
                 if blocked_at[r] < np.inf:

@@ -36,9 +36,10 @@ Our additions, each a switch of ``configs/planner.yaml`` (section ``additions``)
   one-step check;
 * ``waiting_walks``: only if no period lets the robot go on at full stride, the search
   is repeated with walks that slow down or first step in place (let the obstacle pass);
-* ``centred_period``: :func:`centred_free_period` instead of the bisection: the middle of the
-  window of free periods rather than its longest end (a crowd closes in from behind on a
-  robot that walks at the edge of the window), and the longest-surviving period when none is free.
+* ``centred_period``: :func:`centred_free_period` instead of the bisection: a scan of
+  ``scan_periods`` periods whose answer is the middle of the window of free periods rather
+  than its longest end (a crowd closes in from behind on a robot that walks at the edge of
+  the window).
 """
 
 from __future__ import annotations

@@ -223,7 +223,7 @@ class FootstepEnv(gym.Env):
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
 
         self.world: World | None = None
-        self._static_config = None  # the episode config the world's walls were built for
+        self._static_key = None  # what the world's walls were built for (Scenario.static_key)
         self.scenario: Scenario | None = None
         self.episode_config = self.scenario_config
         self._renderer = None
@@ -284,13 +284,14 @@ class FootstepEnv(gym.Env):
         self._reset_state()
         env_cfg = self.config
         self.scenario = self._scenario_cls(cfg, rng)
-        if self.world is not None and cfg == self._static_config:
+        static_key = self._scenario_cls.static_key(cfg)
+        if self.world is not None and static_key == self._static_key:
             self.world.clear_moving()  # the walls of the last episode are this one's
         else:
             self.world = World(self.robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
                                env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks)
             self.scenario.build_static(self.world)
-            self._static_config = cfg
+            self._static_key = static_key
         self.scenario.build(self.world)
 
         jitter = cfg.start_jitter * rng.uniform(-1.0, 1.0, 2)

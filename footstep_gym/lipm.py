@@ -182,13 +182,12 @@ def _kinematically_feasible_scalar(robot: Robot, S: float, L: float, theta: floa
     """
     eps = 1e-9
     turn = robot.turn_limit
-    for v, lo, hi in ((S, robot.stride_front[0], robot.stride_front[1]),
-                      (L, robot.stride_side[0], robot.stride_side[1]),
-                      (theta, -turn, turn),
-                      (t_ss, robot.t_ss[0], robot.t_ss[1]),
-                      (t_ds, robot.t_ds[0], robot.t_ds[1])):
-        if not (v >= lo - eps and v <= hi + eps):  # NaN fails here too
-            return False
+    if not (S >= robot.stride_front[0] - eps and S <= robot.stride_front[1] + eps  # NaN fails here too
+            and L >= robot.stride_side[0] - eps and L <= robot.stride_side[1] + eps
+            and theta >= -turn - eps and theta <= turn + eps
+            and t_ss >= robot.t_ss[0] - eps and t_ss <= robot.t_ss[1] + eps
+            and t_ds >= robot.t_ds[0] - eps and t_ds <= robot.t_ds[1] + eps):
+        return False
     if support_side < 0:  # swing foot is the left one: turning away (theta > 0) is the outer angle
         lo, hi = -robot.turn_inner, robot.turn_outer
     else:

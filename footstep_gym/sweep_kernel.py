@@ -37,8 +37,8 @@ MOVING_CIRCLE = 2  # column 6: r (the circle sits on its body's origin)
 # Indices of the float parameters (one array, one argument).
 P_W, P_T_SS, P_END = 0, 1, 2
 P_P, P_PD, P_PDW, P_A_XI, P_A_ETA, P_B_XI, P_B_ETA, P_ORIGIN, P_ROT = 3, 5, 7, 9, 11, 13, 15, 17, 19  # complex: 2 each
-P_DURATION, P_SPEED, P_RADIUS, P_FINE, P_SLACK, P_JUMP = 21, 22, 23, 24, 25, 26
-N_PARAMS = 27
+P_DURATION, P_SPEED, P_RADIUS, P_FINE, P_SLACK, P_END_X, P_END_Y = 21, 22, 23, 24, 25, 26, 27
+N_PARAMS = 28
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -111,9 +111,10 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
     shape ``j``'s distance at ``t`` from below (less ``slack``), updated in place;
     ``candidates`` (its first n_candidates entries) the shapes that can matter. ``ival``:
     [checks, last, hit, advanced, given, n_candidates, prepare]; ``fval``: [t, nearest, world
-    time, dist, point x, point y]. ``prepare`` = 1 on a sweep's first call: the keys are the
-    last sweep's bounds at its end (or -inf), less ``prm[P_JUMP]`` (how far the robot moved
-    since) and each body's ``states[:, 6]``, and the candidates are chosen. ``given`` = 2: stop
+    time, dist, point x, point y]. ``prepare`` on a sweep's first call: 2 when the keys are the
+    last sweep's bounds at its end, at the point ``prm[P_END_X, P_END_Y]``, less how far the
+    robot moved since and each body's ``states[:, 6]``; 1 when they are all -inf. Then the
+    candidates are chosen. On :data:`DONE` the keys become bounds at the sweep's end. ``given`` = 2: stop
     at the first check for pymunk's answer; 1: the check at ``t`` takes ``(dist, hit)`` from
     ``fval[3]`` / ``ival[2]``. On return, ``t``, the point and the check's ``dist`` / ``hit`` say
     where it stopped.
@@ -122,9 +123,12 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
     checks, last, given, n_cand = ival[0], ival[1], ival[4], ival[5]
     t, nearest, world_time = fval[0], fval[1], fval[2]
     n_movers = states.shape[0]
-    if ival[6] == 1:  # first call of a sweep: the carried bounds, less what moved since; the candidates
+    if ival[6] > 0:  # first call of a sweep: the carried bounds, less what moved since; the candidates
+        jump = 0.0
+        if ival[6] == 2:  # bounds carried from the point (P_END_X, P_END_Y)
+            x0, y0 = _path(0.0, prm)
+            jump = math.hypot(x0 - prm[P_END_X], y0 - prm[P_END_Y]) + slack
         ival[6] = 0
-        jump = prm[P_JUMP]
         reach = radius + speed * duration + 1e-9 + slack
         n_cand = 0
         for j in range(rows.shape[0]):
@@ -209,4 +213,8 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
         t = duration if dt >= remaining else t + dt
     ival[0], ival[1], ival[2], ival[4] = checks, last, hit, given
     fval[0], fval[1], fval[2], fval[3], fval[4], fval[5] = t, nearest, world_time, dist, qx, qy
+    if status == DONE:  # what the next sweep starts from: each shape's bound at the end
+        cut = speed * t + slack
+        for j in range(keys.size):
+            keys[j] -= cut
     return status

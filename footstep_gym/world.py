@@ -98,10 +98,6 @@ class Obstacle:
         return self._reach
 
 
-def _first(entry: tuple) -> float:
-    return entry[0]
-
-
 class SweepResult(NamedTuple):
     """Outcome of one footstep's sweep: ``collided``, its time [s] from the step start, the shape's name,
     the number of checks, and whether ``max_checks`` spaced them wider than the rule (``capped``).
@@ -232,22 +228,12 @@ class World:
         the query's per-shape Python callback was half the cost of an env step.
         """
         px, py = point
-        hypot, cos, sin = math.hypot, math.cos, math.sin
-        near = []  # (gap, obstacle, body or None, body origin, nearest point of the centre line, offset to it, its length)
-        for o, static in self._geometry():
-            radius = o.radius
-            if static is not None:  # on the space's static body: its frame is the world's, its numbers fixed
-                ax, ay, dx, dy, L2 = static
-                body, origin = None, None
-            else:
-                body = o.body
-                origin, angle = body.position, body.angle
-                ox, oy = origin
-                c, s = cos(angle), sin(angle)
-                ax, ay = ox + c * o.local_a[0] - s * o.local_a[1], oy + s * o.local_a[0] + c * o.local_a[1]
-                bx, by = ox + c * o.local_b[0] - s * o.local_b[1], oy + s * o.local_b[0] + c * o.local_b[1]
-                dx, dy = bx - ax, by - ay
-                L2 = dx * dx + dy * dy
+        hypot = math.hypot
+        statics, movers = self._geometry()
+        # (gap, index, obstacle, body or None, body origin, nearest point of the centre line, offset to it, its
+        # length); sorted by (gap, index): by gap, ties in the obstacles' order.
+        near = []
+        for i, o, ax, ay, dx, dy, L2, radius in statics:  # on the static body: the frame is the world's
             if L2 == 0.0:
                 u = 0.0
             else:  # min(max(u, 0), 1)
@@ -259,12 +245,34 @@ class World:
             qx, qy = ax + u * dx, ay + u * dy  # nearest point of the centre line
             nx, ny = px - qx, py - qy
             d = hypot(nx, ny)
-            if d - radius > max_distance:
-                continue
-            near.append((d - radius, o, body, origin, qx, qy, nx, ny, d))
-        near.sort(key=_first)
+            if not d - radius > max_distance:
+                near.append((d - radius, i, o, None, None, qx, qy, nx, ny, d))
+        for i, o in movers:
+            radius = o.radius
+            body = o.body
+            origin, angle = body.position, body.angle
+            ox, oy = origin
+            c, s = math.cos(angle), math.sin(angle)
+            ax, ay = ox + c * o.local_a[0] - s * o.local_a[1], oy + s * o.local_a[0] + c * o.local_a[1]
+            bx, by = ox + c * o.local_b[0] - s * o.local_b[1], oy + s * o.local_b[0] + c * o.local_b[1]
+            dx, dy = bx - ax, by - ay
+            L2 = dx * dx + dy * dy
+            if L2 == 0.0:
+                u = 0.0
+            else:
+                u = ((px - ax) * dx + (py - ay) * dy) / L2
+                if 0.0 > u:
+                    u = 0.0
+                if 1.0 < u:
+                    u = 1.0
+            qx, qy = ax + u * dx, ay + u * dy
+            nx, ny = px - qx, py - qy
+            d = hypot(nx, ny)
+            if not d - radius > max_distance:
+                near.append((d - radius, i, o, body, origin, qx, qy, nx, ny, d))
+        near.sort()  # by (gap, index): the index is unique, so nothing further is compared
         found = []
-        for gap, o, body, origin, qx, qy, nx, ny, d in near[:k]:  # the closest point and its velocity: k shapes only
+        for gap, _, o, body, origin, qx, qy, nx, ny, d in near[:k]:  # the closest point and its velocity: k only
             radius = o.radius
             if d > 0.0:
                 cp = (qx + radius * nx / d, qy + radius * ny / d)
@@ -280,21 +288,21 @@ class World:
             found.append((gap, cp, v, o))
         return found
 
-    def _geometry(self) -> list[tuple[Obstacle, tuple[float, float, float, float, float] | None]]:
-        """Every obstacle with, for a static one, its centre line's fixed numbers ``(ax, ay, dx, dy, |d|^2)``.
-
-        Rebuilt after the obstacles change (:meth:`_add`, :meth:`clear_moving`).
+    def _geometry(self) -> tuple[list[tuple], list[tuple[int, Obstacle]]]:
+        """``(statics, movers)``: each static obstacle as ``(index, obstacle, ax, ay, dx, dy, |d|^2, radius)``
+        (its centre line's fixed numbers) and each moving one as ``(index, obstacle)``, index in
+        :attr:`obstacles`. Rebuilt after the obstacles change (:meth:`_add`, :meth:`clear_moving`).
         """
         if self._geometry_cache is None:
-            rows = []
-            for o in self.obstacles:
-                static = None
+            statics, movers = [], []
+            for i, o in enumerate(self.obstacles):
                 if o.static:
                     (ax, ay), (bx, by) = o.local_a, o.local_b
                     dx, dy = bx - ax, by - ay
-                    static = (ax, ay, dx, dy, dx * dx + dy * dy)
-                rows.append((o, static))
-            self._geometry_cache = rows
+                    statics.append((i, o, ax, ay, dx, dy, dx * dx + dy * dy, o.radius))
+                else:
+                    movers.append((i, o))
+            self._geometry_cache = (statics, movers)
         return self._geometry_cache
 
     def views(self) -> tuple[ObstacleView, ...]:
@@ -343,14 +351,18 @@ class World:
             self._buffers = (np.empty(n, dtype=np.int64), np.zeros(7, dtype=np.int64), np.zeros(6))
         return self._sweep_rows
 
-    def _write_back(self, states: list[list[float]]) -> None:
+    def _write_back(self, states: list[list[float]], read: list[list[float]]) -> None:
         """Set the moving bodies to the sweep's ``states`` and let pymunk cache their shapes there
-        (what ``Space.step`` leaves behind)."""
+        (what ``Space.step`` leaves behind). ``read``: the states read at the sweep's start; a
+        position or angle that cannot have changed is not written (a zero never is skipped: pymunk's
+        ``x + 0 dt`` turns -0.0 into 0.0)."""
         reindex = self.space.reindex_shapes_for_body
-        for o, st in zip(self._moving, states):
+        for o, st, r in zip(self._moving, states, read):
             body = o.body
-            _SET_POSITION(body, (st[0], st[1]))
-            _SET_ANGLE(body, st[2])
+            if r[3] != 0.0 or r[4] != 0.0 or r[0] == 0.0 or r[1] == 0.0:
+                _SET_POSITION(body, (st[0], st[1]))
+            if r[5] != 0.0 or r[2] == 0.0:
+                _SET_ANGLE(body, st[2])
             reindex(body)
         self._cached_states = [(st[0], st[1], st[2]) for st in states]
 
@@ -381,23 +393,27 @@ class World:
         speed, fine, capped = self._spacing(duration, robot_speed_bound, obstacle_speed)
         cached = self._cached_states
         # Pymunk's shapes sit where their bodies are (else the first check asks pymunk, which sees the cached places).
-        fresh = cached is not None and len(cached) == len(states) and all(
-            c[0] == st[0] and c[1] == st[1] and c[2] == st[2] for c, st in zip(cached, states))
-        table, row_of = self._table()
+        fresh = cached is not None and len(cached) == len(states)
+        if fresh:
+            for c, st in zip(cached, states):
+                if c[0] != st[0] or c[1] != st[1] or c[2] != st[2]:
+                    fresh = False
+                    break
+        if self._sweep_rows is None:
+            self._table()
+        table, row_of = self._sweep_rows
         candidates, ival, fval = self._buffers
         carry, self._carry = self._carry, None
         if carry is not None and carry[0] is table:
-            # The last sweep's bounds at its end, less how far the robot and each body moved since.
+            # The last sweep's bounds at its end (less how far the robot and each body moved since: the kernel).
             _, keys, (ex, ey), ends, last = carry
-            first = path(0.0)
-            jump = math.hypot(first[0] - ex, first[1] - ey) + _BOUND_SLACK
             for o, st, e in zip(self._moving, states, ends):
                 st[6] = math.hypot(st[0] - e[0], st[1] - e[1]) + abs(st[2] - e[2]) * o._reach + _BOUND_SLACK
         else:
-            keys, jump, last = np.full(len(table), -math.inf), 0.0, 0
-        prm = np.array(params + [duration, speed, radius, fine, _BOUND_SLACK, jump])
+            keys, ex, ey, last = np.full(len(table), -math.inf), 0.0, 0.0, 0
+        prm = np.array(params + [duration, speed, radius, fine, _BOUND_SLACK, ex, ey])
         st_arr = np.array(states) if states else np.zeros((0, 7))
-        ival[:] = (0, last, -1, 0, 0 if fresh else 2, 0, 1)
+        ival[:] = (0, last, -1, 0, 0 if fresh else 2, 0, 1 if carry is None or carry[0] is not table else 2)
         fval[:] = (0.0, math.inf, self.time, 0.0, 0.0, 0.0)
         obstacles = self.obstacles
         while True:
@@ -407,20 +423,19 @@ class World:
             # Pymunk answers: a contact (for its shape's name), or a first check against shapes it cached elsewhere.
             t, px, py = fval[0], fval[4], fval[5]
             if ival[3]:
-                self._write_back(st_arr.tolist())
+                self._write_back(st_arr.tolist(), states)
             dist, hit = self.clearance((float(px), float(py)), radius + speed * (duration - t) + 1e-9)
             ival[4], ival[2], fval[3] = 1, -1 if hit is None else row_of[id(hit)], dist
         t, nearest, self.time, dist, px, py = fval.tolist()
         final = st_arr.tolist()
         if ival[3]:
-            self._write_back(final)
+            self._write_back(final, states)
         checks = int(ival[0])
         if status == kernel.COLLIDED:
             self.robot_body.position = (px, py)
             return SweepResult(True, t, obstacles[int(ival[2])].name, checks, dist - radius, capped)
         end = (px, py) if t == duration else path(duration)
         _SET_POSITION(self.robot_body, end)
-        keys -= speed * t + _BOUND_SLACK  # bounds of each shape's distance at the end
         self._carry = (table, keys, end, [(st[0], st[1], st[2]) for st in final], int(ival[1]))
         return SweepResult(False, duration, None, checks, nearest - radius, capped)
 

@@ -40,7 +40,6 @@ import argparse
 import bisect
 import json
 import math
-import os
 import subprocess
 import sys
 import tempfile

@@ -109,15 +109,19 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
     ``states`` (movers, 7): x, y, angle, vx + 0, vy + 0, w + 0 (moved in place) and how far the
     body may have moved since the carried bounds were taken. ``keys[j] - speed * t`` bounds
     shape ``j``'s distance at ``t`` from below (less ``slack``), updated in place;
-    ``candidates`` (its first n_candidates entries) the shapes that can matter. ``ival``:
-    [checks, last, hit, advanced, given, n_candidates, prepare]; ``fval``: [t, nearest, world
-    time, dist, point x, point y]. ``prepare`` on a sweep's first call: 2 when the keys are the
-    last sweep's bounds at its end, at the point ``prm[P_END_X, P_END_Y]``, less how far the
-    robot moved since and each body's ``states[:, 6]``; 1 when they are all -inf. Then the
-    candidates are chosen. On :data:`DONE` the keys become bounds at the sweep's end. ``given`` = 2: stop
-    at the first check for pymunk's answer; 1: the check at ``t`` takes ``(dist, hit)`` from
-    ``fval[3]`` / ``ival[2]``. On return, ``t``, the point and the check's ``dist`` / ``hit`` say
-    where it stopped.
+    ``candidates`` (its first n_candidates entries) are the shapes that can matter.
+
+    ``ival``: [checks, last, hit, advanced, given, n_candidates, prepare]; ``fval``: [t,
+    nearest, world time, dist, point x, point y].
+
+    * ``prepare`` (a sweep's first call): 2 when the keys are the last sweep's bounds at its end,
+      at the point ``prm[P_END_X], prm[P_END_Y]`` (they lose how far the robot moved since and
+      each body's ``states[:, 6]``), 1 when they are all -inf; then the candidates are chosen.
+    * ``given``: 2 stops at the first check for pymunk's answer; 1 makes the check at ``t`` take
+      ``(dist, hit)`` from ``fval[3]`` / ``ival[2]``.
+
+    On return ``t``, the point and the check's ``dist`` / ``hit`` say where it stopped; on
+    :data:`DONE` the keys are bounds at the sweep's end.
     """
     duration, speed, radius, fine, slack = prm[P_DURATION], prm[P_SPEED], prm[P_RADIUS], prm[P_FINE], prm[P_SLACK]
     checks, last, given, n_cand = ival[0], ival[1], ival[4], ival[5]

@@ -36,6 +36,7 @@ class EnvConfig:
     collision_slop: float = positive()  # [m]
     max_check_interval: float = positive()  # [s]
     collision_motion_fraction: float = positive()
+    compiled_sweep: bool = plain()  # the sweep's checks compiled (numba) or asked of pymunk one by one; same answers
     max_sweep_checks: int = positive()  # collision checks per footstep at most (bounds a step's cost)
     reward_progress: float = plain()  # per m
     reward_time: float = plain()  # per s
@@ -289,7 +290,8 @@ class FootstepEnv(gym.Env):
             self.world.clear_moving()  # the walls of the last episode are this one's
         else:
             self.world = World(self.robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
-                               env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks)
+                               env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks,
+                               compiled=env_cfg.compiled_sweep)
             self.scenario.build_static(self.world)
             self._static_key = static_key
         self.scenario.build(self.world)

@@ -34,8 +34,10 @@ less how far the robot and each body moved in between). Pymunk's own query still
 contact (for the name of the shape hit) and the first check of a sweep when a body was moved
 since pymunk last cached its shapes (the crowd sets its members' positions before each step;
 pymunk's query then sees the cached places, so the sweep does too). Any other path runs
-:meth:`World.sweep_pymunk`, the plain loop that asks pymunk at every check and steps its space;
-``tests/test_world.py`` checks the compiled sweep against it at random configurations.
+:meth:`World.sweep_pymunk`, the plain loop that asks pymunk at every check and steps its space
+(so does every path of a world made with ``compiled=False``: the env's ``compiled_sweep``
+setting, for a process that should not load numba); ``tests/test_world.py`` checks the
+compiled sweep against it at random configurations.
 """
 
 from __future__ import annotations
@@ -121,7 +123,7 @@ class World:
     """A pymunk space holding the obstacles and the robot's body circle."""
 
     def __init__(self, robot_radius: float, collision_slop: float, max_check_interval: float,
-                 motion_fraction: float, max_checks: int) -> None:
+                 motion_fraction: float, max_checks: int, compiled: bool = True) -> None:
         if not (isinstance(max_checks, int) and max_checks >= 1):
             raise ValueError(f"max_checks must be an integer >= 1, got {max_checks!r}")
         self.space = pymunk.Space()
@@ -130,6 +132,7 @@ class World:
         self.max_check_interval = max_check_interval
         self.motion_fraction = motion_fraction
         self.max_checks = max_checks
+        self.compiled = compiled  # sweep() runs a WorldPath's checks compiled; else sweep_pymunk
         self._warned_cap = False
         self._geometry_cache: list | None = None  # see _geometry()
         self._sweep_rows: list | None = None  # see _rows()
@@ -373,9 +376,10 @@ class World:
         Stops at the first contact (the world is then at that time). ``robot_speed_bound``
         [m/s] must bound the robot's speed over the step. At most ``max_checks`` + 1 checks
         (see the module's docstring). A :class:`footstep_gym.lipm.WorldPath` (the env's) runs the
-        compiled loop; any other callable the plain pymunk loop, :meth:`sweep_pymunk`.
+        compiled loop (unless the world was made with ``compiled=False``); any other callable the
+        plain pymunk loop, :meth:`sweep_pymunk`.
         """
-        params = getattr(path, "sweep_params", None)
+        params = getattr(path, "sweep_params", None) if self.compiled else None
         if params is None:
             return self.sweep_pymunk(path, duration, robot_speed_bound)
         kernel = _sweep_kernel()

@@ -741,6 +741,29 @@ def test_walls_kept_across_randomized_speeds_replay_fresh_envs():
                 break
 
 
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_compiled_sweep_off_gives_the_same_episodes(env_id):
+    """``compiled_sweep=False`` (pymunk at every check, no numba) changes the cost of a step, not its outcome."""
+    rng = np.random.default_rng(5)
+    actions = [NOMINAL + rng.normal(0.0, 0.01, 5) * [1, 0.3, 1, 1, 0.5] for _ in range(60)]
+    runs = []
+    for compiled in (True, False):
+        env = gym.make(env_id, compiled_sweep=compiled)
+        assert env.unwrapped.config.compiled_sweep is compiled
+        out = [env.reset(seed=2)[0]]
+        for a in actions:
+            obs, reward, terminated, truncated, info = env.step(a)
+            out.append((obs.tolist(), reward, terminated, truncated, info["time"], info["clearance"], info["obstacle"]))
+            if terminated or truncated:
+                out.append(env.reset()[0])
+        runs.append(out)
+    assert str(runs[0]) == str(runs[1])
+    code = ("import sys, gymnasium as gym, footstep_gym; e = gym.make(%r, compiled_sweep=False); e.reset(seed=0); "
+            "[e.step(e.unwrapped.robot.nominal_command) for _ in range(3)]; print('numba' in sys.modules)" % env_id)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"  # such an env process never loads numba
+
+
 @pytest.mark.parametrize("scene", sorted(SCENARIOS))
 def test_static_keys_name_every_key_the_walls_read(scene):
     """Changing any key outside ``Scenario.static_keys`` leaves ``build_static``'s walls as they were."""

@@ -21,6 +21,7 @@ from footstep_gym.sensing import Snapshot
 from footstep_gym.world import World
 
 TERMINATIONS = ("goal", "collision", "fall")
+_FLOAT_DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
 
 
 @dataclass(frozen=True)
@@ -35,6 +36,7 @@ class EnvConfig:
     collision_slop: float = positive()  # [m]
     max_check_interval: float = positive()  # [s]
     collision_motion_fraction: float = positive()
+    compiled_sweep: bool = plain()  # the sweep's checks compiled (numba) or asked of pymunk one by one; same answers
     max_sweep_checks: int = positive()  # collision checks per footstep at most (bounds a step's cost)
     reward_progress: float = plain()  # per m
     reward_time: float = plain()  # per s
@@ -215,15 +217,14 @@ class FootstepEnv(gym.Env):
         turns = (-self.robot.turn_outer, -self.robot.turn_inner, self.robot.turn_inner, self.robot.turn_outer)
         self._limits64 = [np.array(sorted({lo, hi, *(turns if i == 2 else ())}))
                           for i, (lo, hi) in enumerate(zip(self._low64, self._high64))]
-        self._limits64_lists = [limits.tolist() for limits in self._limits64]
-        self._limits_rounded: dict[np.dtype, list[list[float]]] = {}  # per action dtype, see _validate_action
+        self._limits_rounded: dict[np.dtype, list[dict[float, float]]] = {}  # per action dtype, see _validate_action
         self._low_list, self._high_list = self._low64.tolist(), self._high64.tolist()
         self._span_list = (self._high64 - self._low64).tolist()
         n_obs = 12 + 5 * self.config.n_obstacles_observed
         self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
 
         self.world: World | None = None
-        self._static_config = None  # the episode config the world's walls were built for
+        self._static_key = None  # what the world's walls were built for (Scenario.static_key)
         self.scenario: Scenario | None = None
         self.episode_config = self.scenario_config
         self._renderer = None
@@ -237,7 +238,7 @@ class FootstepEnv(gym.Env):
         self.feet: dict[int, tuple[float, float, float]] = {}
         self.com = 0j
         self.com_vel = 0j
-        self.previous_command = self.robot.nominal_command.copy()
+        self._set_previous_command(self.robot.nominal_command.tolist())
         self.terminated = False
         self.ended: str | None = None  # why the episode ended ("fall", "truncated: max_steps=200"), None while under way
         self.history: dict[str, list] = {"footprints": [], "com": [], "zmp": []}
@@ -262,6 +263,18 @@ class FootstepEnv(gym.Env):
     def _goal_distance(self) -> float:
         return abs(self._centre() - complex(*self.episode_config.goal))
 
+    def _set_previous_command(self, command: list[float]) -> None:
+        """The last command applied and, for the observation, it mapped to [-1, 1] field by field (what
+        numpy's array expression gave, bit for bit)."""
+        self._previous = command
+        self._previous_scaled = [2.0 * (c - lo) / span - 1.0
+                                 for c, lo, span in zip(command, self._low_list, self._span_list)]
+
+    @property
+    def previous_command(self) -> np.ndarray:
+        """The last command applied ``[S, L, theta, T_SS, T_DS]`` (after clipping; the nominal one after reset)."""
+        return np.array(self._previous)
+
     # ------------------------------------------------------------------ API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[np.ndarray, dict[str, Any]]:
@@ -272,13 +285,15 @@ class FootstepEnv(gym.Env):
         self._reset_state()
         env_cfg = self.config
         self.scenario = self._scenario_cls(cfg, rng)
-        if self.world is not None and cfg == self._static_config:
+        static_key = self._scenario_cls.static_key(cfg)
+        if self.world is not None and static_key == self._static_key:
             self.world.clear_moving()  # the walls of the last episode are this one's
         else:
             self.world = World(self.robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
-                               env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks)
+                               env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks,
+                               compiled=env_cfg.compiled_sweep)
             self.scenario.build_static(self.world)
-            self._static_config = cfg
+            self._static_key = static_key
         self.scenario.build(self.world)
 
         jitter = cfg.start_jitter * rng.uniform(-1.0, 1.0, 2)
@@ -296,6 +311,7 @@ class FootstepEnv(gym.Env):
         for side in (RIGHT, LEFT):
             self.history["footprints"].append((self.feet[side], side))
         self.history["com"].append(_pair(self.com))
+        self._goal_dist = self._goal_distance()  # the next step's distance before it moves
 
         info = {
             "com": _pair(self.com), "com_vel": _pair(self.com_vel), "time": 0.0,
@@ -316,15 +332,19 @@ class FootstepEnv(gym.Env):
         Plain Python after the conversion: numpy's per-call cost on 5 numbers was a tenth
         of a step.
         """
-        try:
-            raw = np.asarray(action)
-            a = raw.astype(np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ActionError(f"{self.env_name}: action must be 5 numbers [S, L, theta, T_SS, T_DS], "
-                              f"got {action!r}") from exc
-        if a.shape != (5,):
-            raise ActionError(f"{self.env_name}: action shape={a.shape} but expected (5,) = [S, L, theta, T_SS, T_DS]")
-        values = a.tolist()
+        if type(action) is np.ndarray and action.shape == (5,) and action.dtype in _FLOAT_DTYPES:
+            raw, values = action, action.tolist()  # float32 and float64 convert to Python floats exactly
+        else:
+            try:
+                raw = np.asarray(action)
+                a = raw.astype(np.float64)
+            except (TypeError, ValueError) as exc:
+                raise ActionError(f"{self.env_name}: action must be 5 numbers [S, L, theta, T_SS, T_DS], "
+                                  f"got {action!r}") from exc
+            if a.shape != (5,):
+                raise ActionError(f"{self.env_name}: action shape={a.shape} but expected (5,) = "
+                                  "[S, L, theta, T_SS, T_DS]")
+            values = a.tolist()
         isfinite = math.isfinite
         if not (isfinite(values[0]) and isfinite(values[1]) and isfinite(values[2]) and isfinite(values[3])
                 and isfinite(values[4])):
@@ -335,15 +355,15 @@ class FootstepEnv(gym.Env):
             # Each limit rounded to the action's dtype, back in float64 (exactly): equal to the
             # action's field (exact in float64 too) exactly when equal in that dtype.
             rounded = self._limits_rounded.get(dtype)
-            if rounded is None:
-                rounded = self._limits_rounded[dtype] = [limits.astype(dtype).astype(np.float64).tolist()
-                                                         for limits in self._limits64]
-            for i in range(5):
-                v = values[i]
-                for j, limit in enumerate(rounded[i]):
-                    if limit == v:
-                        values[i] = self._limits64_lists[i][j]
-                        break
+            if rounded is None:  # per field {limit rounded: limit}; of limits that round alike, the lowest
+                rounded = []
+                for limits in self._limits64:
+                    table: dict[float, float] = {}
+                    for r, exact in zip(limits.astype(dtype).astype(np.float64).tolist(), limits.tolist()):
+                        table.setdefault(r, exact)
+                    rounded.append(table)
+                self._limits_rounded[dtype] = rounded
+            values = [table.get(v, v) for table, v in zip(rounded, values)]
         command = [lo if v < lo else hi if v > hi else v for v, lo, hi in zip(values, self._low_list, self._high_list)]
         return command, command != values
 
@@ -364,8 +384,8 @@ class FootstepEnv(gym.Env):
         rot = cmath.exp(1j * support[2])
         origin = complex(support[0], support[1])
         zmp_world = origin + p * rot
-        new_foot = tuple(float(v) for v in footstep.place_foot(support, self.support_side, S, L, theta))
-        d_before = self._goal_distance()
+        new_foot = footstep.place_foot_scalar(support, self.support_side, S, L, theta)
+        d_before = self._goal_dist
         rewards = {"progress": 0.0, "time": 0.0, "step": env_cfg.reward_step,
                    "goal": 0.0, "collision": 0.0, "fall": 0.0}
         termination = None
@@ -383,11 +403,7 @@ class FootstepEnv(gym.Env):
             swing = -self.support_side
             q = complex(S, swing * L)
             traj = lipm.StepTrajectory(robot.omega, com_local, vel_local, p, q, t_ss, t_ds)
-
-            def path(t: float) -> tuple[float, float]:
-                return _pair(origin + traj.state(t)[0] * rot)
-
-            result = self.world.sweep(path, period, traj.speed_bound())
+            result = self.world.sweep(traj.world_path(origin, rot), period, traj.speed_bound())
             elapsed, clearance = result.time, result.clearance
             if self.render_mode == "rgb_array_list":
                 self._frames.extend(self._step_frames(elapsed, origin, rot, traj))
@@ -408,9 +424,9 @@ class FootstepEnv(gym.Env):
             self.history["com"].append(_pair(self.com))
         self.time += elapsed
         self.steps += 1
-        self.previous_command = np.array(command)
+        self._set_previous_command(command)
         rewards["time"] = env_cfg.reward_time * elapsed
-        d_after = self._goal_distance()
+        d_after = self._goal_dist = self._goal_distance()
         rewards["progress"] = env_cfg.reward_progress * (d_before - d_after)
         if termination is None and d_after <= cfg.goal_tolerance:
             termination = "goal"
@@ -453,23 +469,23 @@ class FootstepEnv(gym.Env):
         cfg = self.config
         ps, vs = cfg.observation_position_scale, cfg.observation_velocity_scale
         support = self.feet[self.support_side]
-        rot = cmath.exp(-1j * support[2])
-        com_local, vel_local = self._local_com()
-        goal = _world_to_local(support, complex(*self.episode_config.goal)) / ps
-        # The previous command mapped to [-1, 1], field by field (what numpy's array expression gave, bit for bit).
-        prev = [2.0 * (c - lo) / span - 1.0
-                for c, lo, span in zip(self.previous_command.tolist(), self._low_list, self._span_list)]
-        obs = [goal.real, goal.imag, float(self.support_side),
-               com_local.real / cfg.observation_com_scale, com_local.imag / cfg.observation_com_scale,
-               vel_local.real / vs, vel_local.imag / vs, *prev]
+        rot = cmath.exp(-1j * support[2])  # world -> the support foot's frame (_world_to_local, computed once)
+        origin = complex(support[0], support[1])
+        com = self.com
+        com_local, vel_local = (com - origin) * rot, self.com_vel * rot
+        goal = (complex(*self.episode_config.goal) - origin) * rot / ps
+        com_scale = cfg.observation_com_scale
+        obs = [goal.real, goal.imag, float(self.support_side), com_local.real / com_scale, com_local.imag / com_scale,
+               vel_local.real / vs, vel_local.imag / vs, *self._previous_scaled]
         k = cfg.n_obstacles_observed
-        near = self.world.nearest(_pair(self.com), k, cfg.sensing_range)
-        for _, point, vel, _ in near:
-            rel = (complex(*point) - self.com) * rot / ps
-            v = complex(*vel) * rot / vs
-            obs.extend((rel.real, rel.imag, v.real, v.imag, 1.0))
-        obs.extend([0.0] * (5 * (k - len(near))))
-        return np.asarray(obs, dtype=np.float32)
+        near = self.world.nearest((com.real, com.imag), k, cfg.sensing_range)
+        for _, (x, y), (vx, vy), _ in near:
+            rel = (complex(x, y) - com) * rot / ps
+            v = complex(vx, vy) * rot / vs
+            obs += (rel.real, rel.imag, v.real, v.imag, 1.0)
+        if len(near) < k:
+            obs += [0.0] * (5 * (k - len(near)))
+        return np.array(obs, dtype=np.float32)
 
     def sensing(self) -> Snapshot:
         """What a robot could sense now (read-only): feet, CoM, goal, obstacles' shapes and velocities."""
@@ -489,7 +505,7 @@ class FootstepEnv(gym.Env):
             vel_local=_pair(vel_local),
             goal=(float(cfg.goal[0]), float(cfg.goal[1])),
             goal_tolerance=cfg.goal_tolerance,
-            previous_command=tuple(float(v) for v in self.previous_command),
+            previous_command=tuple(self._previous),
             obstacles=self.world.views(),
         )
 

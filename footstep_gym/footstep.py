@@ -57,6 +57,17 @@ def place_foot(support_pose: Any, support_side: Any, S: Any, L: Any, theta: Any)
     return (x + c * S - s * lat, y + s * S + c * lat, wrap_angle(yaw + theta))
 
 
+def place_foot_scalar(support_pose: tuple[float, float, float], support_side: int, S: float, L: float,
+                      theta: float) -> tuple[float, float, float]:
+    """:func:`place_foot` for one command in plain Python floats (the env's per-step path, where numpy's
+    per-call cost on scalars dominated): the same operations, and ``math.cos``/``math.sin``, which
+    give numpy's scalar ``cos``/``sin`` here bit for bit (``tests/test_footstep.py`` checks both)."""
+    x, y, yaw = support_pose
+    lat = -support_side * L
+    c, s = math.cos(yaw), math.sin(yaw)
+    return (x + c * S - s * lat, y + s * S + c * lat, (yaw + theta + math.pi) % (2.0 * math.pi) - math.pi)
+
+
 def command_between(support_pose: Any, support_side: Any, new_pose: Any) -> tuple[Any, Any, Any]:
     """``(S, L, theta)`` that moves the swing foot from ``support_pose`` to ``new_pose`` (eq. 2-3)."""
     x, y, yaw = support_pose

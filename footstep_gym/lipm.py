@@ -182,13 +182,12 @@ def _kinematically_feasible_scalar(robot: Robot, S: float, L: float, theta: floa
     """
     eps = 1e-9
     turn = robot.turn_limit
-    for v, lo, hi in ((S, robot.stride_front[0], robot.stride_front[1]),
-                      (L, robot.stride_side[0], robot.stride_side[1]),
-                      (theta, -turn, turn),
-                      (t_ss, robot.t_ss[0], robot.t_ss[1]),
-                      (t_ds, robot.t_ds[0], robot.t_ds[1])):
-        if not (v >= lo - eps and v <= hi + eps):  # NaN fails here too
-            return False
+    if not (S >= robot.stride_front[0] - eps and S <= robot.stride_front[1] + eps  # NaN fails here too
+            and L >= robot.stride_side[0] - eps and L <= robot.stride_side[1] + eps
+            and theta >= -turn - eps and theta <= turn + eps
+            and t_ss >= robot.t_ss[0] - eps and t_ss <= robot.t_ss[1] + eps
+            and t_ds >= robot.t_ds[0] - eps and t_ds <= robot.t_ds[1] + eps):
+        return False
     if support_side < 0:  # swing foot is the left one: turning away (theta > 0) is the outer angle
         lo, hi = -robot.turn_inner, robot.turn_outer
     else:
@@ -286,6 +285,10 @@ class StepTrajectory:
             eta = pt - pd / w + (self.eta1 - p + pd / w) * math.exp(-w * tau)
         return 0.5 * (xi + eta), 0.5 * w * (xi - eta)
 
+    def world_path(self, origin: complex, rot: complex) -> "WorldPath":
+        """The CoM's path in the world, ``t -> (x, y)``, for a support foot at ``origin`` turned by ``rot``."""
+        return WorldPath(self, origin, rot)
+
     def speed_bound(self) -> float:
         """An upper bound of the CoM speed over the whole step [m/s].
 
@@ -297,3 +300,50 @@ class StepTrajectory:
         ds = abs(pd) + 0.5 * w * (abs(self.xi1 - p - pd / w) * math.exp(w * self.t_ds)
                                   + abs(self.eta1 - p + pd / w))
         return max(ss, ds)
+
+
+class WorldPath:
+    """``t -> (x, y)``: a :class:`StepTrajectory`'s CoM position in the world (support foot at ``origin``,
+    turned by the unit complex ``rot``).
+
+    The same floating-point operations as ``origin + trajectory.state(t)[0] * rot`` (so the same
+    bits), with the step's constants computed once. :attr:`sweep_params` hands them to the
+    compiled collision sweep (:mod:`footstep_gym.sweep_kernel`), which evaluates the same
+    expressions.
+    """
+
+    __slots__ = ("w", "nw", "p", "t_ss", "end", "pd", "pdw", "a_xi", "a_eta", "b_xi", "b_eta", "origin", "rot")
+
+    def __init__(self, traj: StepTrajectory, origin: complex, rot: complex) -> None:
+        self.w, self.p, self.t_ss, self.pd = traj.omega, traj.p, traj.t_ss, traj.pdot
+        self.end = traj.t_ss + traj.t_ds
+        self.nw = -traj.omega
+        self.pdw = self.pd / self.w
+        self.a_xi, self.a_eta = traj.xi0 - self.p, traj.eta0 - self.p
+        self.b_xi, self.b_eta = traj.xi1 - self.p - self.pdw, traj.eta1 - self.p + self.pdw
+        self.origin, self.rot = origin, rot
+
+    def __call__(self, t: float) -> tuple[float, float]:
+        p, w, exp = self.p, self.w, math.exp
+        if t <= self.t_ss:
+            xi = p + self.a_xi * exp(w * t)
+            eta = p + self.a_eta * exp(self.nw * t)
+        else:
+            end = self.end
+            tau = (end if end < t else t) - self.t_ss
+            pd, pdw = self.pd, self.pdw
+            pt = p + pd * tau
+            xi = pt + pdw + self.b_xi * exp(w * tau)
+            eta = pt - pdw + self.b_eta * exp(self.nw * tau)
+        z = self.origin + 0.5 * (xi + eta) * self.rot
+        return (z.real, z.imag)
+
+    @property
+    def sweep_params(self) -> list[float]:
+        """``[w, t_ss, end, p, pd, pd / w, a_xi, a_eta, b_xi, b_eta, origin, rot]``, complex ones as two floats
+        (the layout of :mod:`footstep_gym.sweep_kernel`'s parameters)."""
+        p, pd, pdw, a_xi, a_eta, b_xi, b_eta, o, r = (self.p, self.pd, self.pdw, self.a_xi, self.a_eta, self.b_xi,
+                                                     self.b_eta, self.origin, self.rot)
+        return [self.w, self.t_ss, self.end, p.real, p.imag, pd.real, pd.imag, pdw.real, pdw.imag, a_xi.real,
+                a_xi.imag, a_eta.real, a_eta.imag, b_xi.real, b_xi.imag, b_eta.real, b_eta.imag, o.real, o.imag,
+                r.real, r.imag]

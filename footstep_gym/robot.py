@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Mapping
 
 import numpy as np
@@ -52,7 +53,7 @@ class Robot:
             if not lo_hi[0] <= value <= lo_hi[1]:
                 raise ConfigError(f"robot.{name}={value} lies outside its range {lo_hi}")
 
-    @property
+    @cached_property  # derived from frozen fields: computed once (the env reads these every step)
     def omega(self) -> float:
         """LIPM natural frequency sqrt(g / z_c) [1/s]."""
         return math.sqrt(self.gravity / self.com_height)
@@ -62,13 +63,13 @@ class Robot:
         """T_n = nominal T_SS + T_DS [s]."""
         return self.nominal_t_ss + self.nominal_t_ds
 
-    @property
+    @cached_property
     def zmp_half_extent(self) -> tuple[float, float]:
         """Half sizes (x, y) of the stable ZMP rectangle around the foot centre [m]."""
         s = 0.5 * self.zmp_region_scale
         return (s * self.foot_length, s * self.foot_width)
 
-    @property
+    @cached_property
     def turn_limit(self) -> float:
         """Largest |theta| either foot may turn [rad] (the action box's bound)."""
         return max(self.turn_inner, self.turn_outer)

@@ -49,10 +49,21 @@ def _reject_constant(name: str):
 
 
 @pytest.fixture(scope="module")
-def smoke(tmp_path_factory):
+def before_checkout(tmp_path_factory):
+    """A copy of this checkout's package and configs: what ``--compare-with`` times as "before"."""
+    import shutil
+
+    root = tmp_path_factory.mktemp("before")
+    shutil.copytree(ROOT / "footstep_gym", root / "footstep_gym", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(ROOT / "configs", root / "configs")
+    return root
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory, before_checkout):
     out = tmp_path_factory.mktemp("bench")
-    proc = subprocess.run([sys.executable, str(SCRIPT), "--smoke", "--out", str(out)],
-                          capture_output=True, text=True, timeout=300, cwd=str(ROOT))
+    proc = subprocess.run([sys.executable, str(SCRIPT), "--smoke", "--out", str(out), "--compare-with",
+                           str(before_checkout)], capture_output=True, text=True, timeout=600, cwd=str(ROOT))
     assert proc.returncode == 0, proc.stderr[-3000:]
     # Strict JSON: NaN / Infinity must have become null.
     data = json.loads((out / "benchmark.json").read_text(), parse_constant=_reject_constant)
@@ -80,14 +91,14 @@ def test_machine_meta_and_progress(smoke):
     _positive_finite(meta["duration_s"], "duration_s")
     _positive_finite(meta["nominal_period_s"], "nominal_period_s")
     assert meta["torch_imported"] is False, "the benchmarked code paths must not import torch"
-    for section in ("planners ...", "lipm ...", "env steps ...", "memory ...", "wrote "):
+    for section in ("planners ...", "lipm ...", "env steps ...", "memory ...", "ppo ...", "wrote "):
         assert section in stderr, f"no progress line {section!r}"
 
 
 def test_env_steps_per_second(smoke):
     data, _, _ = smoke
     envs = data["env_steps"]
-    assert set(envs) == set(FOOTSTEP_ENVS) | set(REFERENCE_ENVS)
+    assert set(envs) == set(FOOTSTEP_ENVS) | set(REFERENCE_ENVS) | {benchmark.BEFORE_ID}
     for env_id in FOOTSTEP_ENVS + REFERENCE_ENVS:
         commands = COMMANDS if env_id in FOOTSTEP_ENVS else ("random",)
         assert set(envs[env_id]) == set(commands)
@@ -117,6 +128,8 @@ def test_make_vec_uses_two_workers_sync_and_async(smoke):
     data, stdout, _ = smoke
     seen = set()
     for env_id, by_cmd in data["env_steps"].items():
+        if env_id == benchmark.BEFORE_ID:  # single-process only
+            continue
         for c, cell in by_cmd.items():
             for mode in ("sync", "async"):
                 if "skipped" in cell[mode]:
@@ -234,6 +247,7 @@ def test_targets_and_table(smoke):
     assert {t["status"] for t in targets} <= {"PASS", "MISS", "N/A"}
     names = [t["target"] for t in targets]
     assert sum("BipedalWalker" in n for n in names) == len(COMMANDS)
+    assert "FootstepDoor-v0 steps/s >= 2x BipedalWalker-v3 (1 process, near-nominal commands)" in names
     assert "LIPM check_steps, batch 1024" in names
     if "skipped" not in data["planners"]:
         for env_id in FOOTSTEP_ENVS:
@@ -248,8 +262,40 @@ def test_targets_and_table(smoke):
     assert lipm_t["value"] == pytest.approx(v)
     assert lipm_t["status"] == ("PASS" if v >= benchmark.LIPM_TARGET_PER_S else "MISS")
     for section in ("## Env steps per second", "## LIPM feasibility checks", "## Planning time per footstep",
-                    "## Peak memory"):
+                    "## Peak memory", "## PPO training throughput"):
         assert section in stdout
+
+
+def test_compare_with_times_the_other_checkout_in_the_same_rounds(smoke, before_checkout):
+    data, stdout, _ = smoke
+    cell = data["env_steps"][benchmark.BEFORE_ID]["near_nominal"]["single"]
+    assert Path(cell["footstep_gym"]) == before_checkout / "footstep_gym"  # imported from there, not from here
+    assert data["meta"]["compare_with"] == str(before_checkout)
+    now = data["env_steps"]["FootstepDoor-v0"]["near_nominal"]["single"]
+    assert len(cell["rates"]) == len(now["rates"]) == SMOKE.repetitions
+    _check_spread(cell["steps_per_s"], "before")
+    paired = [a / b for a, b in zip(now["rates"], cell["rates"])]
+    assert data["ratios"]["FootstepDoor_near_nominal/before"]["median"] == pytest.approx(
+        bench_utils.summary(paired)["median"])
+    assert f"| {benchmark.BEFORE_ID} | near_nominal |" in stdout
+
+
+def test_ppo_throughput_beside_cartpole(smoke):
+    data, stdout, _ = smoke
+    ppo = data["ppo"]
+    assert "skipped" not in ppo, ppo.get("skipped")
+    assert set(ppo["cells"]) == {"FootstepDoor-v0", "CartPole-v1"}
+    assert ppo["hyperparameters"]["CartPole-v1"] == "FootstepDoor-v0"
+    for env_id, by_n in ppo["cells"].items():
+        assert set(by_n) == {"1", "2"}
+        for n, cell in by_n.items():
+            assert len(cell["rates"]) == SMOKE.ppo_rounds
+            _check_spread(cell["steps_per_s"], f"ppo {env_id} {n}")
+    for n in ("1", "2"):
+        door, pole = ppo["cells"]["FootstepDoor-v0"][n]["rates"], ppo["cells"]["CartPole-v1"][n]["rates"]
+        assert ppo["ratios"][n]["median"] == pytest.approx(bench_utils.summary(
+            [a / b for a, b in zip(door, pole)])["median"])
+    assert "FootstepDoor-v0 / CartPole-v1 (paired per round)" in stdout
 
 
 # ------------------------------------------------------------------ in-process, no timing
@@ -275,7 +321,13 @@ def test_evaluate_targets_pass_miss_logic():
     status = {t["target"]: t["status"] for t in targets}
     # Paired per round: 2/1, 3/4, 4/2 -> median 2.
     assert ratios["FootstepDoor_random/BipedalWalker"]["median"] == pytest.approx(2.0)
-    assert status["FootstepDoor-v0 steps/s >= BipedalWalker-v3 (1 process, random commands)"] == "PASS"
+    assert status["FootstepDoor-v0 steps/s >= 1x BipedalWalker-v3 (1 process, random commands)"] == "PASS"
+    # The steady walk's target is 2x: a median of exactly 2 passes, 1.9 misses.
+    assert status["FootstepDoor-v0 steps/s >= 2x BipedalWalker-v3 (1 process, near-nominal commands)"] == "PASS"
+    res["env_steps"]["FootstepDoor-v0"]["near_nominal"]["single"]["rates"] = [1.9, 3.0, 3.8]
+    status = {t["target"]: t["status"] for t in benchmark.evaluate_targets(res, T)[0]}
+    assert status["FootstepDoor-v0 steps/s >= 2x BipedalWalker-v3 (1 process, near-nominal commands)"] == "MISS"
+    assert status["FootstepDoor-v0 steps/s >= 1x BipedalWalker-v3 (1 process, planner commands)"] == "PASS"
     assert status["LIPM check_steps, batch 1024"] == "MISS"
     assert status["period-aware median plan time, A"] == "PASS"
     assert status["period-aware p99 plan time, A"] == "PASS"

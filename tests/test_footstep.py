@@ -367,3 +367,14 @@ def test_footstep_module_reads_no_literals():
     assert turn_bounds(RIGHT, r) == pytest.approx((-0.1, 0.3))
     assert not footstep.feet_overlap(0.0, 0.055, 0.0, RIGHT, r)
     assert footstep.feet_overlap(0.0, 0.055, 0.0, RIGHT, load_robot())
+
+
+def test_place_foot_scalar_is_place_foot_bit_for_bit():
+    """The env's plain-float twin gives numpy's answer exactly (math.cos/sin are numpy's scalar cos/sin here)."""
+    rng = np.random.default_rng(11)
+    for _ in range(5000):
+        pose = (float(rng.uniform(-5, 5)), float(rng.uniform(-5, 5)), float(rng.uniform(-4, 4)))
+        side = int(rng.choice([-1, 1]))
+        S, L, theta = (float(v) for v in rng.uniform([-0.05, 0.06, -0.5], [0.12, 0.13, 0.5]))
+        want = tuple(float(v) for v in footstep.place_foot(pose, side, S, L, theta))
+        assert footstep.place_foot_scalar(pose, side, S, L, theta) == want

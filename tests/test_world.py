@@ -585,3 +585,113 @@ def test_nearest_agrees_with_pymunk_point_query(env_id):
             np.testing.assert_allclose([dist, *point, *vel], [ref[obstacle.shape][0], *ref[obstacle.shape][1],
                                                               *ref[obstacle.shape][2]], atol=1e-9)
         assert len(world.nearest(p, 2, 1.5)) == min(2, len(ref))
+
+
+# ------------------------------------------------------------------ the compiled sweep against pymunk's
+def _random_world(seed: int, radius: float = R) -> World:
+    """Static walls, a turning rod, a translating capsule and a few moving circles around the origin."""
+    rng = np.random.default_rng(seed)
+    world = make_world(radius, max_checks=2000)
+    for i in range(int(rng.integers(0, 6))):
+        a = rng.uniform(-1.5, 1.5, 2)
+        b = a + rng.uniform(-1.0, 1.0, 2) * (rng.random() < 0.9)  # now and then a zero-length wall
+        world.add_wall(f"wall_{i}", tuple(a), tuple(b), rng.uniform(0.0, 0.05))
+    for i in range(int(rng.integers(0, 3))):
+        half = rng.uniform(0.0, 0.6)
+        world.add_rod(f"rod_{i}", tuple(rng.uniform(-1.0, 1.0, 2)), (-half, 0.0), (half, 0.0), rng.uniform(0.005, 0.1),
+                      angle=rng.uniform(-4, 4), velocity=tuple(rng.uniform(-0.3, 0.3, 2) * (rng.random() < 0.5)),
+                      angular_velocity=rng.uniform(-2.0, 2.0) * (rng.random() < 0.8))
+    for i in range(int(rng.integers(0, 5))):
+        world.add_circle(f"ball_{i}", tuple(rng.uniform(-1.2, 1.2, 2)), rng.uniform(0.02, 0.15),
+                         velocity=tuple(rng.uniform(-0.5, 0.5, 2)))
+    return world
+
+
+def _random_path(rng: np.random.Generator):
+    """A LIPM footstep path through the world around the origin (what the env sweeps) and its speed bound."""
+    from footstep_gym.lipm import StepTrajectory
+
+    omega = math.sqrt(9.81 / rng.uniform(0.2, 0.3))
+    com, vel = complex(*rng.uniform(-0.05, 0.05, 2)), complex(*rng.uniform(-0.3, 0.3, 2))
+    p, q = complex(*rng.uniform(-0.03, 0.03, 2)), complex(rng.uniform(-0.04, 0.1), rng.uniform(-0.12, 0.12))
+    traj = StepTrajectory(omega, com, vel, p, q, rng.uniform(0.1, 0.6), rng.uniform(0.1, 0.3))
+    origin, rot = complex(*rng.uniform(-0.8, 0.8, 2)), complex(math.cos(a := rng.uniform(-3, 3)), math.sin(a))
+    return traj, traj.world_path(origin, rot), traj.speed_bound()
+
+
+def _state(world: World) -> list:
+    bodies = [o.body for o in world.obstacles if not o.static] + [world.robot_body]
+    return [world.time] + [(tuple(b.position), b.angle) for b in bodies]
+
+
+@pytest.mark.filterwarnings("ignore:World.sweep")  # a few random paths are fast enough to reach the cap
+@pytest.mark.parametrize("seed", range(40))
+def test_compiled_sweep_equals_pymunk_sweep_bit_for_bit(seed):
+    """Random worlds and LIPM paths, several footsteps in a row (contacts, stale shapes, carried bounds):
+    the compiled sweep gives pymunk's own sweep's every number and leaves the world in the same state."""
+    rng = np.random.default_rng(1000 + seed)
+    fast, slow = _random_world(seed), _random_world(seed)
+    for step in range(6):
+        traj, path, bound = _random_path(rng)
+        if rng.random() < 0.3:  # move a body between footsteps without stepping (the crowd does)
+            for w in (fast, slow):
+                movers = [o for o in w.obstacles if not o.static]
+                if movers:
+                    movers[step % len(movers)].body.position = (0.3 * step - 0.5, -0.4)
+        duration = traj.t_ss + traj.t_ds
+        a = fast.sweep(path, duration, bound)
+        b = slow.sweep_pymunk(path, duration, bound)
+        assert a == b, (step, a, b)
+        assert _state(fast) == _state(slow)
+        clear = lambda w: w.clearance((0.05 * step, 0.1), 5.0)  # noqa: E731 - pymunk's caches agree too
+        assert (clear(fast)[0], getattr(clear(fast)[1], "name", None)) == \
+               (clear(slow)[0], getattr(clear(slow)[1], "name", None))
+
+
+@pytest.mark.filterwarnings("ignore:World.sweep")
+def test_compiled_sweep_covers_contacts_and_far_footsteps():
+    """The random cases above include contacts and contact-free steps (so both ways out are compared)."""
+    outcomes = set()
+    for seed in range(40):
+        rng = np.random.default_rng(1000 + seed)
+        world = _random_world(seed)
+        for _ in range(6):
+            traj, path, bound = _random_path(rng)
+            outcomes.add(world.sweep(path, traj.t_ss + traj.t_ds, bound).collided)
+    assert outcomes == {True, False}
+
+
+def test_shape_distance_is_pymunks_point_query_bit_for_bit():
+    """The kernel's distance to a static segment, a turned and moved segment and a circle, at random points
+    (and at points on the segment's line and ends), against pymunk's ``Shape.point_query``."""
+    from footstep_gym import sweep_kernel as kernel
+
+    rng = np.random.default_rng(7)
+    world = _random_world(3)
+    world.add_wall("flat", (-1.0, 0.3), (1.0, 0.3), 0.02)
+    world.add_rod("turned", (0.2, -0.1), (-0.5, 0.0), (0.5, 0.0), 0.02, angle=2.1)
+    world.add_circle("ball", (0.4, 0.7), 0.1)
+    table, _ = world._table()
+    states = np.array([[*o.body.position, o.body.angle, 0.0, 0.0, 0.0, 0.0] for o in world.obstacles if not o.static])
+    points = [tuple(rng.uniform(-2, 2, 2)) for _ in range(3000)]
+    points += [(x, 0.3) for x in (-1.0, -0.5, 0.0, 1.0, 1.5)] + [(-1.0, 0.31), (1.0, 0.3 + 1e-17)]
+    for j, o in enumerate(world.obstacles):
+        for q in points:
+            got = kernel._shape_distance(j, q[0], q[1], table, states)
+            want = o.shape.point_query(q).distance
+            assert got == want or (math.isnan(got) and math.isnan(want)), (o.name, q, got, want)
+
+
+def test_world_path_is_the_trajectory_bit_for_bit():
+    """``WorldPath`` (Python) and the kernel's path give ``origin + state(t)[0] * rot`` exactly."""
+    from footstep_gym import sweep_kernel as kernel
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        traj, path, _ = _random_path(rng)
+        prm = np.zeros(kernel.N_PARAMS)
+        prm[:21] = path.sweep_params
+        for t in [0.0, traj.t_ss, traj.t_ss + traj.t_ds, 2.0, *rng.uniform(0, traj.t_ss + traj.t_ds, 20)]:
+            z = path.origin + traj.state(t)[0] * path.rot
+            assert path(t) == (z.real, z.imag)
+            assert kernel._path(t, prm) == (z.real, z.imag)

@@ -29,6 +29,7 @@ class CrossingConfig(ScenarioConfig):
 
 class Crossing(Scenario):
     config_file = "scenarios/crossing.yaml"
+    static_keys = ()  # no walls
     Config = CrossingConfig
 
     def build(self, world: World) -> None:

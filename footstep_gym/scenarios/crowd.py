@@ -54,6 +54,7 @@ class CrowdConfig(ScenarioConfig):
 
 class Crowd(Scenario):
     config_file = "scenarios/crowd.yaml"
+    static_keys = ()  # no walls
     Config = CrowdConfig
 
     def __init__(self, cfg: CrowdConfig, rng: np.random.Generator) -> None:

@@ -15,7 +15,8 @@ import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym import footstep
 from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor
 from footstep_gym.planners.rollouts import GoalRollouts
-from footstep_gym.planners.walks import WalkStart, walks_free, walks_free_numpy, walks_survival, walks_survival_numpy
+from footstep_gym.planners.walks import (WalkStart, walks_free, walks_free_numpy, walks_survival,
+                                         walks_survival_numpy)
 from planner_helpers import LEFT, RIGHT, robot  # noqa: F401
 
 SCENES = [("FootstepDoor-v0", dict(door_speed=17.0), 6), ("FootstepCrossing-v0", {}, 8), ("FootstepCrowd-v0", {}, 5)]

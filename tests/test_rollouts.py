@@ -1,4 +1,5 @@
-"""The walks of stage 1 (:mod:`footstep_gym.planners.rollouts`): waiting rollouts, and the paper's one-step fan of next nodes (Fig. 2), with body checks written here.
+"""The walks of stage 1 (:mod:`footstep_gym.planners.rollouts`): waiting rollouts, and the paper's one-step fan
+of next nodes (Fig. 2), with body checks written here.
 """
 
 from __future__ import annotations

@@ -13,9 +13,9 @@ the support foot's node towards the goal:
 4. :meth:`_steer` — the distance is clamped to ``step_size`` (steps 9-10);
 5. :meth:`_edges_free` — node and edge are checked against the obstacles (steps 11-12);
 6. :meth:`_insert` — the node joins the tree with cost = parent's cost + edge length
-   (step 13); nodes whose step brings the body within
-   ``goal_radius`` of the goal are remembered (steps 14-16; the env measures the robot
-   centre, the midpoint of the feet, so the body and not the node must reach the goal);
+   (step 13); nodes whose step brings the body within ``goal_radius`` of the goal are
+   remembered (steps 14-16; the env measures the robot centre, the midpoint of the feet,
+   so the body and not the node must reach the goal);
 7. after ``n_paths`` goal nodes (or all iterations) the least-cost path is returned
    (step 19). No shortcutting: the path's edges are the tree's edges.
 
@@ -131,9 +131,10 @@ class ModifiedRRT:
     ``step_size``: largest distance between nodes [m]; ``goal_sample_rate``: probability
     a sample is the goal; ``n_paths``: goal nodes collected before stopping;
     ``sample_margin``: the sampling box extends this far [m] beyond start and goal;
-    ``edge_samples``: points checked along each body segment; ``clearance_weight`` [m of goal distance per m], ``clearance_cap`` [m]:
-    how :meth:`best_partial_path` trades clearance for progress; ``time_aware``: a node at
-    depth ``d`` is checked during ``[(d - 1) T, d T]`` (else every point at ``T``).
+    ``edge_samples``: points checked along each body segment; ``clearance_weight`` [m of goal
+    distance per m], ``clearance_cap`` [m]: how :meth:`best_partial_path` trades clearance for
+    progress; ``time_aware``: a node at depth ``d`` is checked during ``[(d - 1) T, d T]`` (else
+    every point at ``T``).
     """
 
     def __init__(self, robot: Robot, *, iterations: int, batch_size: int, step_size: float,

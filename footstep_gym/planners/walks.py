@@ -11,7 +11,6 @@ midpoints of consecutive nodes: step ``d`` moves it from ``(n[d-2] + n[d-1]) / 2
 from __future__ import annotations
 
 import functools
-
 from dataclasses import dataclass
 from typing import Protocol, Sequence
 
@@ -19,7 +18,6 @@ import numpy as np
 
 from footstep_gym.planners import kernels
 from footstep_gym.planners.prediction import BodyModel, body_path_points, support_normal
-
 
 
 class BodyCheck(Protocol):

@@ -231,6 +231,15 @@ def check_step(robot: Robot, com: complex, vel: complex, command: tuple[float, .
     return kin_ok, zmp_ok, p, c_end, v_end
 
 
+def step_feasible(robot: Robot, com: Any, vel: Any, command: Any, support_side: int) -> bool:
+    """Whether one command ``[S, L, theta, T_SS, T_DS]`` is feasible from ``com`` [m] / ``vel`` [m/s] ``(2,)``
+    (relative to the support foot, in its frame): :func:`check_step`, the env's own verdict, for a caller
+    that holds the state as pairs (one command costs a few microseconds, not numpy's per-call overhead)."""
+    kin_ok, zmp_ok, *_ = check_step(robot, complex(float(com[0]), float(com[1])), complex(float(vel[0]), float(vel[1])),
+                                    tuple(float(x) for x in command), int(support_side))
+    return bool(kin_ok and zmp_ok)
+
+
 def steady_state(robot: Robot, command: Any, support_side: int) -> tuple[complex, complex]:
     """CoM ``(position, velocity)`` (complex, relative to the support foot) of the steady gait of ``command``.
 

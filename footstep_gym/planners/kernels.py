@@ -181,3 +181,129 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
             if blocked_at[r] < np.inf:
                 break
             side = -side
+
+
+@numba.njit(cache=True, fastmath=False)
+def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: np.ndarray, cost: np.ndarray,
+                depth: np.ndarray, body: np.ndarray, n: int, samples: np.ndarray, redraw: np.ndarray,
+                goal_x: float, goal_y: float, goal_radius: float, step_size: float, has_first: bool,
+                first_lo: float, first_hi: float, left_lo: float, left_hi: float, right_lo: float, right_hi: float,
+                period: float, time_aware: bool, fractions: np.ndarray, shift: float, pos_x: np.ndarray,
+                pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray,
+                a_x: np.ndarray, a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray,
+                need2: np.ndarray, horizon: np.ndarray, goal_nodes: np.ndarray) -> tuple[int, int]:
+    """One batch of :meth:`.rrt.ModifiedRRT.plan` (Algorithm 2, steps 5-16) on the tree's arrays, in place.
+
+    Each sample ``samples[i]`` [m] extends from its nearest node among the first ``n`` (the tree as
+    it was at the start of the batch); a turn outside the limits of the parent's support side
+    (``left_*`` for a left support, ``right_*`` for a right one) is replaced by
+    ``lo + (hi - lo) * redraw[i]``; the distance is clamped to ``step_size`` [m] (and into
+    ``first_lo``..``first_hi`` from the root if ``has_first``). A parent whose body is already in
+    the goal region (the root excepted) is not extended. The body segment from the parent's body
+    to the midpoint of parent and new node is checked at ``fractions`` of the step during
+    ``[depth T, (depth + 1) T]`` (at ``T`` if not ``time_aware``), shifted by ``shift`` [m] towards
+    the parent's foot, against the shapes (blocked closer than ``sqrt(need2[s])``, up to
+    ``horizon[s]``). Free extensions are appended from index ``n`` on; those whose body lands in
+    the goal region are written to ``goal_nodes``. Returns the new node count and how many goal
+    nodes were written: the same arithmetic, in the same order, as the numpy methods of the RRT.
+    """
+    n0 = n
+    n_goal = 0
+    n_shapes = pos_x.size
+    for i in range(samples.shape[0]):
+        sx, sy = samples[i, 0], samples[i, 1]
+        best, best_d2 = 0, np.inf
+        for j in range(n0):
+            dx, dy = sx - xy[j, 0], sy - xy[j, 1]
+            d2 = dx * dx + dy * dy
+            if d2 < best_d2:
+                best, best_d2 = j, d2
+        p = best
+        px, py, ph, pside = xy[p, 0], xy[p, 1], heading[p], side[p]
+        vx, vy = sx - px, sy - py
+        delta = (math.atan2(vy, vx) - ph + math.pi) % (2.0 * math.pi) - math.pi
+        lo, hi = (left_lo, left_hi) if pside > 0 else (right_lo, right_hi)
+        if delta < lo or delta > hi:
+            delta = lo + (hi - lo) * redraw[i]
+        length = min(math.sqrt(vx * vx + vy * vy), step_size)
+        if has_first and p == 0:
+            length = min(max(length, first_lo), first_hi)
+        h = (ph + delta + math.pi) % (2.0 * math.pi) - math.pi
+        nx = px + length * math.cos(h)
+        ny = py + length * math.sin(h)
+        bx0, by0 = body[p, 0], body[p, 1]
+        if p != 0:
+            gx, gy = bx0 - goal_x, by0 - goal_y
+            if math.sqrt(gx * gx + gy * gy) <= goal_radius:
+                continue  # its path already ended in the goal region
+        bx1, by1 = 0.5 * (px + nx), 0.5 * (py + ny)
+        nrm_x, nrm_y = -float(pside) * math.sin(ph), float(pside) * math.cos(ph)
+        t0 = depth[p] * period
+        t1 = t0 + period
+        free = True
+        for k in range(fractions.size):
+            s = fractions[k]
+            x = bx0 + s * (bx1 - bx0) + shift * nrm_x
+            y = by0 + s * (by1 - by0) + shift * nrm_y
+            ti = t0 + s * (t1 - t0) if time_aware else period
+            for q in range(n_shapes):
+                if ti > horizon[q]:
+                    continue
+                if _gap2(x, y, ti, q, pos_x, pos_y, vel_x, vel_y, angle, omega, a_x, a_y, ab_x, ab_y,
+                         ab2) < need2[q]:
+                    free = False
+                    break
+            if not free:
+                break
+        if not free:
+            continue
+        xy[n, 0], xy[n, 1], heading[n], parent[n] = nx, ny, h, p
+        side[n], cost[n], depth[n] = -pside, cost[p] + length, depth[p] + 1
+        body[n, 0], body[n, 1] = bx1, by1
+        gx, gy = bx1 - goal_x, by1 - goal_y
+        if math.sqrt(gx * gx + gy * gy) <= goal_radius:
+            goal_nodes[n_goal] = n
+            n_goal += 1
+        n += 1
+    return n, n_goal
+
+
+@numba.njit(cache=True, fastmath=False)
+def insert_walks(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: np.ndarray, cost: np.ndarray,
+                 depth: np.ndarray, body: np.ndarray, n: int, walk_nodes: np.ndarray, walk_first: np.ndarray,
+                 goal_x: float, goal_y: float, goal_radius: float, goal_nodes: np.ndarray) -> tuple[int, int]:
+    """:meth:`.rrt.ModifiedRRT._insert_seeds` on the tree's arrays, in place: walk ``w`` (rows
+    ``walk_first[w]`` .. ``walk_first[w + 1] - 1`` of ``walk_nodes`` [m], its first row the root) becomes a chain
+    of nodes from the root, each the parent of the next; a step of zero length keeps the heading of the
+    walk's last step that moved (the root's if none did). Appended from index ``n`` on; nodes whose
+    body (midpoint of node and parent) is in the goal region go to ``goal_nodes``. Returns the new node count
+    and how many goal nodes were written.
+    """
+    n_goal = 0
+    for w in range(walk_first.size - 1):
+        a, b = walk_first[w], walk_first[w + 1]
+        if b - a < 2:
+            continue
+        h_last = heading[0]
+        total = 0.0
+        for r in range(a + 1, b):
+            vx = walk_nodes[r, 0] - walk_nodes[r - 1, 0]
+            vy = walk_nodes[r, 1] - walk_nodes[r - 1, 1]
+            length = math.hypot(vx, vy)
+            if length > 1e-9:
+                h_last = math.atan2(vy, vx)
+            total += length
+            k = r - a - 1  # the walk's step index
+            px, py = (xy[0, 0], xy[0, 1]) if k == 0 else (walk_nodes[r - 1, 0], walk_nodes[r - 1, 1])
+            xy[n, 0], xy[n, 1], heading[n] = walk_nodes[r, 0], walk_nodes[r, 1], h_last
+            parent[n] = 0 if k == 0 else n - 1
+            side[n] = -side[0] if k % 2 == 0 else side[0]
+            cost[n], depth[n] = total, k + 1
+            bx, by = 0.5 * (px + walk_nodes[r, 0]), 0.5 * (py + walk_nodes[r, 1])
+            body[n, 0], body[n, 1] = bx, by
+            gx, gy = bx - goal_x, by - goal_y
+            if math.sqrt(gx * gx + gy * gy) <= goal_radius:
+                goal_nodes[n_goal] = n
+                n_goal += 1
+            n += 1
+    return n, n_goal

@@ -125,18 +125,28 @@ def shortest_feasible_period(robot: Robot, com_local: Sequence[float], vel_local
     of them, or ``t_short`` if no grid period is (then the PSO has to sort it out).
     """
     periods = np.linspace(t_short, t_nominal, grid)
+    ok = lipm.check_steps(robot, com_local, vel_local, floor_commands(robot, strides, periods), support_side).feasible
+    return floor_from(ok, periods, len(strides))
+
+
+def floor_commands(robot: Robot, strides: Sequence[float], periods: np.ndarray) -> np.ndarray:
+    """The commands ``(len(strides) * len(periods), 5)`` :func:`shortest_feasible_period` checks."""
     t_ds = robot.nominal_t_ds
     s = np.asarray(strides, dtype=float)
-    cmd = np.empty((s.size, grid, 5))
+    cmd = np.empty((s.size, periods.size, 5))
     cmd[..., 0] = s[:, None]
     cmd[..., 1] = robot.nominal_side_stride
     cmd[..., 2] = 0.0
     cmd[..., 3] = periods[None, :] - t_ds
     cmd[..., 4] = t_ds
-    ok = lipm.check_steps(robot, com_local, vel_local, cmd.reshape(-1, 5), support_side).feasible
-    ok = ok.reshape(s.size, grid).all(axis=0)
+    return cmd.reshape(-1, 5)
+
+
+def floor_from(feasible: np.ndarray, periods: np.ndarray, n_strides: int) -> float:
+    """:func:`shortest_feasible_period` from the verdicts on :func:`floor_commands`."""
+    ok = feasible.reshape(n_strides, periods.size).all(axis=0)
     if not ok.any():
-        return float(t_short)
+        return float(periods[0])
     return float(periods[np.argmax(ok)])
 
 
@@ -154,6 +164,12 @@ def stride_window(robot: Robot, com_local: Sequence[float], vel_local: Sequence[
 def stride_windows(robot: Robot, com_local: Sequence[float], vel_local: Sequence[float], support_side: int,
                    periods: Sequence[float], max_stride: float, grid: int) -> list[tuple[float, float] | None]:
     """:func:`stride_window` for each of ``periods`` [s], all in one batched :func:`lipm.check_steps`."""
+    cmd = window_commands(robot, periods, max_stride, grid)
+    return windows_from(lipm.check_steps(robot, com_local, vel_local, cmd, support_side).feasible, max_stride, grid)
+
+
+def window_commands(robot: Robot, periods: Sequence[float], max_stride: float, grid: int) -> np.ndarray:
+    """The commands ``(len(periods) * grid, 5)`` :func:`stride_windows` checks."""
     strides = np.linspace(0.0, max_stride, grid)
     t_ds = robot.nominal_t_ds
     p = np.asarray(periods, dtype=float)
@@ -163,9 +179,14 @@ def stride_windows(robot: Robot, com_local: Sequence[float], vel_local: Sequence
     cmd[..., 2] = 0.0
     cmd[..., 3] = np.maximum(p - t_ds, robot.t_ss[0])[:, None]
     cmd[..., 4] = t_ds
-    ok = lipm.check_steps(robot, com_local, vel_local, cmd.reshape(-1, 5), support_side).feasible.reshape(p.size, grid)
+    return cmd.reshape(-1, 5)
+
+
+def windows_from(feasible: np.ndarray, max_stride: float, grid: int) -> list[tuple[float, float] | None]:
+    """:func:`stride_windows` from the verdicts on :func:`window_commands`."""
+    strides = np.linspace(0.0, max_stride, grid)
     out: list[tuple[float, float] | None] = []
-    for row in ok:
+    for row in feasible.reshape(-1, grid):
         idx = np.flatnonzero(row)
         out.append((float(strides[idx[0]]), float(strides[idx[-1]])) if idx.size else None)
     return out
@@ -219,6 +240,7 @@ class PeriodSearch:
         self.long_lookahead = add.long_lookahead
         self._windows_of: Snapshot | None = None  # the snapshot whose stride windows are remembered
         self._windows: dict[float, tuple[float, float] | None] = {}
+        self._last_floor: float | None = None  # the previous search's floor (the guess of :meth:`_floor`)
         self.lipm_windows = add.lipm_windows
         self.centred_period = add.centred_period
         waits = tuple(int(w) for w in ps.rollout_wait_steps if w > 0)
@@ -270,6 +292,34 @@ class PeriodSearch:
                                      self.step_size, self.stride_grid)
             self._windows.update(zip(todo, windows))
 
+    def _floor(self, snapshot: Snapshot) -> float:
+        """:func:`shortest_feasible_period` from the snapshot (``T0`` made state-dependent).
+
+        A scan (``centred_period``) then needs the stride windows of the periods from the floor up; they
+        are checked in the same LIPM call on the guess that the floor is the previous search's (a
+        second call, only when it is not, computes them for the floor found): the same verdicts, one
+        numpy call fewer per footstep while the floor holds.
+        """
+        t_n = self.robot.nominal_period
+        strides = (float(snapshot.previous_command[0]), self.step_size)
+        grid = np.linspace(self.t0, t_n, self.floor_grid)
+        commands = floor_commands(self.robot, strides, grid)
+        guess = self._last_floor if self.centred_period else None
+        scan = np.linspace(guess, t_n, self.scan_periods) if guess is not None else None
+        if scan is not None:
+            commands = np.concatenate([commands, window_commands(self.robot, scan, self.step_size, self.stride_grid)])
+        ok = lipm.check_steps(self.robot, snapshot.com_local, snapshot.vel_local, commands,
+                              snapshot.support_side).feasible
+        n_floor = len(strides) * grid.size
+        floor = floor_from(ok[:n_floor], grid, len(strides))
+        self._last_floor = floor
+        if scan is not None and floor == guess:
+            if self._windows_of is not snapshot:
+                self._windows_of, self._windows = snapshot, {}
+            windows = windows_from(ok[n_floor:], self.step_size, self.stride_grid)
+            self._windows.update(zip(scan.tolist(), windows))
+        return floor
+
     def walks(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck, wait_steps: Sequence[int],
               fractions: Sequence[float]) -> GoalRollouts | NextNodeFan:
         """``ObstacleCollision``: the rollouts (``long_lookahead``) or the paper's one-step fan."""
@@ -293,19 +343,17 @@ class PeriodSearch:
             free_walks = tuple(walks.free_walks(t_n))
             return PeriodChoice(t_n, bool(free_walks), free_walks, self.stride_window(snapshot, t_n), t_n,
                                 bool(free_walks), 1, second_tier)
-        if self.lipm_windows:
-            strides = (float(snapshot.previous_command[0]), self.step_size)
-            floor = shortest_feasible_period(self.robot, snapshot.com_local, snapshot.vel_local,
-                                             snapshot.support_side, strides, self.t0, t_n, self.floor_grid)
-        else:
-            floor = self.t0
+        floor = self._floor(snapshot) if self.lipm_windows else self.t0
+        blocked_at: dict[float, np.ndarray] = {}  # per period scanned, when each walk is first blocked [s]
         if self.centred_period:
             periods = np.linspace(floor, t_n, self.scan_periods)
             self.remember_stride_windows(snapshot, periods)
-            result = centred_free_period(walks.survivals, periods)
+            blocked_at = dict(zip(periods.tolist(), walks.survival_table(periods)))
+            result = centred_free_period(lambda scan: [blocked_at[T].max() for T in scan.tolist()], periods)
         else:
             result = longest_free_period(walks, floor, t_n, self.iterations)
-        free_walks = tuple(walks.free_walks(result.period)) if result.any_free else ()
+        free_walks = (tuple(walks.free_walks(result.period, blocked_at=blocked_at.get(result.period)))
+                      if result.any_free else ())
         return PeriodChoice(result.period, result.any_free, free_walks,
                             self.stride_window(snapshot, result.period), floor, result.nominal_free,
                             result.evaluations, second_tier)

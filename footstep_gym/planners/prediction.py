@@ -216,11 +216,16 @@ class BodyModel:
         toward, away = sway_band(self.robot, round(period, 4))
         return 0.5 * (toward - away), 0.5 * (toward + away)
 
+    def shift_and_clearance(self, period: float) -> tuple[float, float]:
+        """``(shift towards the support foot, clearance needed)`` [m] of the body circle at ``period`` [s]."""
+        shift, grow = self.sway(period)
+        return shift, self.robot.body_radius + self.margin + grow
+
     def _body(self, points: np.ndarray, support_normals: np.ndarray, period: float) -> tuple[np.ndarray, float]:
         """Body centres ``(N, 2)`` shifted by the sway, and the clearance [m] each one needs."""
-        shift, grow = self.sway(period)
+        shift, needed = self.shift_and_clearance(period)
         pts = np.asarray(points, dtype=float).reshape(-1, 2) + shift * np.asarray(support_normals).reshape(-1, 2)
-        return pts, self.robot.body_radius + self.margin + grow
+        return pts, needed
 
     def free(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray, period: float) -> np.ndarray:
         """Whether the body centred near ``points`` at ``times`` clears every obstacle, ``(N,)`` bool.

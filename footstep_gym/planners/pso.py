@@ -218,8 +218,7 @@ class CommandRepair:
 
     def __call__(self, snapshot: Snapshot, reference: np.ndarray, rng: np.random.Generator) -> RepairChoice:
         """``reference`` if the LIPM accepts it from the snapshot's CoM state, else the PSO's closest feasible command."""
-        ok = bool(lipm.check_steps(self.robot, snapshot.com_local, snapshot.vel_local, reference[None],
-                                   snapshot.support_side).feasible[0])
+        ok = lipm.step_feasible(self.robot, snapshot.com_local, snapshot.vel_local, reference, snapshot.support_side)
         if ok:
             return RepairChoice(reference, True, True, None)
         rep = repair_command(self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, reference,

@@ -56,11 +56,16 @@ class _Walks(ABC):
         return walks_free(self.body, self.start, nodes, headings, period, self.edge_samples, self.goal,
                           self.goal_radius)
 
-    def free_walks(self, period: float, limit: int | None = None) -> list[np.ndarray]:
+    def free_walks(self, period: float, limit: int | None = None,
+                   blocked_at: np.ndarray | None = None) -> list[np.ndarray]:
         """Free walks ``(k + 1, 2)`` [m] at ``period`` [s], those ending nearest the goal first (ties: the
-        shortest), each cut at the step that brings its body into the goal region."""
+        shortest), each cut at the step that brings its body into the goal region.
+
+        ``blocked_at``: the walks' survival times at ``period`` if already known (a row of
+        :meth:`survival_table`), so that they are not checked again.
+        """
         nodes, headings = self.nodes(period)
-        ok = self._free(nodes, headings, period)
+        ok = self._free(nodes, headings, period) if blocked_at is None else np.isinf(blocked_at)
         walks = [trim_at_goal(nodes[i], self.goal, self.goal_radius) for i in np.flatnonzero(ok)]
         walks.sort(key=lambda w: (round(float(np.linalg.norm(w[-1] - self.goal)), 3), len(w)))
         return walks[:limit] if limit is not None else walks
@@ -70,15 +75,18 @@ class _Walks(ABC):
         nodes, headings = self.nodes(period)
         return not self._free(nodes, headings, period).any()
 
-    def survivals(self, periods: Sequence[float]) -> np.ndarray:
-        """``(P,)`` [s]: for each of ``periods`` [s], how long the walk at that period that stays free
-        longest does so; ``inf`` where ``ObstacleCollision(T)`` is false. All walks of all periods are
-        checked in one compiled call."""
+    def survival_table(self, periods: Sequence[float]) -> list[np.ndarray]:
+        """For each of ``periods`` [s], the time [s] each walk at that period is first blocked (``inf``: free).
+        All walks of all periods are checked in one compiled call."""
         periods = [float(T) for T in periods]
         groups = [self.nodes(T) for T in periods]
-        times = walks_survival_at(self.body, self.start, groups, periods, self.edge_samples, self.goal,
-                                  self.goal_radius)
-        return np.array([t.max() for t in times])
+        return walks_survival_at(self.body, self.start, groups, periods, self.edge_samples, self.goal,
+                                 self.goal_radius)
+
+    def survivals(self, periods: Sequence[float]) -> np.ndarray:
+        """``(P,)`` [s]: for each of ``periods`` [s], how long the walk at that period that stays free
+        longest does so; ``inf`` where ``ObstacleCollision(T)`` is false (the best of :meth:`survival_table`)."""
+        return np.array([t.max() for t in self.survival_table(periods)])
 
 
 class GoalRollouts(_Walks):

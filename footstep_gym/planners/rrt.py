@@ -57,15 +57,16 @@ the depth of the tree.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from footstep_gym import footstep
+from footstep_gym.planners import kernels
 from footstep_gym.planners.params import PlannerConfig
-from footstep_gym.planners.prediction import body_path_points, support_normal
+from footstep_gym.planners.prediction import BodyModel, body_path_points, support_normal
 from footstep_gym.planners.pso import clip_command
-from footstep_gym.planners.walks import BodyCheck, WalkStart
+from footstep_gym.planners.walks import BodyCheck, WalkStart, step_fractions
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot
 
@@ -134,13 +135,15 @@ class ModifiedRRT:
     ``edge_samples``: points checked along each body segment; ``clearance_weight`` [m of goal
     distance per m], ``clearance_cap`` [m]: how :meth:`best_partial_path` trades clearance for
     progress; ``time_aware``: a node at depth ``d`` is checked during ``[(d - 1) T, d T]`` (else
-    every point at ``T``).
+    every point at ``T``); ``compiled``: with a :class:`~footstep_gym.planners.prediction.BodyModel`,
+    each batch is one compiled call (:func:`.kernels.extend_tree`; ``False``: the numpy methods, the
+    reference it is tested against; both grow the same tree).
     """
 
     def __init__(self, robot: Robot, *, iterations: int, batch_size: int, step_size: float,
                  goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int,
                  clearance_weight: float = 0.0, clearance_cap: float = 0.0,
-                 time_aware: bool = True) -> None:
+                 time_aware: bool = True, compiled: bool = True) -> None:
         self.robot = robot
         self.iterations = iterations
         self.batch_size = batch_size
@@ -152,6 +155,7 @@ class ModifiedRRT:
         self.clearance_weight = clearance_weight
         self.clearance_cap = clearance_cap
         self.time_aware = time_aware
+        self.compiled = compiled
         self.tree: Tree | None = None
         self.goal_nodes: list[int] = []
 
@@ -174,25 +178,55 @@ class ModifiedRRT:
         self._body = body
         self._first_stride = first_stride
         self._box = self._sampling_box(start.node, goal)
-        for seed in seeds:
-            self._insert_seed(np.asarray(seed, dtype=float))
+        compiled = self.compiled and isinstance(body, BodyModel)
+        seeds = [np.asarray(seed, dtype=float) for seed in seeds]
+        (self._insert_seeds_compiled if compiled else self._insert_seeds)(seeds)
+        extend = None
         done = 0
         while done < self.iterations and len(self.goal_nodes) < self.n_paths:
             batch = min(self.batch_size, self.iterations - done)
             done += batch
             samples = self._sample_points(batch, rng)
-            parents = self._nearest_nodes(samples)
-            delta = self._restrict_to_angle_limits(parents, samples, rng)
-            new_xy, new_heading, length = self._steer(parents, samples, delta)
-            # A node whose body is already in the goal region ends its path: extending it would only add
-            # steps in place that count as more "paths" (n_paths) without being any.
-            free = ~self._in_goal(tree.body[parents]) | (parents == 0)
-            free[free] = self._edges_free(parents[free], new_xy[free])
-            self._insert(parents[free], new_xy[free], new_heading[free], length[free])
+            if extend is None:
+                extend = self._compiled_batch(body) if compiled else self._numpy_batch
+            extend(samples, rng.random(batch))
         if not self.goal_nodes:
             return None
         best = min(self.goal_nodes, key=lambda i: tree.cost[i])
         return tree.path_to(best, reached_goal=True)
+
+    def _numpy_batch(self, samples: np.ndarray, redraw: np.ndarray) -> None:
+        """Steps 5-16 for one batch of ``samples`` [m]; ``redraw`` (uniform in [0, 1)) re-draws turns outside the limits."""
+        tree = self.tree
+        parents = self._nearest_nodes(samples)
+        delta = self._restrict_to_angle_limits(parents, samples, redraw)
+        new_xy, new_heading, length = self._steer(parents, samples, delta)
+        # A node whose body is already in the goal region ends its path: extending it would only add
+        # steps in place that count as more "paths" (n_paths) without being any.
+        free = ~self._in_goal(tree.body[parents]) | (parents == 0)
+        free[free] = self._edges_free(parents[free], new_xy[free])
+        self._insert(parents[free], new_xy[free], new_heading[free], length[free])
+
+    def _compiled_batch(self, body: BodyModel) -> Callable[[np.ndarray, np.ndarray], None]:
+        """:meth:`_numpy_batch` as one compiled call per batch (:func:`.kernels.extend_tree`), for a :class:`BodyModel`."""
+        tree, pred = self.tree, body.predictor
+        shift, needed = body.shift_and_clearance(self._period)
+        need2 = (pred.kernel_radius + needed) ** 2
+        (l_lo, l_hi), (r_lo, r_hi) = (footstep.turn_bounds(side, self.robot) for side in (footstep.LEFT, footstep.RIGHT))
+        first_lo, first_hi = self._first_stride if self._first_stride is not None else (0.0, 0.0)
+        fractions = step_fractions(self.edge_samples)
+        goal_nodes = np.empty(self.batch_size, dtype=np.int64)
+        fixed = (float(self._goal[0]), float(self._goal[1]), float(self._goal_radius), float(self.step_size),
+                 self._first_stride is not None, float(first_lo), float(first_hi), float(l_lo), float(l_hi),
+                 float(r_lo), float(r_hi), float(self._period), bool(self.time_aware), fractions, float(shift),
+                 *pred.kernel_shapes, need2, pred.kernel_horizon, goal_nodes)
+
+        def extend(samples: np.ndarray, redraw: np.ndarray) -> None:
+            tree.n, n_goal = kernels.extend_tree(tree.xy, tree.heading, tree.side, tree.parent, tree.cost, tree.depth,
+                                                 tree.body, tree.n, samples, redraw, *fixed)
+            self.goal_nodes.extend(goal_nodes[:n_goal].tolist())
+
+        return extend
 
     def best_partial_path(self, stay_until: float | None = None) -> RRTPath:
         """For when :meth:`plan` fails: the branch to the node closest to the goal (ties: least cost).
@@ -258,21 +292,19 @@ class ModifiedRRT:
         d2 = ((samples[:, None, :] - xy[None, :, :]) ** 2).sum(axis=-1)
         return np.argmin(d2, axis=1)
 
-    def _restrict_to_angle_limits(self, parents: np.ndarray, samples: np.ndarray,
-                                  rng: np.random.Generator) -> np.ndarray:
+    def _restrict_to_angle_limits(self, parents: np.ndarray, samples: np.ndarray, redraw: np.ndarray) -> np.ndarray:
         """Steps 6-8: turn ``delta`` [rad] of each extension relative to the parent's heading.
 
         The foot placed at the new node swings opposite the parent's foot, so the limits
         are :func:`footstep.turn_bounds` of the parent's side. Outside them, a turn is
-        re-drawn uniformly inside them.
+        re-drawn uniformly inside them (``lo + (hi - lo) * redraw``, ``redraw`` uniform in [0, 1)).
         """
         tree = self.tree
         vec = samples - tree.xy[parents]
         delta = footstep.wrap_angle(np.arctan2(vec[:, 1], vec[:, 0]) - tree.heading[parents])
         lo, hi = footstep.turn_bounds(tree.side[parents], self.robot)
         outside = (delta < lo) | (delta > hi)
-        redraw = lo + (hi - lo) * rng.random(len(parents))
-        return np.where(outside, redraw, delta)
+        return np.where(outside, lo + (hi - lo) * redraw, delta)
 
     def _steer(self, parents: np.ndarray, samples: np.ndarray,
                delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -300,32 +332,45 @@ class ModifiedRRT:
         free = self._body.free(pts, times, normals, self._period)
         return free.reshape(len(parents), self.edge_samples).all(axis=1)
 
-    def _insert_seed(self, nodes: np.ndarray) -> None:
-        """Insert a known-free walk (row 0 = the root) as a chain of nodes, in one batch.
+    def _insert_seeds(self, seeds: Sequence[np.ndarray]) -> None:
+        """Insert known-free walks (row 0 of each = the root) as chains of nodes from the root, all in one batch.
 
         A step of zero length is a step in place: the new node keeps its parent's heading.
         """
         tree = self.tree
-        if len(nodes) < 2:
+        chains = [nodes for nodes in seeds if len(nodes) >= 2]
+        if not chains:
             return
-        vec = np.diff(nodes, axis=0)
+        steps = np.array([len(nodes) - 1 for nodes in chains])
+        first = np.concatenate([[0], np.cumsum(steps)[:-1]])  # each chain's first step
+        new_xy = np.concatenate([nodes[1:] for nodes in chains])
+        vec = np.concatenate([np.diff(nodes, axis=0) for nodes in chains])
         length = np.hypot(vec[:, 0], vec[:, 1])
         heading = np.arctan2(vec[:, 1], vec[:, 0])
-        moved = length > 1e-9
-        # a step in place inherits the heading of the last step that moved (the root's if none did)
-        last = np.maximum.accumulate(np.where(moved, np.arange(len(vec)), -1))
-        heading = np.where(last >= 0, heading[np.maximum(last, 0)], tree.heading[0])
-        parents = np.concatenate([[0], tree.n + np.arange(len(vec) - 1)])
-        self._insert_chain(parents, nodes[1:], heading, length)
+        index = np.arange(len(vec))
+        chain_start = np.repeat(first, steps)
+        # a step in place inherits the heading of its chain's last step that moved (the root's if none did)
+        last = np.maximum.accumulate(np.where(length > 1e-9, index, -1))
+        heading = np.where(last >= chain_start, heading[np.maximum(last, 0)], tree.heading[0])
+        in_chain = index - chain_start
+        parents = np.where(in_chain == 0, 0, tree.n + index - 1)
+        previous_xy = np.where((in_chain == 0)[:, None], tree.xy[0], np.roll(new_xy, 1, axis=0))
+        self._append(parents, new_xy, heading, side=-tree.side[0] * (-1) ** in_chain,
+                     cost=np.concatenate([np.cumsum(length[a:a + k]) for a, k in zip(first, steps)]),
+                     depth=in_chain + 1, body=0.5 * (previous_xy + new_xy))
 
-    def _insert_chain(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray,
-                      length: np.ndarray) -> None:
-        """:meth:`_insert` for a walk from the root whose nodes are each the parent of the next."""
+    def _insert_seeds_compiled(self, seeds: Sequence[np.ndarray]) -> None:
+        """:meth:`_insert_seeds` in one compiled call (:func:`.kernels.insert_walks`)."""
+        if not seeds:
+            return
         tree = self.tree
-        k = len(parents)
-        self._append(parents, new_xy, heading, side=-tree.side[0] * (-1) ** np.arange(k),
-                     cost=np.cumsum(length), depth=np.arange(1, k + 1),
-                     body=0.5 * (np.concatenate([tree.xy[:1], new_xy[:-1]]) + new_xy))
+        walk_nodes = np.concatenate(seeds).reshape(-1, 2)
+        walk_first = np.cumsum([0, *(len(nodes) for nodes in seeds)])
+        goal_nodes = np.empty(len(walk_nodes), dtype=np.int64)
+        tree.n, n_goal = kernels.insert_walks(tree.xy, tree.heading, tree.side, tree.parent, tree.cost, tree.depth,
+                                              tree.body, tree.n, walk_nodes, walk_first, float(self._goal[0]),
+                                              float(self._goal[1]), float(self._goal_radius), goal_nodes)
+        self.goal_nodes.extend(goal_nodes[:n_goal].tolist())
 
     def _in_goal(self, xy: np.ndarray) -> np.ndarray:
         return np.linalg.norm(xy - self._goal, axis=1) <= self._goal_radius

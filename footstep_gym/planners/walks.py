@@ -112,18 +112,18 @@ def _walks_survival_compiled(body: BodyModel, start: WalkStart, walks: Sequence[
     first = np.cumsum([0, *counts])
     for (n, h), T, a, b in zip(walks, periods, first[:-1], first[1:]):
         nodes[a:b, : n.shape[1]], headings[a:b, : n.shape[1]], n_nodes[a:b] = n, h, n.shape[1]
-        sway_shift, grow = body.sway(T)
-        period[a:b], shift[a:b], needed[a:b] = T, sway_shift, body.robot.body_radius + body.margin + grow
+        period[a:b] = T
+        shift[a:b], needed[a:b] = body.shift_and_clearance(T)
     blocked_at = np.empty(rows)
     kernels.walks_survival(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
                            float(start.body[1]), nodes, headings, n_nodes, int(start.side), period,
-                           _fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius), shift,
+                           step_fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius), shift,
                            needed, *pred.kernel_shapes, pred.kernel_radius, pred.kernel_horizon, blocked_at)
     return [blocked_at[a:b] for a, b in zip(first[:-1], first[1:])]
 
 
 @functools.lru_cache(maxsize=8)
-def _fractions(samples: int) -> np.ndarray:
+def step_fractions(samples: int) -> np.ndarray:
     """``samples`` fractions of a step, ends included (read-only: shared between calls)."""
     out = np.linspace(0.0, 1.0, samples)
     out.flags.writeable = False

@@ -26,28 +26,46 @@ import numpy as np
 
 
 @numba.njit(cache=True, fastmath=False, inline="always")
-def _gap2(x: float, y: float, t: float, q: int, pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray,
-          vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray, a_y: np.ndarray,
-          ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray) -> float:
-    """Squared distance [m^2] from ``(x, y)`` to shape ``q``'s centre line at time ``t`` [s]: the body-frame
-    segment ``a``..``a + ab`` rotated by ``angle + omega t`` and carried by ``pos + vel t``."""
-    ang = angle[q] + omega[q] * t
-    c, sn = math.cos(ang), math.sin(ang)
+def _pose(t: float, q: int, pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray,
+          angle: np.ndarray, omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray, a_x: np.ndarray, a_y: np.ndarray,
+          ab_x: np.ndarray, ab_y: np.ndarray) -> tuple[float, float, float, float]:
+    """Shape ``q``'s centre line at time ``t`` [s]: its start ``(ox, oy)`` [m] and its direction ``(bx, by)`` [m], the
+    body-frame segment ``a``..``a + ab`` rotated by ``angle + omega t`` and carried by ``pos + vel t``
+    (``cos0``/``sin0``: of ``angle``, the rotation of a shape that does not turn)."""
+    if omega[q] == 0.0:
+        c, sn = cos0[q], sin0[q]
+    else:
+        ang = angle[q] + omega[q] * t
+        c, sn = math.cos(ang), math.sin(ang)
     ox = pos_x[q] + vel_x[q] * t + (c * a_x[q] - sn * a_y[q])
     oy = pos_y[q] + vel_y[q] * t + (sn * a_x[q] + c * a_y[q])
+    return ox, oy, c * ab_x[q] - sn * ab_y[q], sn * ab_x[q] + c * ab_y[q]
+
+
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _gap2_to(x: float, y: float, ox: float, oy: float, bx: float, by: float, ab2: float) -> float:
+    """Squared distance [m^2] from ``(x, y)`` to the segment from ``(ox, oy)`` along ``(bx, by)`` (``ab2``: its
+    squared length)."""
     apx, apy = x - ox, y - oy
-    bx = c * ab_x[q] - sn * ab_y[q]
-    by = sn * ab_x[q] + c * ab_y[q]
     u = 0.0
-    if ab2[q] > 0:
-        u = min(max((apx * bx + apy * by) / ab2[q], 0.0), 1.0)
+    if ab2 > 0:
+        u = min(max((apx * bx + apy * by) / ab2, 0.0), 1.0)
     dx, dy = apx - u * bx, apy - u * by
     return dx * dx + dy * dy
 
 
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _gap2(x: float, y: float, t: float, q: int, pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray,
+          vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray,
+          a_x: np.ndarray, a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray) -> float:
+    """Squared distance [m^2] from ``(x, y)`` to shape ``q``'s centre line at time ``t`` [s] (:func:`_pose`)."""
+    ox, oy, bx, by = _pose(t, q, pos_x, pos_y, vel_x, vel_y, angle, omega, cos0, sin0, a_x, a_y, ab_x, ab_y)
+    return _gap2_to(x, y, ox, oy, bx, by, ab2[q])
+
+
 @numba.njit(cache=True, fastmath=False)
 def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, pos_x: np.ndarray, pos_y: np.ndarray,
-                vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, a_x: np.ndarray,
+                vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray, a_x: np.ndarray,
                 a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray, need2: np.ndarray,
                 horizon: np.ndarray, out: np.ndarray) -> None:
     """Whether each point ``(px[i], py[i])`` [m] at time ``t[i]`` [s] clears every shape, into ``out`` (bool).
@@ -64,7 +82,7 @@ def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, pos_x: np.ndarray
         for s in range(n_shapes):
             if ti > horizon[s]:
                 continue
-            if _gap2(x, y, ti, s, pos_x, pos_y, vel_x, vel_y, angle, omega, a_x, a_y, ab_x, ab_y, ab2) < need2[s]:
+            if _gap2(x, y, ti, s, pos_x, pos_y, vel_x, vel_y, angle, omega, cos0, sin0, a_x, a_y, ab_x, ab_y, ab2) < need2[s]:
                 ok = False
                 break
         out[i] = ok
@@ -129,7 +147,7 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
                    headings: np.ndarray, n_nodes: np.ndarray, side0: int, period: np.ndarray, samples: np.ndarray,
                    goal_x: float, goal_y: float, goal_radius: float, shift: np.ndarray, needed: np.ndarray,
                    pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray,
-                   omega: np.ndarray, a_x: np.ndarray, a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray,
+                   omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray, a_x: np.ndarray, a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray,
                    ab2: np.ndarray, radius: np.ndarray, horizon: np.ndarray, blocked_at: np.ndarray) -> None:
     """:func:`.walks.walks_survival` for a :class:`.prediction.BodyModel`, one walk after the other: into
     ``blocked_at[r]`` [s] the time of walk ``r``'s first blocked point (``inf`` if it stays free).
@@ -143,11 +161,18 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
     """
     n_roll = nodes.shape[0]
     n_shapes = pos_x.size
+    n_s = samples.size
+    # The shapes' poses at the k-th sampled instant of step d (index d * n_s + k), computed once for all the
+    # walks of one period (consecutive rows) as far as any of them gets.
+    poses = np.empty((nodes.shape[1] * n_s, n_shapes, 4))
+    posed_period, n_posed = np.nan, 0
     for r in range(n_roll):
         blocked_at[r] = np.inf
         ax, ay = body_x, body_y
         side = side0
         walk_period, walk_shift, walk_needed = period[r], shift[r], needed[r]
+        if walk_period != posed_period:
+            posed_period, n_posed = walk_period, 0
         for d in range(n_nodes[r] - 1):
             px_prev = prev_x if d == 0 else nodes[r, d - 1, 0]
             py_prev = prev_y if d == 0 else nodes[r, d - 1, 1]
@@ -163,17 +188,23 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
             nrm_y = side * math.cos(h)
             t0 = d * walk_period
             t1 = (d + 1) * walk_period
-            for k in range(samples.size):
+            for k in range(n_s):
                 s = samples[k]
                 x = ax + s * (bx - ax) + walk_shift * nrm_x
                 y = ay + s * (by - ay) + walk_shift * nrm_y
                 ti = t0 + s * (t1 - t0)
+                i = d * n_s + k
+                if i == n_posed:  # instants are visited in order from 0: the next one not posed yet
+                    for q in range(n_shapes):
+                        poses[i, q, 0], poses[i, q, 1], poses[i, q, 2], poses[i, q, 3] = _pose(
+                            ti, q, pos_x, pos_y, vel_x, vel_y, angle, omega, cos0, sin0, a_x, a_y, ab_x, ab_y)
+                    n_posed += 1
                 for q in range(n_shapes):
                     if ti > horizon[q]:
                         continue
                     lim = radius[q] + walk_needed
-                    if _gap2(x, y, ti, q, pos_x, pos_y, vel_x, vel_y, angle, omega, a_x, a_y, ab_x, ab_y,
-                             ab2) < lim * lim:
+                    if _gap2_to(x, y, poses[i, q, 0], poses[i, q, 1], poses[i, q, 2], poses[i, q, 3],
+                                ab2[q]) < lim * lim:
                         blocked_at[r] = ti
                         break
                 if blocked_at[r] < np.inf:
@@ -189,7 +220,7 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
                 goal_x: float, goal_y: float, goal_radius: float, step_size: float, has_first: bool,
                 first_lo: float, first_hi: float, left_lo: float, left_hi: float, right_lo: float, right_hi: float,
                 period: float, time_aware: bool, fractions: np.ndarray, shift: float, pos_x: np.ndarray,
-                pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray,
+                pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray,
                 a_x: np.ndarray, a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray,
                 need2: np.ndarray, horizon: np.ndarray, goal_nodes: np.ndarray) -> tuple[int, int]:
     """One batch of :meth:`.rrt.ModifiedRRT.plan` (Algorithm 2, steps 5-16) on the tree's arrays, in place.
@@ -249,7 +280,7 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
             for q in range(n_shapes):
                 if ti > horizon[q]:
                     continue
-                if _gap2(x, y, ti, q, pos_x, pos_y, vel_x, vel_y, angle, omega, a_x, a_y, ab_x, ab_y,
+                if _gap2(x, y, ti, q, pos_x, pos_y, vel_x, vel_y, angle, omega, cos0, sin0, a_x, a_y, ab_x, ab_y,
                          ab2) < need2[q]:
                     free = False
                     break

@@ -240,6 +240,7 @@ class PeriodSearch:
         self.long_lookahead = add.long_lookahead
         self._windows_of: Snapshot | None = None  # the snapshot whose stride windows are remembered
         self._windows: dict[float, tuple[float, float] | None] = {}
+        self._floor_of: Snapshot | None = None  # the snapshot of the last floor
         self._last_floor: float | None = None  # the previous search's floor (the guess of :meth:`_floor`)
         self.lipm_windows = add.lipm_windows
         self.centred_period = add.centred_period
@@ -300,6 +301,8 @@ class PeriodSearch:
         second call, only when it is not, computes them for the floor found): the same verdicts, one
         numpy call fewer per footstep while the floor holds.
         """
+        if self._floor_of is snapshot:  # the second tier searches the same snapshot again
+            return self._last_floor
         t_n = self.robot.nominal_period
         strides = (float(snapshot.previous_command[0]), self.step_size)
         grid = np.linspace(self.t0, t_n, self.floor_grid)
@@ -312,7 +315,7 @@ class PeriodSearch:
                               snapshot.support_side).feasible
         n_floor = len(strides) * grid.size
         floor = floor_from(ok[:n_floor], grid, len(strides))
-        self._last_floor = floor
+        self._floor_of, self._last_floor = snapshot, floor
         if scan is not None and floor == guess:
             if self._windows_of is not snapshot:
                 self._windows_of, self._windows = snapshot, {}

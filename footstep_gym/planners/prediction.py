@@ -97,7 +97,7 @@ class ObstaclePredictor:
         self.kernel_horizon = np.ascontiguousarray(self._horizon)
         self.kernel_shapes = tuple(np.ascontiguousarray(a) for a in (
             self._position.real, self._position.imag, self._velocity.real, self._velocity.imag,
-            self._angle, self._omega, self._a.real, self._a.imag, self._ab.real, self._ab.imag, self._ab2))
+            self._angle, self._omega, np.cos(self._angle), np.sin(self._angle), self._a.real, self._a.imag, self._ab.real, self._ab.imag, self._ab2))
 
     @property
     def n_shapes(self) -> int:

@@ -20,6 +20,8 @@ are not): the period search (:mod:`.period_search`) keeps what it needs in its r
 
 from __future__ import annotations
 
+import functools
+import math
 from abc import ABC, abstractmethod
 from typing import Callable, Sequence
 
@@ -28,7 +30,7 @@ import numpy as np
 from footstep_gym import footstep
 from footstep_gym.footstep import LEFT, RIGHT
 from footstep_gym.planners import kernels
-from footstep_gym.planners.walks import BodyCheck, WalkStart, trim_at_goal, walks_free, walks_survival_at
+from footstep_gym.planners.walks import BodyCheck, WalkStart, steps_to_goal, walks_free, walks_survival_at
 from footstep_gym.robot import Robot
 
 #: ``(lo, hi)`` [m] of the first step's front stride the LIPM accepts at period ``T``, or ``None`` (no limit).
@@ -66,7 +68,9 @@ class _Walks(ABC):
         """
         nodes, headings = self.nodes(period)
         ok = self._free(nodes, headings, period) if blocked_at is None else np.isinf(blocked_at)
-        walks = [trim_at_goal(nodes[i], self.goal, self.goal_radius) for i in np.flatnonzero(ok)]
+        free = nodes[ok]
+        ends = steps_to_goal(free, self.goal, self.goal_radius) + 1
+        walks = [walk[:end] for walk, end in zip(free, ends.tolist())]
         walks.sort(key=lambda w: (round(float(np.linalg.norm(w[-1] - self.goal)), 3), len(w)))
         return walks[:limit] if limit is not None else walks
 
@@ -112,21 +116,19 @@ class GoalRollouts(_Walks):
         super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, first_stride=first_stride)
         self.horizon = horizon
         self.lookahead = lookahead
-        off, frac, wait = np.meshgrid(np.asarray(lane_offsets, float), np.asarray(stride_fractions, float),
-                                      np.asarray(wait_steps, dtype=int), indexing="ij")
-        self._offsets = off.ravel()
-        self._strides = frac.ravel() * step_size
-        self._waits = wait.ravel()
+        self._offsets, self._strides, self._waits = _library(tuple(map(float, lane_offsets)),
+                                                             tuple(map(float, stride_fractions)),
+                                                             tuple(map(int, wait_steps)), float(step_size))
         axis = self.goal - start.node
         self._length = float(np.linalg.norm(axis))
-        self._max_depth = (int(np.ceil(self._length / float(self._strides.min()) * depth_slack))
+        self._max_depth = (math.ceil(self._length / float(self._strides.min()) * depth_slack)
                            + int(self._waits.max()) + extra_steps)
         self._dir = axis / self._length if self._length > 0 else np.array([np.cos(start.heading),
                                                                            np.sin(start.heading)])
         self._walk_cache: dict[tuple[float, float] | None, tuple[np.ndarray, np.ndarray]] = {}
 
     def nodes(self, period: float) -> tuple[np.ndarray, np.ndarray]:
-        depth = max(1, min(int(np.ceil(self.horizon / period - 1e-9)), self._max_depth))
+        depth = max(1, min(math.ceil(self.horizon / period - 1e-9), self._max_depth))
         window = self.first_stride(period) if self.first_stride is not None else None
         if window not in self._walk_cache:  # the walks depend on the period only through the first stride
             self._walk_cache[window] = self._pursue(window, self._max_depth)
@@ -141,8 +143,20 @@ class GoalRollouts(_Walks):
             float(self.start.node[0]), float(self.start.node[1]), float(self._dir[0]), float(self._dir[1]),
             float(self.goal[0]), float(self.goal[1]), self._length, float(self.lookahead), float(self.goal_radius),
             float(self.start.heading), int(self.start.side), self._offsets, self._strides,
-            self._waits.astype(np.int64), float(l_lo), float(l_hi), float(r_lo), float(r_hi), window is not None,
+            self._waits, float(l_lo), float(l_hi), float(r_lo), float(r_hi), window is not None,
             float(w_lo), float(w_hi), int(depth))
+
+
+@functools.lru_cache(maxsize=16)
+def _library(lane_offsets: tuple[float, ...], stride_fractions: tuple[float, ...], wait_steps: tuple[int, ...],
+             step_size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rollouts' lane offsets [m], strides [m] and waits [steps], one entry per rollout (read-only)."""
+    off, frac, wait = np.meshgrid(np.asarray(lane_offsets, float), np.asarray(stride_fractions, float),
+                                  np.asarray(wait_steps, dtype=np.int64), indexing="ij")
+    out = (off.ravel(), frac.ravel() * step_size, wait.ravel())
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 class NextNodeFan(_Walks):

@@ -161,6 +161,13 @@ def walks_free_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headi
 def trim_at_goal(nodes: np.ndarray, goal: np.ndarray, goal_radius: float) -> np.ndarray:
     """A walk's nodes ``(k + 1, 2)`` up to (and including) the first step that brings its body (the
     midpoint of the step's two nodes) into the goal region."""
-    bodies = 0.5 * (nodes[:-1] + nodes[1:])
-    inside = np.flatnonzero(np.linalg.norm(bodies - goal, axis=1) <= goal_radius)
-    return nodes[: inside[0] + 2] if inside.size else nodes
+    return nodes[: int(steps_to_goal(nodes[None], goal, goal_radius)[0]) + 1]
+
+
+def steps_to_goal(nodes: np.ndarray, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """``(R,)``: for walks ``(R, k + 1, 2)`` [m], the number of the first step that brings the body (the
+    midpoint of the step's two nodes) into the goal region, ``k`` if none does (:func:`trim_at_goal`
+    keeps the nodes up to it)."""
+    bodies = 0.5 * (nodes[:, :-1] + nodes[:, 1:])
+    inside = np.linalg.norm(bodies - goal, axis=-1) <= goal_radius
+    return np.where(inside.any(axis=1), np.argmax(inside, axis=1) + 1, nodes.shape[1] - 1)

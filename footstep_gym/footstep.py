@@ -81,6 +81,8 @@ def command_between(support_pose: Any, support_side: Any, new_pose: Any) -> tupl
 
 def turn_bounds(support_side: Any, robot: Robot) -> tuple[Any, Any]:
     """``(theta_min, theta_max)`` [rad] for the foot that swings opposite ``support_side``."""
+    if isinstance(support_side, (int, np.integer)):  # one side (the planners' per-call case): no arrays
+        return (-robot.turn_inner, robot.turn_outer) if support_side < 0 else (-robot.turn_outer, robot.turn_inner)
     swing = -np.asarray(support_side)
     lo = np.where(swing > 0, -robot.turn_inner, -robot.turn_outer)
     hi = np.where(swing > 0, robot.turn_outer, robot.turn_inner)

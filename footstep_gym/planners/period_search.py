@@ -120,34 +120,19 @@ def shortest_feasible_period(robot: Robot, com_local: Sequence[float], vel_local
                              t_nominal: float, grid: int) -> float:
     """The shortest period in ``[t_short, t_nominal]`` (on a ``grid``) reachable in one step.
 
-    Tries ``[S, nominal L, 0, T - nominal T_DS, nominal T_DS]`` for each ``S`` in ``strides``
-    with one batched :func:`lipm.check_steps`; returns the shortest ``T`` feasible for all
-    of them, or ``t_short`` if no grid period is (then the PSO has to sort it out).
+    Tries ``[S, nominal L, 0, T - nominal T_DS, nominal T_DS]`` for each ``S`` in ``strides``,
+    shortest ``T`` first, with the env's own scalar verdict (:func:`lipm.step_feasible`; the
+    answer is usually among the first few periods, so a few scalar checks cost less than one
+    batched numpy call); returns the shortest ``T`` feasible for all of them, or ``t_short`` if
+    no grid period is (then the PSO has to sort it out).
     """
-    periods = np.linspace(t_short, t_nominal, grid)
-    ok = lipm.check_steps(robot, com_local, vel_local, floor_commands(robot, strides, periods), support_side).feasible
-    return floor_from(ok, periods, len(strides))
-
-
-def floor_commands(robot: Robot, strides: Sequence[float], periods: np.ndarray) -> np.ndarray:
-    """The commands ``(len(strides) * len(periods), 5)`` :func:`shortest_feasible_period` checks."""
-    t_ds = robot.nominal_t_ds
-    s = np.asarray(strides, dtype=float)
-    cmd = np.empty((s.size, periods.size, 5))
-    cmd[..., 0] = s[:, None]
-    cmd[..., 1] = robot.nominal_side_stride
-    cmd[..., 2] = 0.0
-    cmd[..., 3] = periods[None, :] - t_ds
-    cmd[..., 4] = t_ds
-    return cmd.reshape(-1, 5)
-
-
-def floor_from(feasible: np.ndarray, periods: np.ndarray, n_strides: int) -> float:
-    """:func:`shortest_feasible_period` from the verdicts on :func:`floor_commands`."""
-    ok = feasible.reshape(n_strides, periods.size).all(axis=0)
-    if not ok.any():
-        return float(periods[0])
-    return float(periods[np.argmax(ok)])
+    t_ds, side_stride = robot.nominal_t_ds, robot.nominal_side_stride
+    strides = [float(S) for S in strides]
+    for T in np.linspace(t_short, t_nominal, grid).tolist():
+        if all(lipm.step_feasible(robot, com_local, vel_local, (S, side_stride, 0.0, T - t_ds, t_ds), support_side)
+               for S in strides):
+            return T
+    return float(t_short)
 
 
 def stride_window(robot: Robot, com_local: Sequence[float], vel_local: Sequence[float], support_side: int,
@@ -164,12 +149,6 @@ def stride_window(robot: Robot, com_local: Sequence[float], vel_local: Sequence[
 def stride_windows(robot: Robot, com_local: Sequence[float], vel_local: Sequence[float], support_side: int,
                    periods: Sequence[float], max_stride: float, grid: int) -> list[tuple[float, float] | None]:
     """:func:`stride_window` for each of ``periods`` [s], all in one batched :func:`lipm.check_steps`."""
-    cmd = window_commands(robot, periods, max_stride, grid)
-    return windows_from(lipm.check_steps(robot, com_local, vel_local, cmd, support_side).feasible, max_stride, grid)
-
-
-def window_commands(robot: Robot, periods: Sequence[float], max_stride: float, grid: int) -> np.ndarray:
-    """The commands ``(len(periods) * grid, 5)`` :func:`stride_windows` checks."""
     strides = np.linspace(0.0, max_stride, grid)
     t_ds = robot.nominal_t_ds
     p = np.asarray(periods, dtype=float)
@@ -179,14 +158,9 @@ def window_commands(robot: Robot, periods: Sequence[float], max_stride: float, g
     cmd[..., 2] = 0.0
     cmd[..., 3] = np.maximum(p - t_ds, robot.t_ss[0])[:, None]
     cmd[..., 4] = t_ds
-    return cmd.reshape(-1, 5)
-
-
-def windows_from(feasible: np.ndarray, max_stride: float, grid: int) -> list[tuple[float, float] | None]:
-    """:func:`stride_windows` from the verdicts on :func:`window_commands`."""
-    strides = np.linspace(0.0, max_stride, grid)
+    ok = lipm.check_steps(robot, com_local, vel_local, cmd.reshape(-1, 5), support_side).feasible.reshape(p.size, grid)
     out: list[tuple[float, float] | None] = []
-    for row in feasible.reshape(-1, grid):
+    for row in ok:
         idx = np.flatnonzero(row)
         out.append((float(strides[idx[0]]), float(strides[idx[-1]])) if idx.size else None)
     return out
@@ -240,8 +214,8 @@ class PeriodSearch:
         self.long_lookahead = add.long_lookahead
         self._windows_of: Snapshot | None = None  # the snapshot whose stride windows are remembered
         self._windows: dict[float, tuple[float, float] | None] = {}
-        self._floor_of: Snapshot | None = None  # the snapshot of the last floor
-        self._last_floor: float | None = None  # the previous search's floor (the guess of :meth:`_floor`)
+        self._floor_of: Snapshot | None = None  # the snapshot of the floor remembered
+        self._floor_value = self.t0
         self.lipm_windows = add.lipm_windows
         self.centred_period = add.centred_period
         waits = tuple(int(w) for w in ps.rollout_wait_steps if w > 0)
@@ -294,34 +268,14 @@ class PeriodSearch:
             self._windows.update(zip(todo, windows))
 
     def _floor(self, snapshot: Snapshot) -> float:
-        """:func:`shortest_feasible_period` from the snapshot (``T0`` made state-dependent).
-
-        A scan (``centred_period``) then needs the stride windows of the periods from the floor up; they
-        are checked in the same LIPM call on the guess that the floor is the previous search's (a
-        second call, only when it is not, computes them for the floor found): the same verdicts, one
-        numpy call fewer per footstep while the floor holds.
-        """
-        if self._floor_of is snapshot:  # the second tier searches the same snapshot again
-            return self._last_floor
-        t_n = self.robot.nominal_period
-        strides = (float(snapshot.previous_command[0]), self.step_size)
-        grid = np.linspace(self.t0, t_n, self.floor_grid)
-        commands = floor_commands(self.robot, strides, grid)
-        guess = self._last_floor if self.centred_period else None
-        scan = np.linspace(guess, t_n, self.scan_periods) if guess is not None else None
-        if scan is not None:
-            commands = np.concatenate([commands, window_commands(self.robot, scan, self.step_size, self.stride_grid)])
-        ok = lipm.check_steps(self.robot, snapshot.com_local, snapshot.vel_local, commands,
-                              snapshot.support_side).feasible
-        n_floor = len(strides) * grid.size
-        floor = floor_from(ok[:n_floor], grid, len(strides))
-        self._floor_of, self._last_floor = snapshot, floor
-        if scan is not None and floor == guess:
-            if self._windows_of is not snapshot:
-                self._windows_of, self._windows = snapshot, {}
-            windows = windows_from(ok[n_floor:], self.step_size, self.stride_grid)
-            self._windows.update(zip(scan.tolist(), windows))
-        return floor
+        """:func:`shortest_feasible_period` from the snapshot (``T0`` made state-dependent; remembered for the
+        second tier, which searches the same snapshot)."""
+        if self._floor_of is not snapshot:
+            strides = (float(snapshot.previous_command[0]), self.step_size)
+            self._floor_of, self._floor_value = snapshot, shortest_feasible_period(
+                self.robot, snapshot.com_local, snapshot.vel_local, snapshot.support_side, strides, self.t0,
+                self.robot.nominal_period, self.floor_grid)
+        return self._floor_value
 
     def walks(self, snapshot: Snapshot, start: WalkStart, search_body: BodyCheck, wait_steps: Sequence[int],
               fractions: Sequence[float]) -> GoalRollouts | NextNodeFan:

@@ -104,16 +104,20 @@ def _walks_survival_compiled(body: BodyModel, start: WalkStart, walks: Sequence[
     """:func:`walks_survival_at` in one compiled loop (:func:`.kernels.walks_survival`)."""
     pred = body.predictor
     counts = [len(n) for n, _ in walks]
-    rows, depth = sum(counts), max(n.shape[1] for n, _ in walks)
-    nodes = np.empty((rows, depth, 2))  # a row's nodes beyond its own n_nodes are never read
-    headings = np.empty((rows, depth))
-    n_nodes = np.empty(rows, dtype=np.int64)
-    period, shift, needed = np.empty(rows), np.empty(rows), np.empty(rows)
+    widths = [n.shape[1] for n, _ in walks]
+    rows, depth = sum(counts), max(widths)
     first = np.cumsum([0, *counts])
-    for (n, h), T, a, b in zip(walks, periods, first[:-1], first[1:]):
-        nodes[a:b, : n.shape[1]], headings[a:b, : n.shape[1]], n_nodes[a:b] = n, h, n.shape[1]
-        period[a:b] = T
-        shift[a:b], needed[a:b] = body.shift_and_clearance(T)
+    if min(widths) == depth:  # the usual case: one call each
+        nodes, headings = np.concatenate([n for n, _ in walks]), np.concatenate([h for _, h in walks])
+    else:
+        nodes = np.empty((rows, depth, 2))  # a row's nodes beyond its own n_nodes are never read
+        headings = np.empty((rows, depth))
+        for (n, h), a, b in zip(walks, first[:-1], first[1:]):
+            nodes[a:b, : n.shape[1]], headings[a:b, : n.shape[1]] = n, h
+    n_nodes = np.repeat(np.asarray(widths, dtype=np.int64), counts)
+    period = np.repeat(np.asarray(periods, dtype=float), counts)
+    shift, needed = np.repeat(np.array([body.shift_and_clearance(T) for T in periods]).reshape(-1, 2), counts, axis=0).T
+    shift, needed = np.ascontiguousarray(shift), np.ascontiguousarray(needed)
     blocked_at = np.empty(rows)
     kernels.walks_survival(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
                            float(start.body[1]), nodes, headings, n_nodes, int(start.side), period,

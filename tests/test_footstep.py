@@ -141,6 +141,11 @@ def test_turn_bounds(robot):
     lo, hi = turn_bounds(np.array([LEFT, RIGHT, RIGHT]), robot)
     np.testing.assert_allclose(lo, [-robot.turn_outer, -robot.turn_inner, -robot.turn_inner])
     np.testing.assert_allclose(hi, [robot.turn_inner, robot.turn_outer, robot.turn_outer])
+    for side in (LEFT, RIGHT):  # one side as int, numpy integer or 0-d array: the same bounds as floats
+        want = turn_bounds(np.array(side), robot)
+        for given in (side, np.int64(side), np.int32(side)):
+            got = turn_bounds(given, robot)
+            assert got == want and all(isinstance(b, float) for b in got)
 
 
 # ------------------------------------------------------------------ 4. overlap and feasibility

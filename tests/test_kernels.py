@@ -160,3 +160,78 @@ def test_survivals_of_many_periods_in_one_call_match_one_period_at_a_time(robot,
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(np.isinf(got), [not rollouts(T) for T in periods])
     assert np.isfinite(got).any() or env_id == "FootstepCrossing-v0"  # the times were compared (the car is far yet)
+
+
+def random_seed_walks(start, rng, n_walks=3, steps=12):
+    """Walks from the start node of 8 cm steps with small turns and a few steps in place."""
+    walks = []
+    for _ in range(n_walks):
+        heading = start.heading + np.cumsum(rng.uniform(-0.3, 0.3, steps))
+        stride = np.where(rng.random(steps) < 0.2, 0.0, 0.08)  # steps in place keep the last heading
+        xy = start.node + np.cumsum(stride[:, None] * np.stack([np.cos(heading), np.sin(heading)], axis=1), axis=0)
+        walks.append(np.concatenate([start.node[None], xy]))
+    return walks
+
+
+@pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
+@pytest.mark.parametrize("time_aware", [True, False])
+def test_compiled_rrt_grows_the_numpy_tree(robot, env_id, kwargs, steps, time_aware):
+    """:func:`kernels.extend_tree` and :func:`kernels.insert_walks` against the RRT's numpy methods: from the
+    same generator, the same tree node for node (coordinates, headings, sides, parents, costs, depths, bodies),
+    the same goal nodes and the same path, with seed walks, a first-stride window and short horizons."""
+    from footstep_gym.planners.rrt import ModifiedRRT
+    from footstep_gym.planners.walks import walk_start
+
+    snap = snapshot_after(env_id, kwargs, steps)
+    start = walk_start(snap, 0.5 * robot.nominal_side_stride)
+    goals = [np.asarray(snap.goal), start.node + [0.6, 0.1]]  # the scene's goal and one a few steps away
+    compared = blocked = 0
+    for pred in predictors(snap):
+        body = BodyModel(pred, robot, 0.02)
+        for period, window, goal in [(0.8, None, goals[0]), (0.4, (0.04, 0.09), goals[1]), (0.55, None, goals[1])]:
+            seeds = random_seed_walks(start, np.random.default_rng(int(period * 100)))
+            trees = []
+            for compiled in (False, True):
+                rrt = ModifiedRRT(robot, iterations=300, batch_size=10, step_size=0.1, goal_sample_rate=0.2,
+                                  n_paths=3, sample_margin=0.5, edge_samples=3, time_aware=time_aware,
+                                  compiled=compiled)
+                path = rrt.plan(start, goal, snap.goal_tolerance, body, period, np.random.default_rng(5),
+                                seeds=seeds, first_stride=window)
+                trees.append((rrt.tree, list(rrt.goal_nodes), path))
+            (want, want_goals, want_path), (got, got_goals, got_path) = trees
+            assert got.n == want.n and got_goals == want_goals
+            for name in ("xy", "heading", "side", "parent", "cost", "depth", "body"):
+                np.testing.assert_array_equal(getattr(got, name)[: got.n], getattr(want, name)[: want.n], err_msg=name)
+            assert (got_path is None) == (want_path is None)
+            if want_path is not None:
+                np.testing.assert_array_equal(got_path.nodes, want_path.nodes)
+            compared += want.n
+            blocked += 300 + 1 + sum(len(s) - 1 for s in seeds) - want.n  # samples the obstacles (or goal) refused
+    assert compared > 300 and blocked > 0
+
+
+@pytest.mark.parametrize("env_id,kwargs,steps,ahead", [("FootstepDoor-v0", dict(door_speed=17.0), 6, 1.0),
+                                                       ("FootstepCrossing-v0", {}, 3, 1.0),
+                                                       ("FootstepCrowd-v0", {}, 3, 0.5)])
+def test_free_walks_from_the_scan_table_are_the_walks_checked_again(robot, env_id, kwargs, steps, ahead):
+    """Stage 1 reads the free walks at the chosen period from the scan's survival table: the same walks, in the
+    same order, as checking that period again."""
+    from footstep_gym.planners.walks import walk_start
+
+    snap = snapshot_after(env_id, kwargs, steps)
+    start = walk_start(snap, 0.5 * robot.nominal_side_stride)
+    body = BodyModel(ObstaclePredictor(snap, horizon=30.0), robot, 0.02)
+    goal = start.node + [ahead, 0.0]  # a few steps away: some walks free, some blocked
+    rollouts = GoalRollouts(body, robot, start, goal, 0.1, horizon=30.0, step_size=0.1,
+                            lane_offsets=(-0.13, -0.065, 0.0, 0.065, 0.13), stride_fractions=(0.7, 1.0),
+                            lookahead=0.3, edge_samples=3, wait_steps=(0, 3))
+    periods = np.linspace(0.3, 0.8, 9)
+    found = 0
+    for T, blocked_at in zip(periods, rollouts.survival_table(periods)):
+        want = rollouts.free_walks(float(T))
+        got = rollouts.free_walks(float(T), blocked_at=blocked_at)
+        assert len(got) == len(want) == int(np.isinf(blocked_at).sum())
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g, w)
+        found += len(want)
+    assert 0 < found < 9 * len(rollouts._offsets)  # free walks compared, and some periods or walks blocked

@@ -394,6 +394,7 @@ def test_batched_matches_scalar(robot):
             kin, zmp, p, c, v = lipm.check_step(robot, complex(*com), complex(*vel), tuple(cmds[i]), side)
             assert res.kinematic_ok[i] == kin and res.zmp_ok[i] == zmp
             assert res.feasible[i] == (kin and zmp)
+            assert lipm.step_feasible(robot, com, vel, cmds[i], side) == (kin and zmp)  # pairs in, the same verdict
             np.testing.assert_allclose(res.zmp_offset[i], [p.real, p.imag], rtol=1e-12, atol=1e-15)
             np.testing.assert_allclose(res.end_com[i], [c.real, c.imag], rtol=1e-11, atol=1e-13)
             np.testing.assert_allclose(res.end_vel[i], [v.real, v.imag], rtol=1e-11, atol=1e-12)

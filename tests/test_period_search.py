@@ -251,3 +251,32 @@ def test_the_stage_scans_the_configured_periods_from_the_reachable_floor(crossin
     assert choice.any_free and choice.nominal_free
     grid = np.linspace(choice.floor, TN, config.period_search.scan_periods)
     assert choice.period == pytest.approx(grid[(grid.size) // 2])  # all free: the middle of the whole range
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_floor_is_the_shortest_grid_period_the_batched_lipm_accepts(seed):
+    """:func:`shortest_feasible_period` (scalar checks, shortest period first) against one batched
+    :func:`lipm.check_steps` of every grid period and stride, from CoM states after random feasible steps."""
+    from footstep_gym import footstep, lipm
+    from footstep_gym.planners.period_search import shortest_feasible_period
+    from footstep_gym.robot import load_robot
+
+    robot = load_robot()
+    rng = np.random.default_rng(seed)
+    t_ds = robot.nominal_t_ds
+    grid = np.linspace(0.3, 0.8, 11)
+    floors = set()
+    for _ in range(25):
+        period = rng.uniform(0.3, 0.8)
+        side = footstep.LEFT if rng.random() < 0.5 else footstep.RIGHT
+        com, vel = lipm.steady_state(robot, (rng.uniform(0.0, 0.1), robot.nominal_side_stride, 0.0, period - t_ds,
+                                             t_ds), side)
+        com, vel = (com.real, com.imag), (vel.real, vel.imag)
+        strides = (rng.uniform(0.0, 0.1), 0.1)
+        cmd = np.array([[S, robot.nominal_side_stride, 0.0, T - t_ds, t_ds] for S in strides for T in grid])
+        ok = lipm.check_steps(robot, com, vel, cmd, side).feasible.reshape(2, grid.size).all(axis=0)
+        want = float(grid[np.argmax(ok)]) if ok.any() else 0.3
+        got = shortest_feasible_period(robot, com, vel, side, strides, 0.3, 0.8, 11)
+        assert got == want
+        floors.add(got)
+    assert len(floors) > 1  # the states differ in the periods they can reach

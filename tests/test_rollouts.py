@@ -145,3 +145,8 @@ def test_a_walk_is_checked_until_its_body_reaches_the_goal(robot):
     assert not check(during_step_3, start, nodes, headings, period, 3, goal, radius)[0]
     assert check(after_step_3, start, nodes, headings, period, 3, goal, radius)[0]
     np.testing.assert_array_equal(trim_at_goal(nodes[0], goal, radius), nodes[0, :4])
+    # several walks at once: the step that brings each body in (the walk's own length if none does)
+    from footstep_gym.planners.walks import steps_to_goal
+    short = nodes.copy()
+    short[0, 2:] = nodes[0, 1]  # stops at node 1: its body never gets within the radius
+    np.testing.assert_array_equal(steps_to_goal(np.concatenate([nodes, short]), goal, radius), [3, 4])

@@ -139,31 +139,46 @@ def stride_window(robot: Robot, com_local: Sequence[float], vel_local: Sequence[
                   period: float, max_stride: float, grid: int) -> tuple[float, float] | None:
     """``(lo, hi)`` of the front strides ``S`` in ``[0, max_stride]`` feasible now at ``period``.
 
-    Tries ``[S, nominal L, 0, period - nominal T_DS, nominal T_DS]`` on a ``grid`` of ``S``
-    with one batched :func:`lipm.check_steps`. ``None`` when none is feasible (the PSO has
-    to sort it out).
+    The strides of a ``grid`` on which ``[S, nominal L, 0, period - nominal T_DS, nominal T_DS]``
+    is feasible (the env's scalar verdict, :func:`lipm.step_feasible`). For a straight step the
+    ZMP offset is affine in ``S`` (docs/model.md §3) and the kinematic limits on ``S`` are an
+    interval, so the feasible strides are one run of the grid, found from its ends: two checks
+    when every stride is feasible, a bisection for an end inside the grid, and a scan only while
+    no feasible stride is known. ``None`` when none is feasible (the PSO has to sort it out).
     """
-    return stride_windows(robot, com_local, vel_local, support_side, [period], max_stride, grid)[0]
+    strides = np.linspace(0.0, max_stride, grid).tolist()
+    t_ds = robot.nominal_t_ds
+    command = [0.0, robot.nominal_side_stride, 0.0, max(period - t_ds, robot.t_ss[0]), t_ds]
+    known: dict[int, bool] = {}
+
+    def ok(k: int) -> bool:
+        if k not in known:
+            command[0] = strides[k]
+            known[k] = lipm.step_feasible(robot, com_local, vel_local, command, support_side)
+        return known[k]
+
+    last = grid - 1
+    inside = 0 if ok(0) else last if ok(last) else next((k for k in range(1, last) if ok(k)), None)
+    if inside is None:
+        return None
+    lo, hi = 0, last
+    if not ok(0):  # the run starts in (0, inside]: bisect with ok(hi_) and not ok(lo_)
+        a, b = 0, inside
+        while b - a > 1:
+            a, b = (a, (a + b) // 2) if ok((a + b) // 2) else ((a + b) // 2, b)
+        lo = b
+    if not ok(last):  # the run ends in [inside, last)
+        a, b = inside, last
+        while b - a > 1:
+            a, b = ((a + b) // 2, b) if ok((a + b) // 2) else (a, (a + b) // 2)
+        hi = a
+    return strides[lo], strides[hi]
 
 
 def stride_windows(robot: Robot, com_local: Sequence[float], vel_local: Sequence[float], support_side: int,
                    periods: Sequence[float], max_stride: float, grid: int) -> list[tuple[float, float] | None]:
-    """:func:`stride_window` for each of ``periods`` [s], all in one batched :func:`lipm.check_steps`."""
-    strides = np.linspace(0.0, max_stride, grid)
-    t_ds = robot.nominal_t_ds
-    p = np.asarray(periods, dtype=float)
-    cmd = np.empty((p.size, grid, 5))
-    cmd[..., 0] = strides[None, :]
-    cmd[..., 1] = robot.nominal_side_stride
-    cmd[..., 2] = 0.0
-    cmd[..., 3] = np.maximum(p - t_ds, robot.t_ss[0])[:, None]
-    cmd[..., 4] = t_ds
-    ok = lipm.check_steps(robot, com_local, vel_local, cmd.reshape(-1, 5), support_side).feasible.reshape(p.size, grid)
-    out: list[tuple[float, float] | None] = []
-    for row in ok:
-        idx = np.flatnonzero(row)
-        out.append((float(strides[idx[0]]), float(strides[idx[-1]])) if idx.size else None)
-    return out
+    """:func:`stride_window` for each of ``periods`` [s]."""
+    return [stride_window(robot, com_local, vel_local, support_side, float(T), max_stride, grid) for T in periods]
 
 
 _UNKNOWN = object()  # a stride window not yet computed

@@ -140,45 +140,54 @@ def stride_window(robot: Robot, com_local: Sequence[float], vel_local: Sequence[
     """``(lo, hi)`` of the front strides ``S`` in ``[0, max_stride]`` feasible now at ``period``.
 
     The strides of a ``grid`` on which ``[S, nominal L, 0, period - nominal T_DS, nominal T_DS]``
-    is feasible (the env's scalar verdict, :func:`lipm.step_feasible`). For a straight step the
+    is feasible (the env's scalar verdict, :func:`lipm.check_step`). For a straight step the
     ZMP offset is affine in ``S`` (docs/model.md §3) and the kinematic limits on ``S`` are an
     interval, so the feasible strides are one run of the grid, found from its ends: two checks
     when every stride is feasible, a bisection for an end inside the grid, and a scan only while
     no feasible stride is known. ``None`` when none is feasible (the PSO has to sort it out).
     """
-    strides = np.linspace(0.0, max_stride, grid).tolist()
-    t_ds = robot.nominal_t_ds
-    command = [0.0, robot.nominal_side_stride, 0.0, max(period - t_ds, robot.t_ss[0]), t_ds]
-    known: dict[int, bool] = {}
-
-    def ok(k: int) -> bool:
-        if k not in known:
-            command[0] = strides[k]
-            known[k] = lipm.step_feasible(robot, com_local, vel_local, command, support_side)
-        return known[k]
-
-    last = grid - 1
-    inside = 0 if ok(0) else last if ok(last) else next((k for k in range(1, last) if ok(k)), None)
-    if inside is None:
-        return None
-    lo, hi = 0, last
-    if not ok(0):  # the run starts in (0, inside]: bisect with ok(hi_) and not ok(lo_)
-        a, b = 0, inside
-        while b - a > 1:
-            a, b = (a, (a + b) // 2) if ok((a + b) // 2) else ((a + b) // 2, b)
-        lo = b
-    if not ok(last):  # the run ends in [inside, last)
-        a, b = inside, last
-        while b - a > 1:
-            a, b = ((a + b) // 2, b) if ok((a + b) // 2) else (a, (a + b) // 2)
-        hi = a
-    return strides[lo], strides[hi]
+    return stride_windows(robot, com_local, vel_local, support_side, [period], max_stride, grid)[0]
 
 
 def stride_windows(robot: Robot, com_local: Sequence[float], vel_local: Sequence[float], support_side: int,
                    periods: Sequence[float], max_stride: float, grid: int) -> list[tuple[float, float] | None]:
     """:func:`stride_window` for each of ``periods`` [s]."""
-    return [stride_window(robot, com_local, vel_local, support_side, float(T), max_stride, grid) for T in periods]
+    strides = np.linspace(0.0, max_stride, grid).tolist()
+    com = complex(float(com_local[0]), float(com_local[1]))
+    vel = complex(float(vel_local[0]), float(vel_local[1]))
+    side = int(support_side)
+    t_ds, side_stride = robot.nominal_t_ds, robot.nominal_side_stride
+    last = grid - 1
+    out: list[tuple[float, float] | None] = []
+    for period in periods:
+        t_ss = max(float(period) - t_ds, robot.t_ss[0])
+        known: dict[int, bool] = {}
+
+        def ok(k: int, known: dict[int, bool] = known, t_ss: float = t_ss) -> bool:
+            if k not in known:
+                kin_ok, zmp_ok, *_ = lipm.check_step(robot, com, vel, (strides[k], side_stride, 0.0, t_ss, t_ds), side)
+                known[k] = kin_ok and zmp_ok
+            return known[k]
+
+        inside = 0 if ok(0) else last if ok(last) else next((k for k in range(1, last) if ok(k)), None)
+        if inside is None:
+            out.append(None)
+            continue
+        lo, hi = 0, last
+        if not ok(0):  # the run starts in (0, inside]: bisect keeping not ok(a), ok(b)
+            a, b = 0, inside
+            while b - a > 1:
+                mid = (a + b) // 2
+                a, b = (a, mid) if ok(mid) else (mid, b)
+            lo = b
+        if not ok(last):  # the run ends in [inside, last): bisect keeping ok(a), not ok(b)
+            a, b = inside, last
+            while b - a > 1:
+                mid = (a + b) // 2
+                a, b = (mid, b) if ok(mid) else (a, mid)
+            hi = a
+        out.append((strides[lo], strides[hi]))
+    return out
 
 
 _UNKNOWN = object()  # a stride window not yet computed

@@ -215,8 +215,8 @@ def test_centred_scan_with_nothing_free_walks_as_fast_as_allowed(blocked_at):
 
 @pytest.mark.parametrize("start_period", [0.8, 0.4])
 def test_stride_windows_of_a_scan_match_the_scalar_lipm(start_period):
-    """The scan's stride windows, all periods in one batched LIPM call, against the scalar check of each
-    command: the shortest and longest front stride on the grid the scalar LIPM accepts at each period."""
+    """The scan's stride windows (found from the ends of the run of feasible strides) against the scalar
+    check of every command of the grid: the shortest and longest front stride the LIPM accepts at each period."""
     from footstep_gym import footstep, lipm
     from footstep_gym.robot import load_robot
 
@@ -280,3 +280,39 @@ def test_floor_is_the_shortest_grid_period_the_batched_lipm_accepts(seed):
         assert got == want
         floors.add(got)
     assert len(floors) > 1  # the states differ in the periods they can reach
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_stride_windows_match_the_batched_lipm_on_the_whole_grid(seed):
+    """Windows from random CoM states (many of them partial or empty) against one batched
+    :func:`lipm.check_steps` of every stride and period of the grid: the feasible strides are one run
+    (what lets the windows be found from its ends), and the windows are that run's first and last stride."""
+    from footstep_gym import footstep, lipm
+    from footstep_gym.robot import load_robot
+
+    robot = load_robot()
+    rng = np.random.default_rng(seed)
+    t_ds = robot.nominal_t_ds
+    periods = np.linspace(0.3, 0.8, 9)
+    strides = np.linspace(0.0, 0.1, 11)
+    kinds = set()
+    for _ in range(40):  # steady gaits of random commands, the velocity pushed a little
+        side = footstep.LEFT if rng.random() < 0.5 else footstep.RIGHT
+        c, v = lipm.steady_state(robot, (rng.uniform(0.0, 0.1), robot.nominal_side_stride, 0.0,
+                                         rng.uniform(0.3, 0.8) - t_ds, t_ds), side)
+        com = np.array([c.real, c.imag])
+        vel = np.array([v.real, v.imag]) + rng.normal(0.0, 0.05, 2)
+        got = stride_windows(robot, com, vel, side, periods, 0.1, 11)
+        cmd = np.array([[S, robot.nominal_side_stride, 0.0, max(T - t_ds, robot.t_ss[0]), t_ds]
+                        for T in periods for S in strides])
+        ok = lipm.check_steps(robot, com, vel, cmd, side).feasible.reshape(periods.size, strides.size)
+        for row, window in zip(ok, got):
+            idx = np.flatnonzero(row)
+            if idx.size == 0:
+                assert window is None
+                kinds.add("empty")
+                continue
+            assert np.all(row[idx[0]: idx[-1] + 1])  # one run
+            assert window == (strides[idx[0]], strides[idx[-1]])
+            kinds.add("full" if window == (0.0, 0.1) else "partial")
+    assert kinds == {"empty", "full", "partial"}

@@ -10,10 +10,16 @@ once, stopping at the first shape that blocks a point:
 * :func:`walks_survival` — :func:`.walks.walks_survival` with a :class:`.prediction.BodyModel`:
   the body points of whole walks (each at its own period) generated and checked in one loop,
   each walk stopping at its first blocked point;
-* :func:`pursue_lanes` — the pure pursuit of :class:`.rollouts.GoalRollouts`.
+* :func:`pursue_lanes` — the pure pursuit of :class:`.rollouts.GoalRollouts`;
+* :func:`extend_tree` and :func:`insert_walks` — a batch of the modified RRT
+  (:class:`.rrt.ModifiedRRT`) and its seed walks, on the tree's arrays.
+
+The shapes are one table ``(S, 13)`` (:attr:`.prediction.ObstaclePredictor.kernel_shapes`), one row
+per shape, its columns named by the constants below. Every kernel is held equal to the numpy code
+it replaces by ``tests/test_kernels.py`` (the same booleans, times and trees, not approximately).
 
 Compiled on first use and cached on disk (``cache=True``): the first call of a fresh
-install costs the compilation (a few seconds for all three), later processes load them
+install costs the compilation (several seconds for all of them), later processes load them
 in milliseconds.
 """
 
@@ -25,21 +31,26 @@ import numba
 import numpy as np
 
 
+#: Columns of the shape table: position [m] and velocity [m/s] of the body origin, yaw [rad] and yaw rate
+#: [rad/s], the cosine and sine of the yaw (of a shape that does not turn), the segment's start ``a`` and
+#: its vector ``ab`` in the body frame [m], and ``|ab|^2`` [m^2] (0 for a circle).
+POS_X, POS_Y, VEL_X, VEL_Y, ANGLE, OMEGA, COS0, SIN0, A_X, A_Y, AB_X, AB_Y, AB2 = range(13)
+SHAPE_COLUMNS = 13
+
+
 @numba.njit(cache=True, fastmath=False, inline="always")
-def _pose(t: float, q: int, pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray,
-          angle: np.ndarray, omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray, a_x: np.ndarray, a_y: np.ndarray,
-          ab_x: np.ndarray, ab_y: np.ndarray) -> tuple[float, float, float, float]:
+def _pose(t: float, q: int, shapes: np.ndarray) -> tuple[float, float, float, float]:
     """Shape ``q``'s centre line at time ``t`` [s]: its start ``(ox, oy)`` [m] and its direction ``(bx, by)`` [m], the
-    body-frame segment ``a``..``a + ab`` rotated by ``angle + omega t`` and carried by ``pos + vel t``
-    (``cos0``/``sin0``: of ``angle``, the rotation of a shape that does not turn)."""
-    if omega[q] == 0.0:
-        c, sn = cos0[q], sin0[q]
+    body-frame segment ``a``..``a + ab`` rotated by ``angle + omega t`` and carried by ``pos + vel t``."""
+    sh = shapes[q]
+    if sh[OMEGA] == 0.0:
+        c, sn = sh[COS0], sh[SIN0]
     else:
-        ang = angle[q] + omega[q] * t
+        ang = sh[ANGLE] + sh[OMEGA] * t
         c, sn = math.cos(ang), math.sin(ang)
-    ox = pos_x[q] + vel_x[q] * t + (c * a_x[q] - sn * a_y[q])
-    oy = pos_y[q] + vel_y[q] * t + (sn * a_x[q] + c * a_y[q])
-    return ox, oy, c * ab_x[q] - sn * ab_y[q], sn * ab_x[q] + c * ab_y[q]
+    ox = sh[POS_X] + sh[VEL_X] * t + (c * sh[A_X] - sn * sh[A_Y])
+    oy = sh[POS_Y] + sh[VEL_Y] * t + (sn * sh[A_X] + c * sh[A_Y])
+    return ox, oy, c * sh[AB_X] - sn * sh[AB_Y], sn * sh[AB_X] + c * sh[AB_Y]
 
 
 @numba.njit(cache=True, fastmath=False, inline="always")
@@ -55,34 +66,29 @@ def _gap2_to(x: float, y: float, ox: float, oy: float, bx: float, by: float, ab2
 
 
 @numba.njit(cache=True, fastmath=False, inline="always")
-def _gap2(x: float, y: float, t: float, q: int, pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray,
-          vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray,
-          a_x: np.ndarray, a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray) -> float:
+def _gap2(x: float, y: float, t: float, q: int, shapes: np.ndarray) -> float:
     """Squared distance [m^2] from ``(x, y)`` to shape ``q``'s centre line at time ``t`` [s] (:func:`_pose`)."""
-    ox, oy, bx, by = _pose(t, q, pos_x, pos_y, vel_x, vel_y, angle, omega, cos0, sin0, a_x, a_y, ab_x, ab_y)
-    return _gap2_to(x, y, ox, oy, bx, by, ab2[q])
+    ox, oy, bx, by = _pose(t, q, shapes)
+    return _gap2_to(x, y, ox, oy, bx, by, shapes[q, AB2])
 
 
 @numba.njit(cache=True, fastmath=False)
-def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, pos_x: np.ndarray, pos_y: np.ndarray,
-                vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray, a_x: np.ndarray,
-                a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray, need2: np.ndarray,
+def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, shapes: np.ndarray, need2: np.ndarray,
                 horizon: np.ndarray, out: np.ndarray) -> None:
     """Whether each point ``(px[i], py[i])`` [m] at time ``t[i]`` [s] clears every shape, into ``out`` (bool).
 
-    Shape ``s`` (body-frame segment ``a``..``a + ab``, rotated by ``angle + omega t`` and carried by
-    ``pos + vel t``) blocks a point closer than ``sqrt(need2[s])`` to its centre line, for times
-    up to ``horizon[s]``.
+    Shape ``s`` (a row of the shape table) blocks a point closer than ``sqrt(need2[s])`` to its centre
+    line, for times up to ``horizon[s]``.
     """
     n = px.size
-    n_shapes = pos_x.size
+    n_shapes = shapes.shape[0]
     for i in range(n):
         x, y, ti = px[i], py[i], t[i]
         ok = True
         for s in range(n_shapes):
             if ti > horizon[s]:
                 continue
-            if _gap2(x, y, ti, s, pos_x, pos_y, vel_x, vel_y, angle, omega, cos0, sin0, a_x, a_y, ab_x, ab_y, ab2) < need2[s]:
+            if _gap2(x, y, ti, s, shapes) < need2[s]:
                 ok = False
                 break
         out[i] = ok
@@ -146,9 +152,7 @@ def pursue_lanes(node_x: float, node_y: float, axis_x: float, axis_y: float, goa
 def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, nodes: np.ndarray,
                    headings: np.ndarray, n_nodes: np.ndarray, side0: int, period: np.ndarray, samples: np.ndarray,
                    goal_x: float, goal_y: float, goal_radius: float, shift: np.ndarray, needed: np.ndarray,
-                   pos_x: np.ndarray, pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray,
-                   omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray, a_x: np.ndarray, a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray,
-                   ab2: np.ndarray, radius: np.ndarray, horizon: np.ndarray, blocked_at: np.ndarray) -> None:
+                   shapes: np.ndarray, radius: np.ndarray, horizon: np.ndarray, blocked_at: np.ndarray) -> None:
     """:func:`.walks.walks_survival` for a :class:`.prediction.BodyModel`, one walk after the other: into
     ``blocked_at[r]`` [s] the time of walk ``r``'s first blocked point (``inf`` if it stays free).
 
@@ -160,7 +164,7 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
     when the robot centre, the midpoint of the feet, is within the goal tolerance).
     """
     n_roll = nodes.shape[0]
-    n_shapes = pos_x.size
+    n_shapes = shapes.shape[0]
     n_s = samples.size
     # The shapes' poses at the k-th sampled instant of step d (index d * n_s + k), computed once for all the
     # walks of one period (consecutive rows) as far as any of them gets.
@@ -196,15 +200,14 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
                 i = d * n_s + k
                 if i == n_posed:  # instants are visited in order from 0: the next one not posed yet
                     for q in range(n_shapes):
-                        poses[i, q, 0], poses[i, q, 1], poses[i, q, 2], poses[i, q, 3] = _pose(
-                            ti, q, pos_x, pos_y, vel_x, vel_y, angle, omega, cos0, sin0, a_x, a_y, ab_x, ab_y)
+                        poses[i, q, 0], poses[i, q, 1], poses[i, q, 2], poses[i, q, 3] = _pose(ti, q, shapes)
                     n_posed += 1
                 for q in range(n_shapes):
                     if ti > horizon[q]:
                         continue
                     lim = radius[q] + walk_needed
                     if _gap2_to(x, y, poses[i, q, 0], poses[i, q, 1], poses[i, q, 2], poses[i, q, 3],
-                                ab2[q]) < lim * lim:
+                                shapes[q, AB2]) < lim * lim:
                         blocked_at[r] = ti
                         break
                 if blocked_at[r] < np.inf:
@@ -219,9 +222,7 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
                 depth: np.ndarray, body: np.ndarray, n: int, samples: np.ndarray, redraw: np.ndarray,
                 goal_x: float, goal_y: float, goal_radius: float, step_size: float, has_first: bool,
                 first_lo: float, first_hi: float, left_lo: float, left_hi: float, right_lo: float, right_hi: float,
-                period: float, time_aware: bool, fractions: np.ndarray, shift: float, pos_x: np.ndarray,
-                pos_y: np.ndarray, vel_x: np.ndarray, vel_y: np.ndarray, angle: np.ndarray, omega: np.ndarray, cos0: np.ndarray, sin0: np.ndarray,
-                a_x: np.ndarray, a_y: np.ndarray, ab_x: np.ndarray, ab_y: np.ndarray, ab2: np.ndarray,
+                period: float, time_aware: bool, fractions: np.ndarray, shift: float, shapes: np.ndarray,
                 need2: np.ndarray, horizon: np.ndarray, goal_nodes: np.ndarray) -> tuple[int, int]:
     """One batch of :meth:`.rrt.ModifiedRRT.plan` (Algorithm 2, steps 5-16) on the tree's arrays, in place.
 
@@ -240,7 +241,7 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
     """
     n0 = n
     n_goal = 0
-    n_shapes = pos_x.size
+    n_shapes = shapes.shape[0]
     for i in range(samples.shape[0]):
         sx, sy = samples[i, 0], samples[i, 1]
         best, best_d2 = 0, np.inf
@@ -280,8 +281,7 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
             for q in range(n_shapes):
                 if ti > horizon[q]:
                     continue
-                if _gap2(x, y, ti, q, pos_x, pos_y, vel_x, vel_y, angle, omega, cos0, sin0, a_x, a_y, ab_x, ab_y,
-                         ab2) < need2[q]:
+                if _gap2(x, y, ti, q, shapes) < need2[q]:
                     free = False
                     break
             if not free:

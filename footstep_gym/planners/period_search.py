@@ -280,7 +280,7 @@ class PeriodSearch:
         return window
 
     def remember_stride_windows(self, snapshot: Snapshot, periods: Sequence[float]) -> None:
-        """Compute the stride windows of ``periods`` [s] the search is about to ask for, in one LIPM call."""
+        """Compute the stride windows of ``periods`` [s] the search is about to ask for (those not known yet)."""
         if not self.lipm_windows:
             return
         if self._windows_of is not snapshot:

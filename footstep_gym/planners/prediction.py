@@ -92,12 +92,13 @@ class ObstaclePredictor:
         self._ab = cplx([v.b if v.kind == "segment" else v.a for v in views]) - self._a  # 0 for a circle
         self._ab2 = np.abs(self._ab) ** 2
         self._radius = col([v.radius for v in views])
-        # The shapes as the compiled kernels read them (x and y apart, contiguous).
+        # The shapes as the compiled kernels read them: one row per shape, columns named in kernels.py.
         self.kernel_radius = np.ascontiguousarray(self._radius)
         self.kernel_horizon = np.ascontiguousarray(self._horizon)
-        self.kernel_shapes = tuple(np.ascontiguousarray(a) for a in (
-            self._position.real, self._position.imag, self._velocity.real, self._velocity.imag,
-            self._angle, self._omega, np.cos(self._angle), np.sin(self._angle), self._a.real, self._a.imag, self._ab.real, self._ab.imag, self._ab2))
+        self.kernel_shapes = np.ascontiguousarray(np.stack([
+            self._position.real, self._position.imag, self._velocity.real, self._velocity.imag, self._angle,
+            self._omega, np.cos(self._angle), np.sin(self._angle), self._a.real, self._a.imag, self._ab.real,
+            self._ab.imag, self._ab2], axis=1).reshape(n, kernels.SHAPE_COLUMNS))
 
     @property
     def n_shapes(self) -> int:
@@ -143,7 +144,7 @@ class ObstaclePredictor:
         times = np.broadcast_to(np.asarray(times, dtype=float), pts.shape[:1])
         out = np.empty(len(pts), dtype=bool)
         kernels.points_free(np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]),
-                            np.ascontiguousarray(times), *self.kernel_shapes, (self._radius + safe_distance) ** 2,
+                            np.ascontiguousarray(times), self.kernel_shapes, (self._radius + safe_distance) ** 2,
                             self.kernel_horizon, out)
         return out
 

@@ -217,7 +217,10 @@ class CommandRepair:
             violation_weight=params.violation_weight)
 
     def __call__(self, snapshot: Snapshot, reference: np.ndarray, rng: np.random.Generator) -> RepairChoice:
-        """``reference`` if the LIPM accepts it from the snapshot's CoM state, else the PSO's closest feasible command."""
+        """``reference`` if the LIPM accepts it from the snapshot's CoM state, else the PSO's closest feasible command.
+
+        One command is checked with the env's own scalar verdict (:func:`lipm.step_feasible`).
+        """
         ok = lipm.step_feasible(self.robot, snapshot.com_local, snapshot.vel_local, reference, snapshot.support_side)
         if ok:
             return RepairChoice(reference, True, True, None)

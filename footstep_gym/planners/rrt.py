@@ -47,11 +47,14 @@ short edges (small steps) let it wait for an obstacle to pass.
   if any can), then the roomiest, then the nearest the goal, so that the greedy planner
   advances as far as it safely can and waits there instead of walking into a closing gap.
 
-**Vectorised.** Samples are drawn ``batch_size`` at a time, each extended from its
-nearest node in the tree as it was at the start of the batch, and all the batch's
-edges are collision-checked in one call (``batch_size=1`` is Algorithm 2 verbatim).
-Each batch extends the tree by at most one level, so ``iterations / batch_size`` bounds
-the depth of the tree.
+**Batched and compiled.** Samples are drawn ``batch_size`` at a time, each extended from its
+nearest node in the tree as it was at the start of the batch (``batch_size=1`` is Algorithm 2
+verbatim). Each batch extends the tree by at most one level, so ``iterations / batch_size``
+bounds the depth of the tree. With a :class:`~footstep_gym.planners.prediction.BodyModel`, a
+batch (steps 5-16) and the seed walks are one compiled call each (:func:`.kernels.extend_tree`,
+:func:`.kernels.insert_walks`) on the tree's arrays; the numpy methods are the reference they are
+held equal to, node for node, and serve any other body check. The random numbers are drawn in
+numpy in the same order either way, so a seed grows the same tree.
 """
 
 from __future__ import annotations
@@ -196,7 +199,8 @@ class ModifiedRRT:
         return tree.path_to(best, reached_goal=True)
 
     def _numpy_batch(self, samples: np.ndarray, redraw: np.ndarray) -> None:
-        """Steps 5-16 for one batch of ``samples`` [m]; ``redraw`` (uniform in [0, 1)) re-draws turns outside the limits."""
+        """Steps 5-16 for one batch of ``samples`` [m]; ``redraw`` (uniform in [0, 1)) re-draws the turns
+        outside the limits."""
         tree = self.tree
         parents = self._nearest_nodes(samples)
         delta = self._restrict_to_angle_limits(parents, samples, redraw)
@@ -208,18 +212,20 @@ class ModifiedRRT:
         self._insert(parents[free], new_xy[free], new_heading[free], length[free])
 
     def _compiled_batch(self, body: BodyModel) -> Callable[[np.ndarray, np.ndarray], None]:
-        """:meth:`_numpy_batch` as one compiled call per batch (:func:`.kernels.extend_tree`), for a :class:`BodyModel`."""
+        """:meth:`_numpy_batch` as one compiled call per batch (:func:`.kernels.extend_tree`), for a
+        :class:`BodyModel`: the same tree."""
         tree, pred = self.tree, body.predictor
         shift, needed = body.shift_and_clearance(self._period)
         need2 = (pred.kernel_radius + needed) ** 2
-        (l_lo, l_hi), (r_lo, r_hi) = (footstep.turn_bounds(side, self.robot) for side in (footstep.LEFT, footstep.RIGHT))
+        (l_lo, l_hi), (r_lo, r_hi) = (footstep.turn_bounds(side, self.robot)
+                                      for side in (footstep.LEFT, footstep.RIGHT))
         first_lo, first_hi = self._first_stride if self._first_stride is not None else (0.0, 0.0)
         fractions = step_fractions(self.edge_samples)
         goal_nodes = np.empty(self.batch_size, dtype=np.int64)
         fixed = (float(self._goal[0]), float(self._goal[1]), float(self._goal_radius), float(self.step_size),
                  self._first_stride is not None, float(first_lo), float(first_hi), float(l_lo), float(l_hi),
                  float(r_lo), float(r_hi), float(self._period), bool(self.time_aware), fractions, float(shift),
-                 *pred.kernel_shapes, need2, pred.kernel_horizon, goal_nodes)
+                 pred.kernel_shapes, need2, pred.kernel_horizon, goal_nodes)
 
         def extend(samples: np.ndarray, redraw: np.ndarray) -> None:
             tree.n, n_goal = kernels.extend_tree(tree.xy, tree.heading, tree.side, tree.parent, tree.cost, tree.depth,

@@ -122,7 +122,7 @@ def _walks_survival_compiled(body: BodyModel, start: WalkStart, walks: Sequence[
     kernels.walks_survival(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
                            float(start.body[1]), nodes, headings, n_nodes, int(start.side), period,
                            step_fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius), shift,
-                           needed, *pred.kernel_shapes, pred.kernel_radius, pred.kernel_horizon, blocked_at)
+                           needed, pred.kernel_shapes, pred.kernel_radius, pred.kernel_horizon, blocked_at)
     return [blocked_at[a:b] for a, b in zip(first[:-1], first[1:])]
 
 

@@ -73,7 +73,7 @@ import numpy as np  # noqa: E402
 import footstep_gym  # noqa: E402
 from bench_utils import (  # noqa: E402
     RssPeak, finite_json, fmt_bytes, fmt_num, fmt_stat, loadavg, machine_info, markdown_table, max_rss_bytes,
-    rss_bytes, summary, tail_summary,
+    median_ratio_interval, rss_bytes, summary, tail_summary,
 )
 from footstep_gym import lipm  # noqa: E402
 from footstep_gym.robot import load_robot  # noqa: E402
@@ -629,6 +629,7 @@ class PlannerRun:
         self.env = gym.make(env_id)
         self.policy = make_policy(planner, self.env.unwrapped.robot, seed=self.seeds[0])
         self.plan_s: list[float] = []
+        self.plan_by_episode: list[list[float]] = []  # the same times, one list per recorded episode
         self.sense_s: list[float] = []
         self.step_s: list[float] = []
         self.stages: dict[str, list[float]] = {}
@@ -644,6 +645,7 @@ class PlannerRun:
         actions, n, info = [], 0, {}
         terminated = truncated = False
         sensing = env.unwrapped.sensing
+        plan_times: list[float] = []
         while True:
             t0 = time.perf_counter()
             snapshot = sensing()
@@ -657,6 +659,7 @@ class PlannerRun:
             if not warm:
                 self.sense_s.append(t1 - t0)
                 self.plan_s.append(t2 - t1)
+                plan_times.append(t2 - t1)
                 self.step_s.append(t3 - t2)
                 li = getattr(policy, "last_info", None) or {}
                 for key in STAGE_KEYS:
@@ -667,6 +670,7 @@ class PlannerRun:
             if terminated or truncated or capped or (warm and n >= self.warmup_steps):
                 break
         if not warm:
+            self.plan_by_episode.append(plan_times)
             self.episodes.append({"seed": seed, "steps": n, "termination": info.get("termination"),
                                   "success": bool(info.get("is_success", False)), "time": info.get("time"),
                                   "capped": not (terminated or truncated)})
@@ -677,6 +681,7 @@ class PlannerRun:
         successes = sum(e["success"] for e in self.episodes)
         return {
             "plan_time_s": tail_summary(self.plan_s),
+            "plan_time_by_episode_s": [[round(t, 7) for t in ep] for ep in self.plan_by_episode],
             "sensing_time_s": tail_summary(self.sense_s),
             "env_step_time_s": tail_summary(self.step_s),
             "stage_time_s": {k.removeprefix("time_").removesuffix("_ms"): tail_summary(v)
@@ -1057,10 +1062,16 @@ def evaluate_targets(res: dict[str, Any], nominal_period: float) -> tuple[list[d
             if "plan_time_s" in pso:
                 speedup = pso["plan_time_s"]["median"] / m if m > 0 else math.inf
                 ratios[f"pso-only/period-aware median plan time, {env_id}"] = speedup
+                interval = ""
+                if pa.get("seeds") and pa.get("seeds") == pso.get("seeds") and "plan_time_by_episode_s" in pa:
+                    lo, hi = median_ratio_interval(pso["plan_time_by_episode_s"], pa["plan_time_by_episode_s"],
+                                                   np.random.default_rng(0))
+                    ratios[f"pso-only/period-aware median plan time, {env_id}, 95% CI"] = [lo, hi]
+                    interval = f" (95% CI {lo:.1f}–{hi:.1f}, episodes resampled)"
                 ok = speedup >= PSO_SPEEDUP_TARGET and pa["success_rate"] >= pso["success_rate"]
                 add(f"period-aware vs pso-only, {env_id}",
                     f">= {PSO_SPEEDUP_TARGET:.0f}x faster, success >= pso-only's",
-                    f"{speedup:.1f}x, success {pa['successes']}/{pa['episodes']} vs "
+                    f"{speedup:.1f}x{interval}, success {pa['successes']}/{pa['episodes']} vs "
                     f"{pso['successes']}/{pso['episodes']}", ok, value=speedup)
             else:
                 add(f"period-aware vs pso-only, {env_id}", f">= {PSO_SPEEDUP_TARGET:.0f}x faster, success >= "

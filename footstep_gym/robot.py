@@ -13,6 +13,9 @@ from footstep_gym import config
 from footstep_gym.config import fraction, interval, nonnegative, positive
 from footstep_gym.errors import ConfigError
 
+#: Largest exponent whose exp is a finite float64 (with margin: ln(1.8e308) = 709.8).
+_MAX_EXPONENT = 700.0
+
 #: Order of the footstep command's fields (paper eq. 5).
 COMMAND_FIELDS = ("S", "L", "theta", "t_ss", "t_ds")
 
@@ -52,6 +55,13 @@ class Robot:
         ):
             if not lo_hi[0] <= value <= lo_hi[1]:
                 raise ConfigError(f"robot.{name}={value} lies outside its range {lo_hi}")
+        # The LIPM's closed forms take e^{2 omega T} over the longest step: it must stay a finite float.
+        longest = self.t_ss[1] + self.t_ds[1]
+        if 2.0 * math.sqrt(self.gravity / self.com_height) * longest > _MAX_EXPONENT:
+            lowest = self.gravity * (2.0 * longest / _MAX_EXPONENT) ** 2
+            raise ConfigError(f"robot.com_height={self.com_height} m is too low for the LIPM over the longest step "
+                              f"(T_SS + T_DS = {longest:.3g} s): e^(2 omega T) overflows; it must be >= {lowest:.3g} m "
+                              f"with gravity {self.gravity} m/s^2")
 
     @cached_property  # derived from frozen fields: computed once (the env reads these every step)
     def omega(self) -> float:

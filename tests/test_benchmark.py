@@ -337,11 +337,34 @@ def test_evaluate_targets_pass_miss_logic():
     assert status["period-aware vs pso-only, B"] == "MISS"  # 6.7x and lower success
     assert status["period-aware planning on C"] == "MISS"
     assert status["period-aware vs pso-only, D"] == "N/A"
+    # With each episode's times on both sides (the same seeds), the speed-up carries a bootstrap interval.
+    for name, scale in (("period-aware", 1.0), ("pso-only", 12.0)):
+        res["planners"]["A"][name].update(seeds=[1, 2, 3], plan_time_by_episode_s=[
+            [scale * 0.005 * f for f in (0.8, 1.0, 1.3)], [scale * 0.005], [scale * 0.005 * f for f in (0.9, 1.1)]])
+    targets, ratios = benchmark.evaluate_targets(res, T)
+    measured = {t["target"]: t["measured"] for t in targets}
+    assert "95% CI 12.0–12.0" in measured["period-aware vs pso-only, A"]
+    assert ratios["pso-only/period-aware median plan time, A, 95% CI"] == pytest.approx([12.0, 12.0])
     # Without BipedalWalker (not installed) the ratio is N/A, never a failure.
     res["env_steps"]["BipedalWalker-v3"] = {"random": {"single": {"skipped": "box2d missing"}}}
     targets, ratios = benchmark.evaluate_targets(res, T)
     assert ratios["FootstepDoor_random/BipedalWalker"] is None
     assert {t["status"] for t in targets if "BipedalWalker" in t["target"]} == {"N/A"}
+
+
+def test_median_ratio_interval_resamples_episodes_in_pairs():
+    import numpy as np
+
+    rng = np.random.default_rng(1)
+    fast = [rng.uniform(1.0, 2.0, n) for n in (30, 25, 40, 35, 28)]
+    slow = [10.0 * ep[: max(len(ep) // 2, 1)] for ep in fast]  # exactly 10x every footstep kept
+    assert bench_utils.median_ratio_interval([10.0 * ep for ep in fast], fast, rng) == pytest.approx((10.0, 10.0))
+    lo, hi = bench_utils.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500)
+    point = np.median(np.concatenate(slow)) / np.median(np.concatenate(fast))
+    assert lo < point < hi and 8.0 < lo and hi < 12.5  # the footsteps kept differ, so the ratio spreads
+    assert bench_utils.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500) == (lo, hi)
+    with pytest.raises(ValueError, match="same number"):
+        bench_utils.median_ratio_interval(slow, fast[:3], rng)
 
 
 def test_bench_utils():

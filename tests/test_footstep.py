@@ -346,7 +346,7 @@ def test_config_unknown_key_names_it_and_suggests():
     ("body_radius", -0.1), ("body_radius", 0.0), ("com_height", -0.23), ("turn_inner", -0.1),
     ("zmp_region_scale", 1.5), ("zmp_region_scale", 0.0), ("foot_length", "long"), ("foot_width", True),
     ("t_ss", [0.6, 0.1]), ("t_ss", [0.1]), ("stride_side", [0.0, 0.1]), ("nominal_t_ss", 0.9),
-    ("nominal_side_stride", 0.05),
+    ("nominal_side_stride", 0.05), ("com_height", 1e-6),  # the LIPM's e^(2 omega T) would overflow
 ])
 def test_config_bad_values_name_the_key(key, value):
     with pytest.raises(ConfigError) as exc:

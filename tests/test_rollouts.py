@@ -150,3 +150,4 @@ def test_a_walk_is_checked_until_its_body_reaches_the_goal(robot):
     short = nodes.copy()
     short[0, 2:] = nodes[0, 1]  # stops at node 1: its body never gets within the radius
     np.testing.assert_array_equal(steps_to_goal(np.concatenate([nodes, short]), goal, radius), [3, 4])
+    np.testing.assert_array_equal(trim_at_goal(nodes[0, :1], goal, radius), nodes[0, :1])  # the start alone

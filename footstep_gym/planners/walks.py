@@ -172,6 +172,8 @@ def steps_to_goal(nodes: np.ndarray, goal: np.ndarray, goal_radius: float) -> np
     """``(R,)``: for walks ``(R, k + 1, 2)`` [m], the number of the first step that brings the body (the
     midpoint of the step's two nodes) into the goal region, ``k`` if none does (:func:`trim_at_goal`
     keeps the nodes up to it)."""
+    if nodes.shape[1] < 2:  # no step at all
+        return np.zeros(len(nodes), dtype=int)
     bodies = 0.5 * (nodes[:, :-1] + nodes[:, 1:])
     inside = np.linalg.norm(bodies - goal, axis=-1) <= goal_radius
     return np.where(inside.any(axis=1), np.argmax(inside, axis=1) + 1, nodes.shape[1] - 1)

@@ -72,6 +72,16 @@ def _gap2(x: float, y: float, t: float, q: int, shapes: np.ndarray) -> float:
     return _gap2_to(x, y, ox, oy, bx, by, shapes[q, AB2])
 
 
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _point_free(x: float, y: float, t: float, shapes: np.ndarray, need2: np.ndarray, horizon: np.ndarray) -> bool:
+    """Whether ``(x, y)`` [m] at time ``t`` [s] is at least ``sqrt(need2[s])`` from every shape ``s`` whose
+    horizon ``horizon[s]`` [s] reaches ``t`` (stopping at the first that blocks it)."""
+    for s in range(shapes.shape[0]):
+        if t <= horizon[s] and _gap2(x, y, t, s, shapes) < need2[s]:
+            return False
+    return True
+
+
 @numba.njit(cache=True, fastmath=False)
 def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, shapes: np.ndarray, need2: np.ndarray,
                 horizon: np.ndarray, out: np.ndarray) -> None:
@@ -80,18 +90,8 @@ def points_free(px: np.ndarray, py: np.ndarray, t: np.ndarray, shapes: np.ndarra
     Shape ``s`` (a row of the shape table) blocks a point closer than ``sqrt(need2[s])`` to its centre
     line, for times up to ``horizon[s]``.
     """
-    n = px.size
-    n_shapes = shapes.shape[0]
-    for i in range(n):
-        x, y, ti = px[i], py[i], t[i]
-        ok = True
-        for s in range(n_shapes):
-            if ti > horizon[s]:
-                continue
-            if _gap2(x, y, ti, s, shapes) < need2[s]:
-                ok = False
-                break
-        out[i] = ok
+    for i in range(px.size):
+        out[i] = _point_free(px[i], py[i], t[i], shapes, need2, horizon)
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -217,6 +217,13 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
             side = -side
 
 
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _in_goal(x: float, y: float, goal_x: float, goal_y: float, goal_radius: float) -> bool:
+    """Whether the body at ``(x, y)`` [m] is in the goal region (the arithmetic of ``np.linalg.norm``)."""
+    dx, dy = x - goal_x, y - goal_y
+    return math.sqrt(dx * dx + dy * dy) <= goal_radius
+
+
 @numba.njit(cache=True, fastmath=False)
 def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: np.ndarray, cost: np.ndarray,
                 depth: np.ndarray, body: np.ndarray, n: int, samples: np.ndarray, redraw: np.ndarray,
@@ -241,7 +248,6 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
     """
     n0 = n
     n_goal = 0
-    n_shapes = shapes.shape[0]
     for i in range(samples.shape[0]):
         sx, sy = samples[i, 0], samples[i, 1]
         best, best_d2 = 0, np.inf
@@ -264,10 +270,8 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
         nx = px + length * math.cos(h)
         ny = py + length * math.sin(h)
         bx0, by0 = body[p, 0], body[p, 1]
-        if p != 0:
-            gx, gy = bx0 - goal_x, by0 - goal_y
-            if math.sqrt(gx * gx + gy * gy) <= goal_radius:
-                continue  # its path already ended in the goal region
+        if p != 0 and _in_goal(bx0, by0, goal_x, goal_y, goal_radius):
+            continue  # its path already ended in the goal region
         bx1, by1 = 0.5 * (px + nx), 0.5 * (py + ny)
         nrm_x, nrm_y = -float(pside) * math.sin(ph), float(pside) * math.cos(ph)
         t0 = depth[p] * period
@@ -277,22 +281,15 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
             s = fractions[k]
             x = bx0 + s * (bx1 - bx0) + shift * nrm_x
             y = by0 + s * (by1 - by0) + shift * nrm_y
-            ti = t0 + s * (t1 - t0) if time_aware else period
-            for q in range(n_shapes):
-                if ti > horizon[q]:
-                    continue
-                if _gap2(x, y, ti, q, shapes) < need2[q]:
-                    free = False
-                    break
-            if not free:
+            if not _point_free(x, y, t0 + s * (t1 - t0) if time_aware else period, shapes, need2, horizon):
+                free = False
                 break
         if not free:
             continue
         xy[n, 0], xy[n, 1], heading[n], parent[n] = nx, ny, h, p
         side[n], cost[n], depth[n] = -pside, cost[p] + length, depth[p] + 1
         body[n, 0], body[n, 1] = bx1, by1
-        gx, gy = bx1 - goal_x, by1 - goal_y
-        if math.sqrt(gx * gx + gy * gy) <= goal_radius:
+        if _in_goal(bx1, by1, goal_x, goal_y, goal_radius):
             goal_nodes[n_goal] = n
             n_goal += 1
         n += 1
@@ -330,10 +327,8 @@ def insert_walks(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: 
             parent[n] = 0 if k == 0 else n - 1
             side[n] = -side[0] if k % 2 == 0 else side[0]
             cost[n], depth[n] = total, k + 1
-            bx, by = 0.5 * (px + walk_nodes[r, 0]), 0.5 * (py + walk_nodes[r, 1])
-            body[n, 0], body[n, 1] = bx, by
-            gx, gy = bx - goal_x, by - goal_y
-            if math.sqrt(gx * gx + gy * gy) <= goal_radius:
+            body[n, 0], body[n, 1] = 0.5 * (px + walk_nodes[r, 0]), 0.5 * (py + walk_nodes[r, 1])
+            if _in_goal(body[n, 0], body[n, 1], goal_x, goal_y, goal_radius):
                 goal_nodes[n_goal] = n
                 n_goal += 1
             n += 1

@@ -188,10 +188,7 @@ def _kinematically_feasible_scalar(robot: Robot, S: float, L: float, theta: floa
             and t_ss >= robot.t_ss[0] - eps and t_ss <= robot.t_ss[1] + eps
             and t_ds >= robot.t_ds[0] - eps and t_ds <= robot.t_ds[1] + eps):
         return False
-    if support_side < 0:  # swing foot is the left one: turning away (theta > 0) is the outer angle
-        lo, hi = -robot.turn_inner, robot.turn_outer
-    else:
-        lo, hi = -robot.turn_outer, robot.turn_inner
+    lo, hi = footstep.turn_bounds(support_side, robot)
     if not (theta >= lo - eps and theta <= hi + eps):
         return False
     # footstep.feet_overlap, one command: separating-axis test of the two foot rectangles.

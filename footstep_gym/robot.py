@@ -57,7 +57,7 @@ class Robot:
                 raise ConfigError(f"robot.{name}={value} lies outside its range {lo_hi}")
         # The LIPM's closed forms take e^{2 omega T} over the longest step: it must stay a finite float.
         longest = self.t_ss[1] + self.t_ds[1]
-        if 2.0 * math.sqrt(self.gravity / self.com_height) * longest > _MAX_EXPONENT:
+        if 2.0 * self.omega * longest > _MAX_EXPONENT:
             lowest = self.gravity * (2.0 * longest / _MAX_EXPONENT) ** 2
             raise ConfigError(f"robot.com_height={self.com_height} m is too low for the LIPM over the longest step "
                               f"(T_SS + T_DS = {longest:.3g} s): e^(2 omega T) overflows; it must be >= {lowest:.3g} m "

@@ -154,7 +154,12 @@ class ObstaclePredictor:
         return (self._distance2(pts, times) >= (self._radius + safe_distance) ** 2).all(axis=1)
 
 
-_SAMPLES_CACHE: dict[int, np.ndarray] = {}
+@functools.lru_cache(maxsize=8)
+def step_fractions(samples: int) -> np.ndarray:
+    """``samples`` fractions of a step, ends included (read-only: shared between calls)."""
+    out = np.linspace(0.0, 1.0, samples)
+    out.flags.writeable = False
+    return out
 
 
 def body_path_points(starts: np.ndarray, ends: np.ndarray, t_start: np.ndarray, t_end: np.ndarray,
@@ -164,9 +169,7 @@ def body_path_points(starts: np.ndarray, ends: np.ndarray, t_start: np.ndarray, 
     ``starts``/``ends`` ``(N, 2)``, ``t_start``/``t_end`` ``(N,)``; returns ``(N * samples, 2)``
     points and ``(N * samples,)`` times, segment by segment.
     """
-    s = _SAMPLES_CACHE.get(samples)
-    if s is None:
-        s = _SAMPLES_CACHE.setdefault(samples, np.linspace(0.0, 1.0, samples))
+    s = step_fractions(samples)
     pts = starts[:, None, :] + s[None, :, None] * (ends - starts)[:, None, :]
     times = t_start[:, None] + s[None, :] * (t_end - t_start)[:, None]
     return pts.reshape(-1, 2), times.reshape(-1)

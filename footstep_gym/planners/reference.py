@@ -136,10 +136,6 @@ class _Planner(Policy):
         """Clearance [m] every predicted body point needs: robot radius + safety margin."""
         return self.robot.body_radius + self.config.prediction.safety_margin_m
 
-    def _feasible(self, snapshot: Snapshot, commands: np.ndarray) -> np.ndarray:
-        return lipm.check_steps(self.robot, snapshot.com_local, snapshot.vel_local, commands,
-                                snapshot.support_side).feasible
-
 
 class PeriodAwarePlanner(_Planner):
     """The paper's three-stage planner (binary search + modified RRT + PSO); see the module doc."""
@@ -225,7 +221,7 @@ class PSOOnlyPlanner(_Planner):
         command = res.x.copy()
         info = {
             "command_pre_pso": None, "pso_ran": True, "feasible_pre_pso": None,
-            "predicted_feasible": bool(self._feasible(snapshot, command[None])[0]),
+            "predicted_feasible": lipm.step_feasible(robot, snapshot.com_local, snapshot.vel_local, command, side),
             "pso_iterations": res.iterations, "pso_value": res.value, "period_search": None,
             "period": float(command[3] + command[4]),
         }

@@ -67,9 +67,9 @@ import numpy as np
 from footstep_gym import footstep
 from footstep_gym.planners import kernels
 from footstep_gym.planners.params import PlannerConfig
-from footstep_gym.planners.prediction import BodyModel, body_path_points, support_normal
+from footstep_gym.planners.prediction import BodyModel, body_path_points, step_fractions, support_normal
 from footstep_gym.planners.pso import clip_command
-from footstep_gym.planners.walks import BodyCheck, WalkStart, step_fractions
+from footstep_gym.planners.walks import BodyCheck, WalkStart
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot
 

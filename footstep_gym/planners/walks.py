@@ -10,14 +10,13 @@ midpoints of consecutive nodes: step ``d`` moves it from ``(n[d-2] + n[d-1]) / 2
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import Protocol, Sequence
 
 import numpy as np
 
 from footstep_gym.planners import kernels
-from footstep_gym.planners.prediction import BodyModel, body_path_points, support_normal
+from footstep_gym.planners.prediction import BodyModel, body_path_points, step_fractions, support_normal
 
 
 class BodyCheck(Protocol):
@@ -124,14 +123,6 @@ def _walks_survival_compiled(body: BodyModel, start: WalkStart, walks: Sequence[
                            step_fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius), shift,
                            needed, pred.kernel_shapes, pred.kernel_radius, pred.kernel_horizon, blocked_at)
     return [blocked_at[a:b] for a, b in zip(first[:-1], first[1:])]
-
-
-@functools.lru_cache(maxsize=8)
-def step_fractions(samples: int) -> np.ndarray:
-    """``samples`` fractions of a step, ends included (read-only: shared between calls)."""
-    out = np.linspace(0.0, 1.0, samples)
-    out.flags.writeable = False
-    return out
 
 
 def walks_survival_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray,

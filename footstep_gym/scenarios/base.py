@@ -74,10 +74,7 @@ class ScenarioConfig:
         """This config with every ``randomize`` key drawn from its range (validated again)."""
         if not self.randomize:
             return self
-        # config.replace's copy, without dataclasses.asdict's deep copy (these fields are flat): a third of a reset.
-        data = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-        data.update({k: float(rng.uniform(*v)) for k, v in self.randomize.items()})
-        return config.build(type(self), data, type(self).__name__)
+        return config.replace(self, **{k: float(rng.uniform(*v)) for k, v in self.randomize.items()})
 
 
 class Scenario:

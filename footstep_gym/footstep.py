@@ -60,8 +60,9 @@ def place_foot(support_pose: Any, support_side: Any, S: Any, L: Any, theta: Any)
 def place_foot_scalar(support_pose: tuple[float, float, float], support_side: int, S: float, L: float,
                       theta: float) -> tuple[float, float, float]:
     """:func:`place_foot` for one command in plain Python floats (the env's per-step path, where numpy's
-    per-call cost on scalars dominated): the same operations, and ``math.cos``/``math.sin``, which
-    give numpy's scalar ``cos``/``sin`` here bit for bit (``tests/test_footstep.py`` checks both)."""
+    per-call cost on scalars dominated): the same operations, and ``math.cos``/``math.sin`` (libm), which
+    agree with numpy's ``cos``/``sin`` to a few ulps on any CPU (bit for bit where numpy calls libm for float64,
+    as numpy 2.x does; ``tests/test_footstep.py`` checks the ulps)."""
     x, y, yaw = support_pose
     lat = -support_side * L
     c, s = math.cos(yaw), math.sin(yaw)

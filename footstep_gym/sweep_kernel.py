@@ -8,7 +8,9 @@ with the operations of Chipmunk's point queries (``cpSegmentShapePointQuery`` /
 robot's centre comes from the LIPM's closed forms with the operations of
 :meth:`footstep_gym.lipm.StepTrajectory.world_path`. Compiled without ``fastmath`` (no
 reassociation, no fused multiply-adds), so every number is the one CPython and Chipmunk
-compute, bit for bit; ``tests/test_world.py`` checks the whole sweep against pymunk's.
+compute, bit for bit, on any CPU: the same IEEE operations, and the same libm (``exp``, ``sin``,
+``cos``) in one process; numpy's SIMD kernels, chosen per CPU, do not enter.
+``tests/test_world.py`` checks the whole sweep against pymunk's.
 
 The kernel does not decide what pymunk alone knows: which shape a contact is (ties), and the
 first check of a sweep against shapes pymunk cached elsewhere. It stops and returns

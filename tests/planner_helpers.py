@@ -1,6 +1,12 @@
 """Shared hand-made cases of the planner tests: body checks with known answers, starts, the hardware limits.
 
 Written out here from the paper and docs/model.md, not read from the code under test.
+
+Floating point across CPUs: the same code on the same inputs gives the same bits on any machine (a seeded
+replay is compared exactly). Two routes through the same maths do not always: numpy picks SIMD kernels per
+CPU at run time (``exp``, ``expm1``, ``arctan2`` and complex products round differently with AVX-512 or
+AVX2 than libm and plain Python do), so their floats are compared to a few ulps and their verdicts exactly,
+with the inputs kept off the ties a few ulps could flip (:data:`ZMP_TIE_MARGIN`).
 """
 
 from __future__ import annotations
@@ -30,6 +36,20 @@ PSO_SETTINGS = dict(particles=30, iterations=40, inertia=0.7, c1=1.5, c2=1.5, pa
 #: RRT settings (the paper's Max_step_size = the robot's longest front stride, 10 cm).
 RRT_SETTINGS = dict(iterations=400, batch_size=10, step_size=0.10, goal_sample_rate=0.2, n_paths=3,
                     sample_margin=0.5, edge_samples=4)
+
+
+#: [m] The scalar LIPM check (``math``, ``cmath``) and the batched one (numpy) give ZMP offsets up to ~2e-16 m
+#: apart (measured, with numpy's AVX-512 kernels or none), so their verdicts agree unless an offset lies that
+#: close to the stable region's edge; tests comparing the two verdicts exactly assert no offset lies within this.
+ZMP_TIE_MARGIN = 1e-12
+
+
+def zmp_edge_gaps(robot, result):
+    """``(N,)`` [m]: how far each ZMP offset of a batched :func:`lipm.check_steps` ``result`` lies from the edge
+    of the stable region, on its nearer axis (a verdict can flip only where this is a few ulps)."""
+    hx, hy = robot.zmp_half_extent
+    p = np.asarray(result.zmp_offset)
+    return np.minimum(np.abs(hx - np.abs(p[:, 0])), np.abs(hy - np.abs(p[:, 1])))
 
 
 @pytest.fixture(scope="module")

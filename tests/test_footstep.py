@@ -374,12 +374,14 @@ def test_footstep_module_reads_no_literals():
     assert footstep.feet_overlap(0.0, 0.055, 0.0, RIGHT, load_robot())
 
 
-def test_place_foot_scalar_is_place_foot_bit_for_bit():
-    """The env's plain-float twin gives numpy's answer exactly (math.cos/sin are numpy's scalar cos/sin here)."""
+def test_place_foot_scalar_is_place_foot_within_ulps():
+    """The env's plain-float twin gives numpy's answer to a few ulps on any CPU (libm's cos/sin against numpy's,
+    which call libm for float64 today but may take per-CPU SIMD kernels; the rest is the same IEEE arithmetic)."""
     rng = np.random.default_rng(11)
     for _ in range(5000):
         pose = (float(rng.uniform(-5, 5)), float(rng.uniform(-5, 5)), float(rng.uniform(-4, 4)))
         side = int(rng.choice([-1, 1]))
         S, L, theta = (float(v) for v in rng.uniform([-0.05, 0.06, -0.5], [0.12, 0.13, 0.5]))
         want = tuple(float(v) for v in footstep.place_foot(pose, side, S, L, theta))
-        assert footstep.place_foot_scalar(pose, side, S, L, theta) == want
+        got = footstep.place_foot_scalar(pose, side, S, L, theta)
+        np.testing.assert_allclose(got, want, rtol=4 * np.finfo(float).eps, atol=1e-14)  # |x| <= 5.2 m: ~4 ulp

@@ -3,9 +3,24 @@
 On real snapshots of the three scenes (with per-shape horizons), random points and times, and random
 walks: the same booleans and times as the numpy expressions, and the same lane pursuit as a numpy version
 written here.
+
+**What is exact, and where.** A kernel and its numpy twin do the same arithmetic, but not always through
+the same library: numpy picks SIMD kernels per CPU at run time (with AVX-512, ``np.arctan2``, ``np.exp`` and
+``np.expm1`` round 5-12 % of their results an ulp otherwise than libm, which the kernels call; with AVX2 a
+complex product is fused, ``a*c - b*d`` in one rounding, which the kernels' plain products are not), so their
+floats agree to a few ulps on one CPU and bit for bit on another. The tests therefore compare
+
+* floats from the two routes to a few ulps of their scale (:data:`LENGTH_TOL`, :data:`HEADING_ATOL`);
+* what is discrete (booleans, node counts, parents, sides, depths, goal nodes, which sample of a walk is
+  blocked first, hence its time) exactly. A few-ulp difference flips such a decision only where the values
+  it compares lie within about that of a tie, so each test also asserts that none of its decisions does
+  by :data:`TIE_MARGIN` or less: on these inputs the discrete results are then the same on any CPU;
+* the same route twice (a compiled kernel against itself in another batching) exactly, on any CPU.
 """
 
 from __future__ import annotations
+
+import math
 
 import gymnasium as gym
 import numpy as np
@@ -20,6 +35,60 @@ from footstep_gym.planners.walks import (WalkStart, walks_free, walks_free_numpy
 from planner_helpers import LEFT, RIGHT, robot  # noqa: F401
 
 SCENES = [("FootstepDoor-v0", dict(door_speed=17.0), 6), ("FootstepCrossing-v0", {}, 8), ("FootstepCrowd-v0", {}, 5)]
+
+EPS = np.finfo(float).eps  # 2.2e-16
+#: Coordinates, lengths and costs [m] of the two routes (|x| < 4 m here): within 8 eps (1.8e-15 m) plus 2 ulps
+#: of the value. Measured on the tests' inputs, with numpy's AVX-512 kernels: <= 1 eps (compiled RRT: 5.6e-17 m;
+#: lane pursuit: 2.2e-16 m); over 1,080 random trees, <= 4 eps. Without AVX-512 the routes agree bit for bit.
+LENGTH_TOL = dict(rtol=2 * EPS, atol=8 * EPS)
+#: Headings [rad], compared modulo 2 pi: 16 ulps of pi (7.1e-15 rad). A turn re-drawn inside the limits adds to
+#: its parent's heading, so a difference can grow by an ulp a level. Measured: <= 1 ulp of pi (RRT) and 4 (the
+#: 40 steps of lane pursuit) on the tests' inputs, <= 7 over 1,080 random trees of up to 30 levels.
+HEADING_ATOL = 16 * math.ulp(math.pi)
+#: [m, rad] No decision of these tests may lie this close to a tie (a shape's clearance to the required one,
+#: the nearest tree node to the next nearest, a turn to its limit, a body to the goal radius): hundreds of
+#: times the tolerances above, so that a different CPU cannot flip it.
+TIE_MARGIN = 1e-12
+
+
+def assert_headings_close(got, want, err_msg=""):
+    d = np.asarray(got, dtype=float) - np.asarray(want, dtype=float)
+    d = d - 2.0 * np.pi * np.round(d / (2.0 * np.pi))  # pi and -pi (a heading wrapped either way) are one angle
+    np.testing.assert_allclose(d, 0.0, rtol=0, atol=HEADING_ATOL, err_msg=err_msg)
+
+
+def clearance_gaps(pred, points, times, needed):
+    """``|distance - (radius + needed)|`` [m] of each point (at its time) to each shape checked then (``inf``
+    beyond a shape's horizon): how far each of its obstacle verdicts is from a tie."""
+    return np.abs(np.sqrt(pred._distance2(points, times)) - (pred._radius + needed))
+
+
+def goal_gaps(bodies, goal, goal_radius):
+    """``| |body - goal| - goal_radius |`` [m]: how far each "in the goal region" verdict is from a tie."""
+    return np.abs(np.linalg.norm(np.asarray(bodies).reshape(-1, 2) - goal, axis=1) - goal_radius)
+
+
+class RecordingBody:
+    """A :class:`BodyModel`'s check that remembers every point it was asked about (and, not being a
+    ``BodyModel``, sends the walks and the RRT down their numpy routes, the references)."""
+
+    def __init__(self, body: BodyModel) -> None:
+        self.body, self.asked = body, []
+
+    def free(self, points, times, normals, period):
+        self.asked.append((np.array(points, dtype=float), np.array(times, dtype=float), np.array(normals), period))
+        return self.body.free(points, times, normals, period)
+
+    def slack(self, points, times, normals, period):
+        return self.body.slack(points, times, normals, period)
+
+    def smallest_gap(self) -> float:
+        """The smallest :func:`clearance_gaps` [m] of everything asked."""
+        gaps = [np.inf]
+        for points, times, normals, period in self.asked:
+            centres, needed = self.body._body(points, normals, period)
+            gaps.append(clearance_gaps(self.body.predictor, centres, times, needed).min(initial=np.inf))
+        return min(gaps)
 
 
 def snapshot_after(env_id, kwargs, steps, seed=0):
@@ -43,6 +112,7 @@ def predictors(snap):
 
 @pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
 def test_points_free_matches_numpy(env_id, kwargs, steps):
+    """The booleans exactly, on any CPU: no point lies within :data:`TIE_MARGIN` of a shape's threshold."""
     snap = snapshot_after(env_id, kwargs, steps)
     rng = np.random.default_rng(0)
     centre = np.asarray(snap.com)
@@ -53,13 +123,17 @@ def test_points_free_matches_numpy(env_id, kwargs, steps):
             got = pred.free(pts, times, safe)
             want = pred.free_numpy(pts, times, safe)
             assert 0 < want.sum() < want.size
+            assert clearance_gaps(pred, pts, times, safe).min() > TIE_MARGIN
             np.testing.assert_array_equal(got, want)
 
 
 @pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
 @pytest.mark.parametrize("period", [0.3, 0.55, 0.8])
 def test_walks_free_matches_numpy(robot, env_id, kwargs, steps, period):
-    """Random walks of 10 cm steps from near the robot (some reaching a goal nearby)."""
+    """Random walks of 10 cm steps from near the robot (some reaching a goal nearby): the booleans exactly (no
+    body point within :data:`TIE_MARGIN` of a tie), and the time of each walk's first blocked point exactly
+    (the two routes compute the instants with the same operations: which point is first is all that could
+    differ)."""
     snap = snapshot_after(env_id, kwargs, steps)
     rng = np.random.default_rng(1)
     centre = np.asarray(snap.com)
@@ -69,17 +143,21 @@ def test_walks_free_matches_numpy(robot, env_id, kwargs, steps, period):
     nodes = start.node + np.concatenate([np.zeros((300, 1, 2)), np.cumsum(steps_xy, axis=1)], axis=1)
     headings = np.concatenate([np.full((300, 1), start.heading), heading], axis=1)
     goal = centre + [0.8, 0.0]
+    bodies = 0.5 * (np.concatenate([np.tile(start.previous_node, (300, 1, 1)), nodes[:, :-1]], axis=1) + nodes)
+    assert goal_gaps(bodies[:, 1:], goal, 0.1).min() > TIE_MARGIN
     blocked = 0
     for pred in predictors(snap):
         body = BodyModel(pred, robot, 0.02)
         got = walks_free(body, start, nodes, headings, period, 3, goal, 0.1)
-        want = walks_free_numpy(body, start, nodes, headings, period, 3, goal, 0.1)
+        asked = RecordingBody(body)
+        want = walks_free_numpy(asked, start, nodes, headings, period, 3, goal, 0.1)
+        assert asked.smallest_gap() > TIE_MARGIN
         blocked += int(want.size - want.sum())
         np.testing.assert_array_equal(got, want)
         # the time of each walk's first blocked point: the same instant, inf exactly for the free walks
         survival = walks_survival(body, start, nodes, headings, period, 3, goal, 0.1)
-        np.testing.assert_allclose(survival, walks_survival_numpy(body, start, nodes, headings, period, 3, goal, 0.1),
-                                   rtol=0, atol=1e-12)
+        want_survival = walks_survival_numpy(body, start, nodes, headings, period, 3, goal, 0.1)
+        np.testing.assert_array_equal(survival, want_survival)
         np.testing.assert_array_equal(np.isinf(survival), want)
     assert blocked > 0 or env_id == "FootstepCrossing-v0"  # the crossing's car may still be far at this time
 
@@ -135,8 +213,12 @@ def test_pursue_lanes_matches_numpy(robot, side, heading, goal, window):
     depth = 40
     got_nodes, got_headings = rollouts._pursue(window, depth)
     want_nodes, want_headings = pursue_numpy(rollouts, window, depth)
-    np.testing.assert_allclose(got_nodes, want_nodes, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(got_headings, want_headings, rtol=0, atol=1e-12)
+    # within a few ulps (np.angle, np.abs and complex products against libm's atan2 and hypot and plain products);
+    # where a rollout stops (its body in the goal region) is discrete: a flip would move its nodes by a stride
+    np.testing.assert_allclose(got_nodes, want_nodes, **LENGTH_TOL)
+    assert_headings_close(got_headings, want_headings)
+    midpoints = 0.5 * (want_nodes[:, 1:] + want_nodes[:, :-1])
+    assert goal_gaps(midpoints, np.asarray(goal), rollouts.goal_radius).min() > TIE_MARGIN
     assert np.ptp(got_nodes[:, 1:, :], axis=0).max() > 0.05  # the lanes, strides and waits differ
 
 
@@ -144,7 +226,8 @@ def test_pursue_lanes_matches_numpy(robot, side, heading, goal, window):
 def test_survivals_of_many_periods_in_one_call_match_one_period_at_a_time(robot, env_id, kwargs, steps):
     """:meth:`GoalRollouts.survivals` checks the walks of every period of a scan in one compiled call (each
     row with its own period, sway and depth): the same times as checking each period on its own, and
-    ``inf`` exactly where ``ObstacleCollision(T)`` is false."""
+    ``inf`` exactly where ``ObstacleCollision(T)`` is false. The same compiled kernel both ways: exact on
+    any CPU."""
     from footstep_gym.planners.walks import walk_start
 
     snap = snapshot_after(env_id, kwargs, steps)
@@ -157,7 +240,7 @@ def test_survivals_of_many_periods_in_one_call_match_one_period_at_a_time(robot,
     got = rollouts.survivals(periods)
     want = [walks_survival(body, start, *rollouts.nodes(T), T, 3, rollouts.goal, rollouts.goal_radius).max()
             for T in periods]
-    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(np.isinf(got), [not rollouts(T) for T in periods])
     assert np.isfinite(got).any() or env_id == "FootstepCrossing-v0"  # the times were compared (the car is far yet)
 
@@ -173,12 +256,65 @@ def random_seed_walks(start, rng, n_walks=3, steps=12):
     return walks
 
 
+def _tie_gaps_rrt():
+    """:class:`ModifiedRRT` (numpy route) that records how far each decision it takes is from a tie."""
+    from footstep_gym.planners.rrt import ModifiedRRT
+
+    class TieGapsRRT(ModifiedRRT):
+        def plan(self, start, goal, goal_radius, body, *args, **kwargs):
+            self.asked = RecordingBody(body)
+            self.gaps = {"nearest node": [np.inf], "turn limits": [np.inf], "goal region": [np.inf]}
+            return super().plan(start, goal, goal_radius, self.asked, *args, **kwargs)
+
+        def _nearest_nodes(self, samples):
+            """The gap [m] between the distances to the nearest node and to the next nearest elsewhere (a
+            step in place leaves two nodes on one spot, with equal distances in both routes: no tie)."""
+            parents = super()._nearest_nodes(samples)
+            xy = self.tree.xy[: self.tree.n]
+            dist = np.linalg.norm(samples[:, None, :] - xy[None, :, :], axis=-1)
+            elsewhere = np.any(xy[None, :, :] != xy[parents][:, None, :], axis=-1)
+            runner_up = np.where(elsewhere, dist, np.inf).min(axis=1)
+            self.gaps["nearest node"].append(runner_up - dist[np.arange(len(samples)), parents])
+            return parents
+
+        def _restrict_to_angle_limits(self, parents, samples, redraw):
+            tree = self.tree
+            vec = samples - tree.xy[parents]
+            delta = footstep.wrap_angle(np.arctan2(vec[:, 1], vec[:, 0]) - tree.heading[parents])
+            lo, hi = footstep.turn_bounds(tree.side[parents], self.robot)
+            self.gaps["turn limits"].append(np.minimum(np.abs(delta - lo), np.abs(delta - hi)))
+            return super()._restrict_to_angle_limits(parents, samples, redraw)
+
+        def _in_goal(self, xy):
+            self.gaps["goal region"].append(goal_gaps(xy, self._goal, self._goal_radius))
+            return super()._in_goal(xy)
+
+        def smallest_gaps(self):
+            gaps = {name: float(np.concatenate([np.ravel(g) for g in values]).min())
+                    for name, values in self.gaps.items()}
+            return {"obstacles": self.asked.smallest_gap(), **gaps}
+
+    return TieGapsRRT
+
+
+def first_divergence(got, want):
+    """The first node where two trees differ in shape (parent, side or depth), or ``None``."""
+    n = min(got.n, want.n)
+    differs = ((got.parent[:n] != want.parent[:n]) | (got.side[:n] != want.side[:n])
+               | (got.depth[:n] != want.depth[:n]))
+    return int(np.argmax(differs)) if differs.any() else (None if got.n == want.n else n)
+
+
 @pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
 @pytest.mark.parametrize("time_aware", [True, False])
 def test_compiled_rrt_grows_the_numpy_tree(robot, env_id, kwargs, steps, time_aware):
     """:func:`kernels.extend_tree` and :func:`kernels.insert_walks` against the RRT's numpy methods: from the
-    same generator, the same tree node for node (coordinates, headings, sides, parents, costs, depths, bodies),
-    the same goal nodes and the same path, with seed walks, a first-stride window and short horizons."""
+    same generator, the same tree node for node, with seed walks, a first-stride window and short horizons.
+
+    Exact on any CPU: the tree's shape (node count, parents, sides, depths), its goal nodes and which nodes the
+    path takes, since no decision of the numpy tree lies within :data:`TIE_MARGIN` of a tie. Within a few
+    ulps: coordinates, bodies, costs (:data:`LENGTH_TOL`) and headings (:data:`HEADING_ATOL`), as numpy's
+    ``arctan2`` differs from libm's by an ulp now and then with AVX-512 (bit for bit without)."""
     from footstep_gym.planners.rrt import ModifiedRRT
     from footstep_gym.planners.walks import walk_start
 
@@ -191,20 +327,31 @@ def test_compiled_rrt_grows_the_numpy_tree(robot, env_id, kwargs, steps, time_aw
         for period, window, goal in [(0.8, None, goals[0]), (0.4, (0.04, 0.09), goals[1]), (0.55, None, goals[1])]:
             seeds = random_seed_walks(start, np.random.default_rng(int(period * 100)))
             trees = []
-            for compiled in (False, True):
-                rrt = ModifiedRRT(robot, iterations=300, batch_size=10, step_size=0.1, goal_sample_rate=0.2,
-                                  n_paths=3, sample_margin=0.5, edge_samples=3, time_aware=time_aware,
-                                  compiled=compiled)
+            for rrt_class, compiled in ((_tie_gaps_rrt(), False), (ModifiedRRT, True)):
+                rrt = rrt_class(robot, iterations=300, batch_size=10, step_size=0.1, goal_sample_rate=0.2,
+                                n_paths=3, sample_margin=0.5, edge_samples=3, time_aware=time_aware,
+                                compiled=compiled)
                 path = rrt.plan(start, goal, snap.goal_tolerance, body, period, np.random.default_rng(5),
                                 seeds=seeds, first_stride=window)
-                trees.append((rrt.tree, list(rrt.goal_nodes), path))
-            (want, want_goals, want_path), (got, got_goals, got_path) = trees
-            assert got.n == want.n and got_goals == want_goals
-            for name in ("xy", "heading", "side", "parent", "cost", "depth", "body"):
+                trees.append((rrt, rrt.tree, list(rrt.goal_nodes), path))
+            (reference, want, want_goals, want_path), (_, got, got_goals, got_path) = trees
+            gaps = reference.smallest_gaps()
+            assert min(gaps.values()) > TIE_MARGIN, gaps  # else a few ulps could flip a decision
+            where = first_divergence(got, want)
+            assert where is None, f"the trees part at node {where} (of {want.n} / {got.n})"
+            assert got_goals == want_goals
+            for name in ("side", "parent", "depth"):
                 np.testing.assert_array_equal(getattr(got, name)[: got.n], getattr(want, name)[: want.n], err_msg=name)
+            for name in ("xy", "cost", "body"):
+                np.testing.assert_allclose(getattr(got, name)[: got.n], getattr(want, name)[: want.n], **LENGTH_TOL,
+                                           err_msg=name)
+            assert_headings_close(got.heading[: got.n], want.heading[: want.n], err_msg="heading")
             assert (got_path is None) == (want_path is None)
             if want_path is not None:
-                np.testing.assert_array_equal(got_path.nodes, want_path.nodes)
+                assert got_path.reached_goal == want_path.reached_goal
+                np.testing.assert_array_equal(got_path.sides, want_path.sides)
+                np.testing.assert_allclose(got_path.nodes, want_path.nodes, **LENGTH_TOL)
+                np.testing.assert_allclose(got_path.cost, want_path.cost, **LENGTH_TOL)
             compared += want.n
             blocked += 300 + 1 + sum(len(s) - 1 for s in seeds) - want.n  # samples the obstacles (or goal) refused
     assert compared > 300 and blocked > 0
@@ -215,7 +362,7 @@ def test_compiled_rrt_grows_the_numpy_tree(robot, env_id, kwargs, steps, time_aw
                                                        ("FootstepCrowd-v0", {}, 3, 0.5)])
 def test_free_walks_from_the_scan_table_are_the_walks_checked_again(robot, env_id, kwargs, steps, ahead):
     """Stage 1 reads the free walks at the chosen period from the scan's survival table: the same walks, in the
-    same order, as checking that period again."""
+    same order, as checking that period again (the same compiled route both ways: exact on any CPU)."""
     from footstep_gym.planners.walks import walk_start
 
     snap = snapshot_after(env_id, kwargs, steps)

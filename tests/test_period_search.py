@@ -16,7 +16,7 @@ from footstep_gym.planners.params import load_planner_config
 from footstep_gym.planners.period_search import PeriodSearch, centred_free_period, longest_free_period, stride_windows
 from footstep_gym.planners.reference import PAPER
 from footstep_gym.planners.walks import walk_start
-from planner_helpers import EPS
+from planner_helpers import EPS, ZMP_TIE_MARGIN, zmp_edge_gaps
 
 T0, TN = 0.3, 0.8
 
@@ -256,7 +256,10 @@ def test_the_stage_scans_the_configured_periods_from_the_reachable_floor(crossin
 @pytest.mark.parametrize("seed", range(4))
 def test_floor_is_the_shortest_grid_period_the_batched_lipm_accepts(seed):
     """:func:`shortest_feasible_period` (scalar checks, shortest period first) against one batched
-    :func:`lipm.check_steps` of every grid period and stride, from CoM states after random feasible steps."""
+    :func:`lipm.check_steps` of every grid period and stride, from CoM states after random feasible steps.
+
+    Two routes (``math`` against numpy's SIMD kernels), compared exactly on any CPU: no ZMP offset lies within
+    ``ZMP_TIE_MARGIN`` of the stable region's edge, where their few-ulp difference could flip a verdict."""
     from footstep_gym import footstep, lipm
     from footstep_gym.planners.period_search import shortest_feasible_period
     from footstep_gym.robot import load_robot
@@ -274,7 +277,9 @@ def test_floor_is_the_shortest_grid_period_the_batched_lipm_accepts(seed):
         com, vel = (com.real, com.imag), (vel.real, vel.imag)
         strides = (rng.uniform(0.0, 0.1), 0.1)
         cmd = np.array([[S, robot.nominal_side_stride, 0.0, T - t_ds, t_ds] for S in strides for T in grid])
-        ok = lipm.check_steps(robot, com, vel, cmd, side).feasible.reshape(2, grid.size).all(axis=0)
+        batched = lipm.check_steps(robot, com, vel, cmd, side)
+        assert zmp_edge_gaps(robot, batched).min() > ZMP_TIE_MARGIN
+        ok = batched.feasible.reshape(2, grid.size).all(axis=0)
         want = float(grid[np.argmax(ok)]) if ok.any() else 0.3
         got = shortest_feasible_period(robot, com, vel, side, strides, 0.3, 0.8, 11)
         assert got == want
@@ -286,7 +291,10 @@ def test_floor_is_the_shortest_grid_period_the_batched_lipm_accepts(seed):
 def test_stride_windows_match_the_batched_lipm_on_the_whole_grid(seed):
     """Windows from random CoM states (many of them partial or empty) against one batched
     :func:`lipm.check_steps` of every stride and period of the grid: the feasible strides are one run
-    (what lets the windows be found from its ends), and the windows are that run's first and last stride."""
+    (what lets the windows be found from its ends), and the windows are that run's first and last stride.
+
+    The scalar and the batched verdicts exactly, on any CPU: no ZMP offset within ``ZMP_TIE_MARGIN`` of the
+    stable region's edge."""
     from footstep_gym import footstep, lipm
     from footstep_gym.robot import load_robot
 
@@ -305,7 +313,9 @@ def test_stride_windows_match_the_batched_lipm_on_the_whole_grid(seed):
         got = stride_windows(robot, com, vel, side, periods, 0.1, 11)
         cmd = np.array([[S, robot.nominal_side_stride, 0.0, max(T - t_ds, robot.t_ss[0]), t_ds]
                         for T in periods for S in strides])
-        ok = lipm.check_steps(robot, com, vel, cmd, side).feasible.reshape(periods.size, strides.size)
+        batched = lipm.check_steps(robot, com, vel, cmd, side)
+        assert zmp_edge_gaps(robot, batched).min() > ZMP_TIE_MARGIN
+        ok = batched.feasible.reshape(periods.size, strides.size)
         for row, window in zip(ok, got):
             idx = np.flatnonzero(row)
             if idx.size == 0:

@@ -171,7 +171,7 @@ def test_prediction_never_reads_the_simulator_future(env_id, kwargs):
             o.body.position = (o.body.position.x + 5.0, o.body.position.y - 5.0)
             o.body.velocity = (1.0, 1.0)
             o.body.angular_velocity = 1.0
-    np.testing.assert_array_equal(pred.clearance(pts, times), before)
+    np.testing.assert_array_equal(pred.clearance(pts, times), before)  # the same code on the same inputs: exact
     assert [(o.position, o.angle, o.velocity, o.angular_velocity) for o in snap.obstacles] == sensed
     np.testing.assert_allclose(before, direct_clearance(snap.obstacles, pts, times), atol=1e-9)
     # a predictor from a fresh snapshot does see the change, so the comparison above is not vacuous

@@ -80,6 +80,7 @@ def test_pso_patience_stops_early():
 
 
 def test_pso_is_replayable_and_seed_dependent():
+    """The same seed, the same swarm bit for bit (the same code on the same inputs: on any CPU)."""
     centre = np.array([0.3, -0.7, 1.2, -0.1, 0.05])
     args = dict(PSO_ARGS, iterations=10)
     runs = []
@@ -205,7 +206,7 @@ def test_repair_honours_given_increment_ranges(robot, side):
     out = repair_command(robot, com, vel, side, ref, np.random.default_rng(0), delta_low=low, delta_high=high,
                          **PSO_SETTINGS)
     assert out.feasible and verdict(robot, com, vel, out.command, side)
-    np.testing.assert_array_equal(out.command[:4], ref[:4])
+    np.testing.assert_array_equal(out.command[:4], ref[:4])  # increments of [0, 0]: unchanged on any CPU
     assert needed - 1e-4 <= out.command[4] - ref[4] <= 0.05
     assert out.command[4] - ref[4] <= needed + 0.005  # near the least change
 
@@ -218,6 +219,7 @@ def test_repair_leaves_feasible_command_unchanged(robot, side, reference):
     assert verdict(robot, com, vel, reference, side)
     out = repair(robot, com, vel, side, reference, 0)
     assert out.feasible
+    # the PSO's seed, no increment, is the only zero of eq. 7: the reference comes back as given, on any CPU
     np.testing.assert_array_equal(out.command, np.asarray(reference, dtype=float))
     assert out.pso.value == 0.0
 

@@ -1,4 +1,11 @@
-"""The policies of :mod:`footstep_gym.planners.reference` end to end, and their registry."""
+"""The policies of :mod:`footstep_gym.planners.reference` end to end, and their registry.
+
+The episodes' outcomes are discrete and compared exactly. On another CPU numpy's SIMD kernels (and libm's code
+path) round some of the planners' floats an ulp otherwise; an outcome could change only through a decision
+within a few ulps of a tie. Measured: the period-aware planner's commands in 120 episodes (the three scenes,
+seeds 0-39, 3,199 steps) came out bit for bit the same with numpy's AVX-512 or AVX2 kernels or neither, and with
+glibc's code path for CPUs without FMA.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Seeded episodes replay bit for bit against a trace recorded before the env's step was sped up.
+"""Seeded episodes replay against a trace recorded before the env's step was sped up.
 
 ``tests/data/replay_golden.json`` holds, for each env, seeds and commands (near-nominal walks
 and random commands), a digest of each step's observation, reward, flags and every value of
@@ -9,10 +9,18 @@ and random commands), a digest of each step's observation, reward, flags and eve
 
 before the speed-ups of the env's step (issue 10 §1), and recorded again when ``info``
 gained ``clearance`` and ``zmp_margin`` (checked first: without those two keys the env
-replayed the old trace exactly); the test replays the same episodes and requires every
-value to be identical. Floating-point results may differ on another
-CPU/libm or another numpy/pymunk version; the file records the versions it was made with,
-and the test is skipped (saying so) where they differ.
+replayed the old trace exactly); the tests replay the same episodes.
+
+**What is exact, and where.** The env's step computes its floats with libm (``math``, ``cmath``,
+Chipmunk's C) and IEEE arithmetic, not with numpy's run-time-dispatched SIMD kernels (it replays the
+trace bit for bit with any of numpy's CPU-feature levels disabled, ``NPY_DISABLE_CPU_FEATURES``). So
+on any CPU, :func:`test_seeded_episodes_replay_the_golden_trace` requires every discrete value (when
+episodes end and how, feasibility, scene) to be the recorded one, and the floats in clear to be within
+a few ulps; :func:`test_seeded_episodes_replay_the_golden_trace_bit_for_bit` requires every value, bit
+for bit, where libm rounds as it did on the recording machine (:data:`LIBM_PROBES`; glibc takes
+another code path on a CPU without FMA, and other libm versions may round otherwise) and says why it is
+skipped elsewhere. Both are skipped (saying so) under other Python/numpy/pymunk/gymnasium versions than
+the file records.
 """
 
 from __future__ import annotations
@@ -37,6 +45,34 @@ ENV_IDS = ("FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0", "Footst
 SEEDS = (0, 7)
 STEPS = 40
 SETTINGS = {"FootstepDoor-v0": {"randomize": {"door_speed": [8.0, 30.0]}}}  # + per-episode draws
+
+#: libm's results (``float.hex``) on the machine that recorded the trace, at arguments where glibc's code
+#: paths for CPUs with and without FMA round differently (as each does at one argument in 1,000 to 4,000):
+#: where this machine's libm gives other bits, the episodes' floats may differ in their last bits too.
+LIBM_PROBES = (
+    ("exp", ("0x1.95ab2b5c0a276p+2",), "0x1.1afe6d01f9c91p+9"),
+    ("exp", ("-0x1.17dc4effea86cp+2",), "0x1.9d6346f54606dp-7"),
+    ("expm1", ("0x1.817d8b71f8f30p-2",), "0x1.d414d15f88312p-2"),
+    ("expm1", ("0x1.248a67b0586d0p-2",), "0x1.529bbb45760a9p-2"),
+    ("sin", ("-0x1.f274451749460p-2",), "-0x1.df0066d286a68p-2"),
+    ("sin", ("0x1.7c9c140502e24p+1",), "0x1.569bbeae3741ap-3"),
+    ("cos", ("0x1.039fe3513fee0p+1",), "-0x1.c45391c561503p-2"),
+    ("cos", ("0x1.86167c2010b90p+0",), "0x1.8102d24b39be7p-5"),
+    ("asin", ("-0x1.707aa32005684p-2",), "-0x1.78ef0e63fdd3bp-2"),
+    ("atan2", ("-0x1.d6209da8d0420p-4", "0x1.1d7eec1244e94p+0"), "-0x1.a413d71669b52p-4"),
+)
+#: Where libm rounds otherwise, the floats in clear within 8 ulps of their scale: CoM [m] (|x| < 4 m), time [s]
+#: (< 32 s), reward (its progress term is 10 per metre times a difference of two distances < 4 m). Measured with
+#: glibc's code path for CPUs without FMA: CoM 4.4e-16 m (2 ulps), time identical, reward 4.4e-15.
+CLEAR_ATOL = {"com": 8 * math.ulp(4.0), "time": 8 * math.ulp(32.0), "reward": 2 * 10.0 * 8 * math.ulp(4.0)}
+#: Values in clear compared exactly on any CPU.
+DISCRETE = ("termination", "feasible", "scene")
+
+
+def libm_as_recorded() -> list[str]:
+    """The probes of :data:`LIBM_PROBES` this machine's libm rounds otherwise (empty: as recorded)."""
+    return [f"{name}({', '.join(args)})" for name, args, want in LIBM_PROBES
+            if getattr(math, name)(*(float.fromhex(a) for a in args)).hex() != want]
 
 
 def versions() -> dict[str, str]:
@@ -144,17 +180,43 @@ def golden() -> dict[str, Any]:
     return data
 
 
-@pytest.mark.parametrize("env_id, seed, kind", cases())
-def test_seeded_episodes_replay_the_golden_trace_bit_for_bit(golden, env_id, seed, kind):
+def replay(golden: dict[str, Any], env_id: str, seed: int, kind: str) -> tuple[list[dict], list[dict]]:
     (expected,) = [t for t in golden["traces"] if (t["env_id"], t["seed"], t["kind"]) == (env_id, seed, kind)]
     got = json.loads(json.dumps(trace(env_id, seed, kind)))
     assert len(got["steps"]) > STEPS
-    for i, (a, b) in enumerate(zip(expected["steps"], got["steps"])):
+    return expected["steps"], got["steps"]
+
+
+@pytest.mark.parametrize("env_id, seed, kind", cases())
+def test_seeded_episodes_replay_the_golden_trace(golden, env_id, seed, kind):
+    """On any CPU: the discrete values exactly (steps, episode ends and restarts, termination, feasibility,
+    scene), the reward, time and CoM within :data:`CLEAR_ATOL`."""
+    expected, got = replay(golden, env_id, seed, kind)
+    assert len(expected) == len(got)
+    for i, (a, b) in enumerate(zip(expected, got)):
+        assert [a[k] for k in DISCRETE] == [b[k] for k in DISCRETE], f"steps[{i}]: {a} != {b}"
+        assert (a["reward"] is None) == (b["reward"] is None) and (a["com"] is None) == (b["com"] is None), i
+        for key, atol in CLEAR_ATOL.items():
+            if a[key] is not None:
+                np.testing.assert_allclose(b[key], a[key], rtol=0, atol=atol, err_msg=f"steps[{i}].{key}")
+
+
+@pytest.mark.parametrize("env_id, seed, kind", cases())
+def test_seeded_episodes_replay_the_golden_trace_bit_for_bit(golden, env_id, seed, kind):
+    """Every observation, reward, flag and ``info`` value bit for bit: where libm rounds as on the recording
+    machine (the env's floats come from libm and IEEE arithmetic; numpy's SIMD kernels do not enter)."""
+    differs = libm_as_recorded()
+    if differs:
+        pytest.skip(f"libm rounds {len(differs)} of {len(LIBM_PROBES)} probes otherwise than on the recording "
+                    f"machine (e.g. {differs[0]}): the floats may differ in their last bits here (compared to a "
+                    "few ulps by test_seeded_episodes_replay_the_golden_trace)")
+    expected, got = replay(golden, env_id, seed, kind)
+    for i, (a, b) in enumerate(zip(expected, got)):
         clear = first_difference({k: v for k, v in a.items() if k != "digest"},
                                  {k: v for k, v in b.items() if k != "digest"}, f"steps[{i}]")
         assert clear is None, clear
         assert a["digest"] == b["digest"], f"steps[{i}]: an observation or info value differs (digest)"
-    assert len(expected["steps"]) == len(got["steps"])
+    assert len(expected) == len(got)
 
 
 def test_golden_traces_cover_walks_episode_ends_and_every_scene(golden):

@@ -123,6 +123,7 @@ def test_rrt_first_stride_window(robot):
 
 
 def test_rrt_seeded_replay_and_seed_dependence(robot):
+    """The same seed replays the same tree bit for bit (the same code on the same inputs: on any CPU)."""
     start = make_start(RIGHT, 0.0)
     goal = (1.5, 0.0)
 
@@ -325,7 +326,8 @@ def test_best_partial_path_takes_the_spot_hit_last(robot):
 # ====================================================================== the paper's RRT (switches off)
 def test_rrt_not_time_aware_checks_every_node_against_the_obstacles_after_one_period(robot):
     """``time_aware=False`` (the paper: the obstacle predicted after T, then the tree): the same tree as the
-    time-aware one in free space, every body point asked at t = T."""
+    time-aware one in free space, every body point asked at t = T (the same numpy route both ways, only the
+    times differ: exact on any CPU)."""
     period = 0.55
     start = make_start(RIGHT, 0.0)
     timed, frozen = Recorder(), Recorder()

@@ -4,6 +4,13 @@ References are worked out by hand in each test: the time at which a circle movin
 known speed first touches another shape, the angle at which a rotating rod reaches a
 point, and (through the env) the instant a revolving-door wing meets a robot whose CoM
 sways as scipy's numerical integration of the LIPM says it should.
+
+The tests named "bit for bit" compare the compiled sweep (:mod:`footstep_gym.sweep_kernel`, numba without
+fast-math: no fused multiply-adds) with pymunk's (Chipmunk's C) and CPython's arithmetic exactly, on any CPU:
+both do the same IEEE operations and call the same libm in one process (``sin``, ``cos``, ``exp``, ``sqrt``);
+numpy's SIMD kernels, chosen per CPU at run time, do not enter. (Checked with numpy's AVX2/AVX-512 kernels
+disabled, ``NPY_DISABLE_CPU_FEATURES``, and with glibc's code path for CPUs without FMA,
+``GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA``.)
 """
 
 from __future__ import annotations

@@ -14,8 +14,11 @@ Each cell (env, setting, policy; for an agent, each training run) runs ``--episo
 episodes with the seeds of ``--split`` (disjoint ranges in ``configs/eval.yaml``: train,
 validation, test; the README's tables come from test), starting ``--seed`` seeds into it.
 Each episode seeds the env and the policy with its seed, so results do not depend on
-``--workers`` or ``--backend``. The script prints a markdown table and writes to ``--out``
-(a folder of its own: an earlier run's files there are replaced, anything else is refused):
+``--workers`` or ``--backend``. Every setting is checked before anything runs (a bad value
+is one error line, exit status 2). The script prints a markdown table and writes to ``--out``
+(a folder of its own: an earlier run's files there are replaced, a folder holding anything
+else is refused). The run writes into a temporary folder beside ``--out`` and moves into
+place only once it has finished: a run that fails or is interrupted leaves ``--out`` as it was.
 
 * ``results.json``: one record per cell summarised over training runs, and ``runs/results.json``
   one per training run (fields in ``footstep_gym.evaluation.stats``); ``results.csv`` likewise;
@@ -23,7 +26,8 @@ Each episode seeds the env and the policy with its seed, so results do not depen
 * ``figures/<setting>.png``: the policies side by side on one seed (footprints, CoM path,
   obstacles at several instants, per-step period and stride), like the paper's Fig. 8-10;
 * ``tables/<setting>_<policy>_seed<s>.md``: that episode's commands as in Tables 2 and 4;
-* ``videos/<setting>_<policy>.mp4`` with ``--video``: one episode per policy and setting, in real time;
+* ``videos/<setting>_<policy>.mp4`` with ``--video``: one episode per policy and setting, in real time
+  (in file names a user's agent ``agent:NAME`` is ``agent-NAME``);
 * ``summary.md`` (the table, definitions, the paper's numbers, the files) and ``run.json``.
 """
 
@@ -37,16 +41,18 @@ import platform
 import shlex
 import shutil
 import sys
+import tempfile
 import time
-import warnings
-from dataclasses import dataclass
+import traceback
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import footstep_gym
 from footstep_gym.evaluation import policies as registry
 from footstep_gym.evaluation import report
-from footstep_gym.evaluation.runner import BACKENDS, Cell, Task, record_video, run_tasks
+from footstep_gym.evaluation.runner import (BACKENDS, WARMUP_ACTS, Cell, Task, record_video, run_tasks,
+                                           safe_name)
 from footstep_gym.evaluation.splits import SPLITS, split_seeds
 from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, cell_record, over_runs
 
@@ -265,9 +271,10 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings:
 def make_cells(settings: Settings) -> list[Cell]:
     """Cells in a fixed order: envs, settings, policies as given; an agent once per training run.
 
-    An agent with no run for an env is skipped there with a warning.
+    An agent with no run for an env is skipped there, said in one line on stderr.
     """
     cells = []
+    missing: dict[str, list[str]] = {}
     for scenario in settings.envs:
         env_id = footstep_gym.ENV_IDS[scenario]
         if scenario == "door":
@@ -281,7 +288,7 @@ def make_cells(settings: Settings) -> list[Cell]:
             if policy in registry.AGENTS:
                 runs_of[policy] = registry.agent_runs(policy, env_id, settings.agents_dir)
                 if not runs_of[policy]:
-                    warnings.warn(f"no shipped {policy!r} agent for {env_id}; its rows are skipped", stacklevel=2)
+                    missing.setdefault(policy, []).append(env_id)
         for params in variants:
             for policy in settings.policies:
                 if policy in registry.AGENTS:
@@ -291,21 +298,106 @@ def make_cells(settings: Settings) -> list[Cell]:
             for path in settings.agents:
                 label = path.stem if path.suffix == ".zip" else path.name
                 cells.append(Cell(env_id, scenario, f"{registry.USER_AGENT_PREFIX}{label}", params, run=str(path)))
+    if missing:
+        where = settings.agents_dir or registry.default_agents_dir()
+        print("note: no shipped agent (in " + str(where) + ") for " + "; ".join(
+            f"{policy} on {', '.join(envs)}" for policy, envs in missing.items()) + ": those rows are skipped",
+            file=sys.stderr)
     return cells
 
 
+def check_cells(cells: list[Cell]) -> str | None:
+    """The first problem of any cell, as one line, or None: each setting's env is built once
+    (its configuration checked, e.g. a door speed above ``max_door_speed``) and each agent's
+    files are checked (without loading it), here in this process, before anything runs."""
+    import gymnasium as gym
+
+    from footstep_gym.evaluation.agents import check_run
+
+    built: set[tuple] = set()
+    checked: set[str] = set()
+    for cell in cells:
+        if (cell.env_id, cell.params) not in built:
+            built.add((cell.env_id, cell.params))
+            try:
+                gym.make(cell.env_id, **cell.params_dict).close()
+            except (ValueError, TypeError) as exc:
+                options = " ".join(f"--{k.replace('_', '-')} {v:g}" for k, v in cell.params) or "its defaults"
+                return f"{cell.env_id} with {options}: {exc}"
+        if cell.run is not None and cell.run not in checked:
+            checked.add(cell.run)
+            entry = registry.AGENTS.get(cell.policy)
+            try:
+                check_run(cell.run, entry.algo if entry is not None else None)
+            except (OSError, ValueError) as exc:
+                return f"{cell.policy}: {exc}"
+    return None
+
+
 # ---------------------------------------------------------------- output
-def prepare_out(out: Path) -> None:
-    """Make ``out`` a clean folder for this run: an earlier run's files are removed, anything else refuses."""
-    if out.exists() and any(out.iterdir()):
-        if not (out / "run.json").is_file():
-            raise SystemExit(f"error: --out {out} is not empty and holds no earlier evaluation (run.json); "
-                             "choose another folder")
+def check_out(out: Path) -> str | None:
+    """Why ``out`` cannot take this run's files (one line), or None: it must be a folder that
+    is empty or holds an earlier evaluation (its ``run.json``). Nothing is written."""
+    if out.exists() and not out.is_dir():
+        return f"--out {out} is a file, not a folder"
+    if out.is_dir() and any(out.iterdir()) and not (out / "run.json").is_file():
+        return f"--out {out} is not empty and holds no earlier evaluation (run.json); choose another folder"
+    return None
+
+
+def new_run_folder(out: Path) -> Path:
+    """An empty folder beside ``out`` (same file system) for this run's files until it has finished."""
+    out = out.absolute()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    folder = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    folder.chmod(0o777 & ~umask)  # as a folder made by mkdir (mkdtemp makes it private)
+    return folder
+
+
+def commit_out(run: Path, out: Path) -> None:
+    """Put a finished run's folder in place as ``out``.
+
+    An earlier run's files in ``out`` (``OWN_FILES``, ``OWN_DIRS``) are replaced by the new
+    ones and anything else a user put there is kept. ``out`` is moved aside and ``run``
+    renamed into its place (both beside ``out``: renames, no copies); where ``out`` is a
+    symbolic link or cannot be moved (a mount point), its contents are replaced in place.
+    """
+    out = out.absolute()
+    if not out.exists() and not out.is_symlink():
+        os.replace(run, out)
+        return
+
+    def in_place() -> None:
         for name in OWN_FILES:
             (out / name).unlink(missing_ok=True)
         for name in OWN_DIRS:
             shutil.rmtree(out / name, ignore_errors=True)
-    out.mkdir(parents=True, exist_ok=True)
+        for entry in run.iterdir():
+            os.replace(entry, out / entry.name)
+        run.rmdir()
+
+    if out.is_symlink() or os.path.ismount(out):
+        in_place()
+        return
+    aside = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".old", dir=out.parent))
+    try:
+        os.replace(out, aside / "out")
+    except OSError:
+        aside.rmdir()
+        in_place()
+        return
+    try:
+        os.replace(run, out)
+    except OSError:
+        os.replace(aside / "out", out)  # put the earlier run back
+        aside.rmdir()
+        raise
+    for entry in (aside / "out").iterdir():
+        if entry.name not in OWN_FILES + OWN_DIRS:  # a user's file beside the earlier run: kept
+            os.replace(entry, out / entry.name)
+    shutil.rmtree(aside)
 
 
 def write_outputs(settings: Settings, cells: list[Cell], results: list[EpisodeResult],
@@ -335,6 +427,7 @@ def write_outputs(settings: Settings, cells: list[Cell], results: list[EpisodeRe
         "split": settings.split, "seeds": settings.seeds, "door_speeds": list(settings.door_speeds),
         "crowd_speeds": list(settings.crowd_speeds), "workers": settings.workers, "backend": settings.backend,
         "wall_time_s": round(wall_s, 2), "timing_fields": list(TIMING_FIELDS),
+        "warmup_acts": WARMUP_ACTS,  # untimed acts per worker process and cell before the timed ones
         "python": platform.python_version(), "machine": platform.machine(), "cpu_count": os.cpu_count(),
         "footstep_gym": footstep_gym.__version__,
     }
@@ -370,8 +463,7 @@ def record_videos(settings: Settings, cells: list[Cell]) -> list[Path]:
         if key in done:
             continue
         done.add(key)
-        name = f"{c.setting}_{c.policy.replace(':', '-')}"
-        paths.append(record_video(c, settings.seeds[0], settings.out / "videos", name=name))
+        paths.append(record_video(c, settings.seeds[0], settings.out / "videos", name=safe_name(c.setting, c.policy)))
     return paths
 
 
@@ -382,16 +474,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not cells:
         print("error: nothing to evaluate (no policy has a cell on these envs)", file=sys.stderr)
         return 2
-    prepare_out(settings.out)
+    problem = check_cells(cells) or check_out(settings.out)
+    if problem:
+        build_parser().error(problem)  # one line, exit status 2; nothing written
     tasks = [Task(i, c, s, record=settings.figures) for i, c in enumerate(cells) for s in settings.seeds]
     workers = max(1, min(settings.workers, len(tasks)))
     print(f"{len(cells)} cells x {settings.episodes} seeds = {len(tasks)} episodes on {workers} worker(s) "
           f"({settings.backend}) -> {settings.out}", file=sys.stderr)
-    t0 = time.perf_counter()
-    results = run_tasks(tasks, workers, backend=settings.backend, address=settings.ray_address)
-    wall = time.perf_counter() - t0
-    videos = record_videos(settings, cells) if settings.video else []
-    table, files = write_outputs(settings, cells, results, wall, argv, videos)
+    folder = new_run_folder(settings.out)
+    try:
+        t0 = time.perf_counter()
+        results = run_tasks(tasks, workers, backend=settings.backend, address=settings.ray_address)
+        wall = time.perf_counter() - t0
+        inside = replace(settings, out=folder)  # the files go to the run's own folder until it has finished
+        videos = record_videos(inside, cells) if settings.video else []
+        table, files = write_outputs(inside, cells, results, wall, argv, videos)
+    except KeyboardInterrupt:
+        shutil.rmtree(folder, ignore_errors=True)
+        print(f"\ninterrupted; {settings.out} left as it was", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        shutil.rmtree(folder, ignore_errors=True)
+        traceback.print_exc()
+        print(f"error: the evaluation failed; {settings.out} left as it was. {exc}", file=sys.stderr)
+        return 1
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    commit_out(folder, settings.out)
     print(table)
     print(f"{len(results)} episodes in {wall:.1f} s; wrote {len(files)} files to {settings.out}/ "
           f"(summary.md lists them)")

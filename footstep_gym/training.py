@@ -2,10 +2,13 @@
 
 The training itself is rl_zoo3's (``python -m rl_zoo3.train``, hyperparameters in
 ``configs/rl/<algo>.yml``, one entry per env id). This module adds what the zoo does not:
-several training seeds in a row with one torch thread each, the wall time and throughput
-of each run, a copy of the run's small files under ``baselines/agents/<algo>/<EnvId>_<seed>/``
+several training seeds in a row with one torch thread each, the run's progress on the
+console while it trains (its full output goes to a log file), an evaluation at the end of
+a run shorter than the evaluation period, the wall time and throughput of each run,
+shipping: a copy of the run's small files under ``baselines/agents/<algo>/<EnvId>_<seed>/``
 (model ``.zip``, ``<EnvId>/{config.yml,args.yml,command.txt,vecnormalize.pkl}``,
-``evaluations.npz``) with a ``manifest.json``, and learning curves.
+``evaluations.npz``) with a ``manifest.json``, which does not replace a longer or better
+shipped agent unless forced, and learning curves.
 
 Nothing here imports torch: training runs in a subprocess.
 """
@@ -13,10 +16,13 @@ Nothing here imports torch: training runs in a subprocess.
 from __future__ import annotations
 
 import json
+import os
 import platform
+import re
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from importlib import metadata
 from pathlib import Path
@@ -26,27 +32,88 @@ import numpy as np
 import yaml
 
 from footstep_gym.config import config_dir
+from footstep_gym.errors import FootstepGymError
 
 #: The zoo's files of a run that ship with an agent (small: no replay buffer, no checkpoints).
 SHIPPED_IN_ENV_FOLDER = ("config.yml", "args.yml", "command.txt", "vecnormalize.pkl")
 
 
+#: Algorithms that collect whole rollouts of ``n_steps`` per env between updates (SB3's defaults).
+ON_POLICY_N_STEPS = {"ppo": 2048, "a2c": 5}
+
+
+class ShipRefused(FootstepGymError):
+    """Shipping would replace a shipped agent with a shorter or worse run (``force`` not given)."""
+
+
+def conf_path(algo: str, conf_file: str | Path | None = None) -> Path:
+    """The hyperparameter file: ``conf_file``, else ``configs/rl/<algo>.yml``."""
+    return Path(conf_file) if conf_file is not None else config_dir() / "rl" / f"{algo}.yml"
+
+
 def zoo_command(algo: str, env_id: str, seed: int, log_folder: str | Path, *, conf_file: str | Path | None = None,
                 timesteps: int | None = None, eval_freq: int = 25_000, eval_episodes: int = 20,
-                threads: int = 1, python: str = sys.executable) -> list[str]:
+                threads: int = 1, log_interval: int | None = None, python: str = sys.executable) -> list[str]:
     """The rl_zoo3 command line that trains ``algo`` on ``env_id`` with ``seed`` into ``log_folder``.
 
     ``conf_file`` defaults to ``configs/rl/<algo>.yml``; ``eval_freq`` (env steps, all envs
-    together) and ``eval_episodes`` set the zoo's EvalCallback, whose success rate (from
-    ``info["is_success"]``) makes the learning curve; ``timesteps`` overrides the file's.
+    together; the zoo divides it by ``n_envs``) and ``eval_episodes`` set the zoo's
+    EvalCallback, whose success rate (from ``info["is_success"]``) makes the learning
+    curve; ``timesteps`` overrides the file's. ``log_interval`` (default: every rollout of
+    an on-policy algorithm, every 10 episodes of an off-policy one) paces the progress
+    tables in the log.
     """
-    conf = Path(conf_file) if conf_file is not None else config_dir() / "rl" / f"{algo}.yml"
+    if log_interval is None:
+        log_interval = 1 if algo in ON_POLICY_N_STEPS else 10
     cmd = [python, "-m", "rl_zoo3.train", "--algo", algo, "--env", env_id, "--gym-packages", "footstep_gym",
-           "--conf-file", str(conf), "--num-threads", str(threads), "--seed", str(seed), "-f", str(log_folder),
-           "--eval-freq", str(eval_freq), "--eval-episodes", str(eval_episodes), "--log-interval", "10"]
+           "--conf-file", str(conf_path(algo, conf_file)), "--num-threads", str(threads), "--seed", str(seed),
+           "-f", str(log_folder), "--eval-freq", str(eval_freq), "--eval-episodes", str(eval_episodes),
+           "--log-interval", str(log_interval)]
     if timesteps is not None:
         cmd += ["-n", str(timesteps)]
     return cmd
+
+
+def planned_timesteps(algo: str, env_id: str, timesteps: int | None = None,
+                      conf_file: str | Path | None = None) -> int:
+    """The env steps a run will be asked for: ``timesteps``, else the config's ``n_timesteps``."""
+    if timesteps is not None:
+        return int(timesteps)
+    return int(float(_zoo_entry(algo, env_id, conf_file)["n_timesteps"]))
+
+
+def callback_calls(algo: str, entry: dict[str, Any], timesteps: int) -> int:
+    """How many times the zoo's callbacks run in a training of ``timesteps`` env steps (at least).
+
+    A callback runs once per vectorised step, i.e. per ``n_envs`` env steps, and SB3 stops
+    at the first whole collection past ``timesteps``: a rollout of ``n_steps`` per env for an
+    on-policy algorithm, ``train_freq`` steps per env for an off-policy one (exact for both;
+    a ``train_freq`` counted in episodes gives the lower bound ``ceil(timesteps / n_envs)``).
+    """
+    n_envs = int(entry.get("n_envs", 1))
+    if algo in ON_POLICY_N_STEPS:
+        chunk = int(entry.get("n_steps", ON_POLICY_N_STEPS[algo]))
+    else:
+        freq = entry.get("train_freq", 1)
+        chunk = int(freq) if isinstance(freq, (int, float)) else 1
+    return -(-int(timesteps) // (chunk * n_envs)) * chunk
+
+
+def run_eval_freq(algo: str, env_id: str, eval_freq: int, timesteps: int | None = None,
+                  conf_file: str | Path | None = None) -> int:
+    """The ``--eval-freq`` to give the zoo so that a run evaluates at least once, at its end if it is short.
+
+    The zoo evaluates every ``eval_freq // n_envs`` callback calls; a run with fewer calls
+    than that would never evaluate (no learning curve, no final success in the manifest).
+    Then the period becomes the run's own length, so the one evaluation is at its end.
+    Otherwise ``eval_freq`` is kept.
+    """
+    entry = _zoo_entry(algo, env_id, conf_file)
+    n_envs = int(entry.get("n_envs", 1))
+    calls = callback_calls(algo, entry, planned_timesteps(algo, env_id, timesteps, conf_file))
+    if max(eval_freq // n_envs, 1) <= calls:
+        return int(eval_freq)
+    return calls * n_envs
 
 
 def latest_run(log_folder: str | Path, algo: str, env_id: str) -> Path:
@@ -57,23 +124,59 @@ def latest_run(log_folder: str | Path, algo: str, env_id: str) -> Path:
     return max(runs, key=lambda p: int(p.name.rsplit("_", 1)[-1]))
 
 
+#: A line of SB3's progress table with the env steps done so far, and the EvalCallback's report lines.
+_TIMESTEPS_LINE = re.compile(r"^\|\s*total_timesteps\s*\|\s*(\d+)")
+_EVAL_LINE = re.compile(r"^Eval num_timesteps=(\d+), episode_reward=(\S+)")
+_SUCCESS_LINE = re.compile(r"^Success rate: ([\d.]+)%")
+
+
 def train(algo: str, env_id: str, seed: int, log_folder: str | Path, log_file: str | Path | None = None,
-          **kwargs: Any) -> tuple[Path, float]:
+          progress: bool | None = None, **kwargs: Any) -> tuple[Path, float]:
     """Train one agent with rl_zoo3 in a subprocess; ``(run folder, wall time [s])``.
 
-    The zoo's output goes to ``log_file`` (default: ``<log_folder>/<algo>_<env_id>_<seed>.log``).
+    The zoo's output goes to ``log_file`` (default: ``<log_folder>/<algo>_<env_id>_<seed>.log``);
+    the console (stderr) gets where the log is, a progress bar of the env steps (``progress``:
+    None shows it on a terminal only) and one line per periodic evaluation. ``kwargs`` go to
+    :func:`zoo_command`; its ``eval_freq`` is first fitted to the run (:func:`run_eval_freq`).
     """
+    from tqdm import tqdm
+
     log_folder = Path(log_folder)
     log_folder.mkdir(parents=True, exist_ok=True)
     log_file = Path(log_file) if log_file else log_folder / f"{algo}_{env_id}_{seed}.log"
+    total = planned_timesteps(algo, env_id, kwargs.get("timesteps"), kwargs.get("conf_file"))
+    if "eval_freq" in kwargs:
+        asked = kwargs["eval_freq"]
+        kwargs["eval_freq"] = run_eval_freq(algo, env_id, asked, kwargs.get("timesteps"), kwargs.get("conf_file"))
     cmd = zoo_command(algo, env_id, seed, log_folder, **kwargs)
+    name = f"{algo} on {env_id}, seed {seed}"
+    note = ""
+    if "eval_freq" in kwargs and kwargs["eval_freq"] != asked:
+        note = f"; the run is shorter than --eval-freq {asked}: one evaluation, at its end"
+    print(f"{name}: {total:,} env steps; log {log_file}{note}", file=sys.stderr, flush=True)
+    env = dict(os.environ, PYTHONUNBUFFERED="1")  # the zoo's lines as they are printed
     t0 = time.perf_counter()
-    with open(log_file, "w", encoding="utf-8") as fh:
-        proc = subprocess.run(cmd, stdout=fh, stderr=subprocess.STDOUT)
+    evaluation: list[str] = []
+    with open(log_file, "w", encoding="utf-8") as fh, \
+            tqdm(total=total, desc=f"{algo}/{env_id}/{seed}", unit="step", file=sys.stderr, dynamic_ncols=True,
+                 disable=None if progress is None else not progress) as bar:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                encoding="utf-8", errors="replace", env=env)
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            fh.write(line)
+            if m := _TIMESTEPS_LINE.match(line):
+                bar.update(min(int(m.group(1)), total) - bar.n)
+            elif m := _EVAL_LINE.match(line):
+                evaluation = [f"evaluation at {int(m.group(1)):,} steps: return {m.group(2)}"]
+            elif (m := _SUCCESS_LINE.match(line)) and evaluation:
+                evaluation.append(f"success {float(m.group(1)) / 100:.2f}")
+                bar.write(f"  {name}: " + ", ".join(evaluation), file=sys.stderr)
+                evaluation = []
+        returncode = proc.wait()
     wall = time.perf_counter() - t0
-    if proc.returncode != 0:
-        raise RuntimeError(f"rl_zoo3 training of {algo} on {env_id} (seed {seed}) failed with exit code "
-                           f"{proc.returncode}; see {log_file}")
+    if returncode != 0:
+        raise RuntimeError(f"rl_zoo3 training of {name} failed with exit code {returncode}; see {log_file}")
     return latest_run(log_folder, algo, env_id), wall
 
 
@@ -108,12 +211,44 @@ def eval_curve(run: Path) -> dict[str, list[float]]:
     }
 
 
-def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int | None = None) -> Path:
+def replace_problem(dest: str | Path, timesteps: int, success: float | None = None,
+                    check_success: bool = True) -> str | None:
+    """Why a run of ``timesteps`` env steps ending at evaluation success ``success`` must not
+    replace the agent shipped at ``dest`` (one line), or None if it may (or nothing is there).
+
+    A run may not replace a longer one (more timesteps), nor one whose final evaluation
+    succeeded more often (a run with no evaluation counts as worse than one with one), nor a
+    folder that is not a shipped agent (no ``manifest.json``). ``check_success=False``: the
+    timesteps only (before training, when the success is not known yet).
+    """
+    dest = Path(dest)
+    if not dest.exists():
+        return None
+    hint = "not replaced (--force replaces it)"
+    path = dest / "manifest.json"
+    if not path.is_file():
+        return f"{dest} exists and is not a shipped agent (no manifest.json); {hint}"
+    old = json.loads(path.read_text(encoding="utf-8"))
+    old_timesteps = int(old.get("timesteps") or 0)
+    if timesteps < old_timesteps:
+        return f"{dest} holds a longer run ({old_timesteps:,} env steps) than this one ({timesteps:,}); {hint}"
+    old_success = old.get("final_eval_success")
+    if check_success and old_success is not None and (success is None or success < old_success):
+        now = "none recorded" if success is None else f"{success:.2f}"
+        return f"{dest} holds a better run (final evaluation success {old_success:.2f}, this one {now}); {hint}"
+    return None
+
+
+def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int | None = None,
+         force: bool = False) -> Path:
     """Copy a finished zoo run's small files to ``<agents_dir>/<algo>/<EnvId>_<seed>/`` and write its manifest.
 
     The manifest records the algorithm, env id and kwargs, timesteps, seed, ``n_envs``,
     the wall time and the training throughput (env steps per second of wall time, start-up
     and periodic evaluations included), the final evaluation's success rate and the versions.
+    An agent already there is replaced only by a run at least as long and as good
+    (:func:`replace_problem`), or with ``force``; else :class:`ShipRefused` is raised before
+    anything is written. The new agent is put together beside the old one and swapped in.
     """
     run = Path(run)
     env_id = run.name.rsplit("_", 1)[0]
@@ -126,19 +261,14 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
     algo = args["algo"]
     seed = int(args["seed"] if seed is None else seed)
     dest = Path(agents_dir) / algo / f"{env_id}_{seed}"
-    if dest.exists():
-        shutil.rmtree(dest)
-    (dest / env_id).mkdir(parents=True)
-    shutil.copy2(model, dest / model.name)
-    for name in SHIPPED_IN_ENV_FOLDER:
-        if (folder / name).is_file():
-            shutil.copy2(folder / name, dest / env_id / name)
-    if (run / "evaluations.npz").is_file():
-        shutil.copy2(run / "evaluations.npz", dest / "evaluations.npz")
     timesteps = int(args.get("n_timesteps") or -1)
     if timesteps <= 0:
         timesteps = int(float(config["n_timesteps"]))
     curve = eval_curve(run)
+    final_success = curve["success"][-1] if curve["success"] else None
+    problem = None if force else replace_problem(dest, timesteps, final_success)
+    if problem:
+        raise ShipRefused(problem)
 
     def version(dist: str) -> str | None:
         try:
@@ -156,7 +286,7 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
         "wall_time_s": round(wall_time_s, 1),
         "env_steps_per_s": round(timesteps / wall_time_s, 1),
         "torch_threads": int(args.get("num_threads", -1)),
-        "final_eval_success": curve["success"][-1] if curve["success"] else None,
+        "final_eval_success": final_success,
         "final_eval_episodes": int(args.get("eval_episodes", 0)),
         "command": (folder / "command.txt").read_text(encoding="utf-8").strip()
         if (folder / "command.txt").is_file() else None,
@@ -164,7 +294,29 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
         "python": platform.python_version(),
         "machine": platform.machine(),
     }
-    (dest / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".partial", dir=dest.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    stage.chmod(0o777 & ~umask)  # as a folder made by mkdir (mkdtemp makes it private)
+    try:
+        (stage / env_id).mkdir()
+        shutil.copy2(model, stage / model.name)
+        for name in SHIPPED_IN_ENV_FOLDER:
+            if (folder / name).is_file():
+                shutil.copy2(folder / name, stage / env_id / name)
+        if (run / "evaluations.npz").is_file():
+            shutil.copy2(run / "evaluations.npz", stage / "evaluations.npz")
+        (stage / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+        if dest.exists():
+            old = stage.with_suffix(".old")
+            os.replace(dest, old)
+            os.replace(stage, dest)
+            shutil.rmtree(old)
+        else:
+            os.replace(stage, dest)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
     return dest
 
 
@@ -206,11 +358,13 @@ def learning_curves(runs: Sequence[str | Path], out: str | Path, title: str,
     return out
 
 
-def _zoo_entry(algo: str, env_id: str) -> dict[str, Any]:
-    """The hyperparameter entry of ``env_id`` in ``configs/rl/<algo>.yml``, anchors resolved."""
-    data = yaml.safe_load((config_dir() / "rl" / f"{algo}.yml").read_text(encoding="utf-8"))
+def _zoo_entry(algo: str, env_id: str, conf_file: str | Path | None = None) -> dict[str, Any]:
+    """The hyperparameter entry of ``env_id`` in ``configs/rl/<algo>.yml`` (or ``conf_file``), anchors resolved."""
+    path = conf_path(algo, conf_file)
+    data = yaml.safe_load(path.read_text(encoding="utf-8"))
     if env_id not in data:
-        raise KeyError(f"configs/rl/{algo}.yml has no entry for {env_id}")
+        shown = f"configs/rl/{algo}.yml" if conf_file is None else str(path)
+        raise KeyError(f"{shown} has no entry for {env_id}")
     return dict(data[env_id])
 
 
@@ -234,7 +388,10 @@ def ppo_throughput(env_id: str, n_envs: int, timesteps: int = 8192, hyperparams_
     discrete = isinstance(gym.make(env_id).action_space, gym.spaces.Discrete)
 
     def wrap(env: gym.Env) -> gym.Env:
-        return env if discrete else gym.wrappers.RescaleAction(env, -1.0, 1.0)
+        if discrete:
+            return env
+        box = env.action_space  # bounds in the box's dtype: Python floats make Gymnasium warn about float64
+        return gym.wrappers.RescaleAction(env, np.full(box.shape, -1.0, box.dtype), np.full(box.shape, 1.0, box.dtype))
 
     venv = VecNormalize(make_vec_env(env_id, n_envs=n_envs, seed=0, env_kwargs=env_kwargs, wrapper_class=wrap),
                         norm_obs=True, norm_reward=False)

@@ -32,12 +32,14 @@ EXPECTED = {("ppo", "FootstepDoor-v0"): 3, ("ppo", "FootstepCrossing-v0"): 3, ("
 def trained(tmp_path_factory):
     """A PPO trained for one rollout through the real CLI, shipped into a temporary agents folder."""
     root = tmp_path_factory.mktemp("rl")
+    # --timesteps below the default --eval-freq (25000): the run must still be evaluated, at its end.
     cmd = [sys.executable, str(REPO / "baselines" / "train_rl.py"), "--algo", "ppo", "--env", "door", "--seeds", "7",
-           "--timesteps", "600", "--eval-freq", "1024", "--eval-episodes", "2", "--log-folder", str(root / "logs"),
+           "--timesteps", "600", "--eval-episodes", "2", "--log-folder", str(root / "logs"), "--ship",
            "--agents-dir", str(root / "agents"), "--curves-dir", str(root / "curves"),
            "--reference", str(root / "none.json")]
     proc = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
+    (root / "stderr.txt").write_text(proc.stderr)
     return root
 
 
@@ -54,7 +56,14 @@ def test_training_cli_ships_a_zoo_run_with_a_manifest(trained):
     assert m["wall_time_s"] > 0 and m["env_steps_per_s"] == pytest.approx(600 / m["wall_time_s"], rel=0.01)
     assert m["torch_threads"] == 1 and "rl_zoo3.train" in m["command"]
     assert 0.0 <= m["final_eval_success"] <= 1.0
+    # One rollout of 4 envs x 512 steps: the one evaluation is at its end (the zoo divides eval_freq by n_envs).
+    assert np.load(run / "evaluations.npz")["timesteps"].tolist() == [2048]
     assert (trained / "curves" / "ppo_FootstepDoor-v0.png").stat().st_size > 10_000
+    # The console says where the log is and reports the evaluation while training.
+    log = trained / "logs" / "seed7" / "ppo_FootstepDoor-v0_7.log"
+    console = (trained / "stderr.txt").read_text()
+    assert f"log {log}" in console and "Eval num_timesteps=2048" in log.read_text()
+    assert "evaluation at 2,048 steps" in console
     # No replay buffers, checkpoints or monitor logs ship.
     assert not list(run.rglob("*replay_buffer*")) and not list(run.glob("*.monitor.csv"))
 
@@ -126,7 +135,7 @@ def test_every_shipped_agent_is_registered_and_plays_one_episode():
 def test_a_training_grid_runs_as_ray_tasks_and_ships_every_run(tmp_path):
     pytest.importorskip("ray")
     cmd = [sys.executable, str(REPO / "baselines" / "train_rl.py"), "--algo", "ppo", "--env", "crossing", "crowd",
-           "--seeds", "3", "--timesteps", "300", "--eval-freq", "100000", "--eval-episodes", "1",
+           "--seeds", "3", "--timesteps", "300", "--eval-freq", "100000", "--eval-episodes", "1", "--ship",
            "--backend", "ray", "--workers", "2", "--log-folder", str(tmp_path / "logs"),
            "--agents-dir", str(tmp_path / "agents"), "--curves-dir", str(tmp_path / "curves"),
            "--reference", str(tmp_path / "none.json")]
@@ -142,3 +151,159 @@ def test_ppo_throughput_is_measured_inside_learn():
 
     rate = ppo_throughput("FootstepCrossing-v0", 1, timesteps=512)
     assert 10 < rate < 100_000
+
+
+# ---------------------------------------------------------------- nothing a user made is lost (issue 17 §3)
+TRAIN_SCRIPT = REPO / "baselines" / "train_rl.py"
+
+
+def fake_run(root: Path, timesteps: int, success: float | None, seed: int = 1,
+             env_id: str = "FootstepDoor-v0") -> Path:
+    """A finished zoo run's folder (what shipping reads; the model is not loaded) with a final evaluation."""
+    k = 1 + len(list((root / "ppo").glob(f"{env_id}_*")))  # the zoo numbers a log folder's runs
+    run = root / "ppo" / f"{env_id}_{k}"
+    (run / env_id).mkdir(parents=True)
+    (run / f"{env_id}.zip").write_bytes(f"model of {timesteps} steps".encode())
+    (run / env_id / "args.yml").write_text(f"algo: ppo\nseed: {seed}\nn_timesteps: {timesteps}\nnum_threads: 1\n"
+                                           "eval_episodes: 4\n")
+    (run / env_id / "config.yml").write_text(f"n_envs: 4\nn_timesteps: {timesteps}\n")
+    (run / env_id / "command.txt").write_text("python -m rl_zoo3.train ...\n")
+    if success is not None:
+        np.savez(run / "evaluations.npz", timesteps=np.array([timesteps]), results=np.zeros((1, 4)),
+                 ep_lengths=np.ones((1, 4)), successes=np.array([[1.0] * round(4 * success) +
+                                                                 [0.0] * (4 - round(4 * success))]))
+    return run
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_ship_does_not_replace_a_longer_or_better_agent_without_force(tmp_path):
+    from footstep_gym import training
+
+    agents = tmp_path / "agents"
+    dest = training.ship(fake_run(tmp_path / "long", 600_000, 1.0), agents, 100.0)
+    before = snapshot(agents)
+    with pytest.raises(training.ShipRefused, match=r"holds a longer run \(600,000 env steps\) than this one \(8,192\)"):
+        training.ship(fake_run(tmp_path / "short", 8192, 1.0), agents, 10.0)
+    with pytest.raises(training.ShipRefused, match=r"better run \(final evaluation success 1.00, this one 0.50\)"):
+        training.ship(fake_run(tmp_path / "worse", 600_000, 0.5), agents, 100.0)
+    with pytest.raises(training.ShipRefused, match="this one none recorded"):
+        training.ship(fake_run(tmp_path / "unevaluated", 600_000, None), agents, 100.0)
+    assert snapshot(agents) == before  # nothing written
+    assert training.ship(fake_run(tmp_path / "as_good", 600_000, 1.0), agents, 90.0) == dest  # no worse: replaced
+    assert json.loads((dest / "manifest.json").read_text())["wall_time_s"] == 90.0
+    training.ship(fake_run(tmp_path / "short", 8192, 0.25), agents, 10.0, force=True)
+    m = json.loads((dest / "manifest.json").read_text())
+    assert (m["timesteps"], m["final_eval_success"]) == (8192, 0.25)
+    assert (dest / "FootstepDoor-v0.zip").read_bytes() == b"model of 8192 steps"
+    assert sorted(p.name for p in (agents / "ppo").iterdir()) == ["FootstepDoor-v0_1"]  # no staging folder left
+    (agents / "ppo" / "FootstepDoor-v0_2").mkdir()
+    with pytest.raises(training.ShipRefused, match="not a shipped agent"):
+        training.ship(fake_run(tmp_path / "other", 8192, 1.0, seed=2), agents, 10.0)
+
+
+def test_ship_cli_refuses_with_one_line_and_exit_status_2(tmp_path):
+    from footstep_gym import training
+
+    agents = tmp_path / "agents"
+    training.ship(fake_run(tmp_path / "long", 600_000, 1.0), agents, 100.0)
+    before = snapshot(agents)
+    proc = subprocess.run([sys.executable, str(TRAIN_SCRIPT), "--ship", str(fake_run(tmp_path / "short", 8192, 1.0)),
+                           "--wall-time", "10", "--agents-dir", str(agents), "--curves-dir", str(tmp_path / "curves"),
+                           "--reference", str(tmp_path / "none.json")], cwd=REPO, capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.splitlines() == [f"train_rl.py: error: {agents / 'ppo' / 'FootstepDoor-v0_1'} holds a longer "
+                                        "run (600,000 env steps) than this one (8,192); not replaced (--force "
+                                        "replaces it)"]
+    assert snapshot(agents) == before and not (tmp_path / "curves").exists()
+
+
+def _train_rl():
+    import importlib.util
+
+    if "train_rl_script" not in sys.modules:
+        spec = importlib.util.spec_from_file_location("train_rl_script", TRAIN_SCRIPT)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module
+        spec.loader.exec_module(module)
+    return sys.modules["train_rl_script"]
+
+
+@pytest.fixture
+def fake_training(tmp_path, monkeypatch):
+    """train_rl.py's main with rl_zoo3 replaced by a fake run of the asked length (success 0.5)."""
+    from footstep_gym import training
+
+    calls = []
+
+    def train(algo, env_id, seed, log_folder, timesteps=None, **kwargs):
+        calls.append((algo, env_id, seed, timesteps))
+        return fake_run(Path(log_folder), timesteps, 0.5, seed=seed, env_id=env_id), 12.0
+
+    monkeypatch.setattr(training, "train", train)
+    args = ["--log-folder", str(tmp_path / "runs"), "--agents-dir", str(tmp_path / "agents"),
+            "--curves-dir", str(tmp_path / "curves"), "--reference", str(tmp_path / "none.json")]
+    return _train_rl().main, args, calls
+
+
+def test_training_writes_under_runs_and_ships_nothing_by_default(tmp_path, fake_training, capsys):
+    """A user's first short try used to replace the shipped agent and redraw the README's learning curve."""
+    main, common, calls = fake_training
+    assert main(["--algo", "ppo", "--env", "door", "--seeds", "1", "--timesteps", "8192", *common]) == 0
+    assert calls == [("ppo", "FootstepDoor-v0", 1, 8192)]
+    assert not (tmp_path / "agents").exists() and not (tmp_path / "curves").exists()
+    assert (tmp_path / "runs" / "learning_curves" / "ppo_FootstepDoor-v0.png").is_file()  # the run's own curve
+    err = capsys.readouterr().err
+    assert "nothing is shipped" in err and "--ship " in err
+
+
+def test_training_with_ship_refuses_a_shorter_run_before_training(tmp_path, fake_training, capsys):
+    from footstep_gym import training
+
+    main, common, calls = fake_training
+    training.ship(fake_run(tmp_path / "long", 600_000, 1.0), tmp_path / "agents", 100.0)
+    before = snapshot(tmp_path / "agents")
+    code = main(["--algo", "ppo", "--env", "door", "--seeds", "1", "--timesteps", "8192", "--ship", *common])
+    assert code == 2 and calls == []  # refused before any training
+    assert capsys.readouterr().err.splitlines()[-1].endswith("not replaced (--force replaces it)")
+    assert snapshot(tmp_path / "agents") == before and not (tmp_path / "curves").exists()
+    # The same length but a worse final evaluation (0.5 < 1.0): trained, then not shipped, exit 2.
+    code = main(["--algo", "ppo", "--env", "door", "--seeds", "1", "--timesteps", "600000", "--ship", *common])
+    assert code == 2 and len(calls) == 1
+    assert "holds a better run" in capsys.readouterr().err
+    assert snapshot(tmp_path / "agents") == before and not (tmp_path / "curves").exists()
+    # --force replaces it and redraws the curve.
+    code = main(["--algo", "ppo", "--env", "door", "--seeds", "1", "--timesteps", "8192", "--ship", "--force",
+                 *common])
+    assert code == 0
+    assert json.loads((tmp_path / "agents" / "ppo" / "FootstepDoor-v0_1" / "manifest.json").read_text())[
+        "timesteps"] == 8192
+    assert (tmp_path / "curves" / "ppo_FootstepDoor-v0.png").is_file()
+
+
+def test_a_run_shorter_than_eval_freq_is_evaluated_at_its_end():
+    """The zoo evaluates every eval_freq // n_envs callback calls; a shorter run used to evaluate never."""
+    from footstep_gym.training import run_eval_freq
+
+    # PPO on the door: 4 envs x 512 steps a rollout; whole rollouts.
+    assert run_eval_freq("ppo", "FootstepDoor-v0", 25_000, 600) == 2048
+    assert run_eval_freq("ppo", "FootstepDoor-v0", 25_000, 8192) == 8192
+    assert run_eval_freq("ppo", "FootstepDoor-v0", 25_000, 20_000) == 20_480
+    assert run_eval_freq("ppo", "FootstepDoor-v0", 25_000) == 25_000  # 600k steps: unchanged
+    assert run_eval_freq("ppo", "FootstepDoor-v0", 1000, 8192) == 1000
+    # SAC: one env, train_freq 8 steps.
+    assert run_eval_freq("sac", "FootstepDoor-v0", 25_000, 600) == 600
+    assert run_eval_freq("sac", "FootstepDoor-v0", 25_000, 601) == 608
+
+
+# ---------------------------------------------------------------- what a user sees (issue 17 §4)
+def test_loading_an_agent_raises_no_box_precision_warning(trained):
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ZooAgent(trained / "agents" / "ppo" / "FootstepDoor-v0_7", load_robot())
+    assert not [w for w in caught if "precision lowered" in str(w.message)], [str(w.message) for w in caught]

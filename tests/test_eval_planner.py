@@ -374,3 +374,229 @@ def test_help_lists_every_policy():
     for name in ("period-aware", "fixed-period", "pso-only", "ppo", "ppo-all", "sac", "--crowd-speed", "--video",
                  "--agent", "--split"):
         assert name in proc.stdout, name
+
+
+# ---------------------------------------------------------------- nothing a user made is lost (issue 17 §3)
+def _load_script():
+    """baselines/eval_planner.py as a module (it is a script, not part of the package)."""
+    import importlib.util
+
+    if "eval_planner_script" not in sys.modules:
+        spec = importlib.util.spec_from_file_location("eval_planner_script", SCRIPT)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module  # its dataclasses look their module up
+        spec.loader.exec_module(module)
+    return sys.modules["eval_planner_script"]
+
+
+def _earlier_run(out: Path) -> dict[str, bytes]:
+    """A folder holding an earlier evaluation (and a user's note beside it); its files' bytes by path."""
+    (out / "figures").mkdir(parents=True)
+    (out / "run.json").write_text('{"profile": "quick"}\n')
+    (out / "results.json").write_text("[]\n")
+    (out / "figures" / "door_17.png").write_bytes(b"\x89PNG earlier")
+    (out / "notes.txt").write_text("mine")
+    return _snapshot(out)
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_a_bad_setting_exits_2_with_one_line_before_touching_out(tmp_path):
+    """A door speed above the env's bound used to empty --out, then die in a worker's traceback."""
+    out = tmp_path / "eval"
+    before = _earlier_run(out)
+    proc = run_cli("--env", "door", "--door-speed", "400", "--policy", FASTEST_POLICY, "--episodes", "1",
+                   "--out", str(out), timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if "error:" in line]
+    assert len(errors) == 1 and "door_speed=400" in errors[0] and "max_door_speed" in errors[0], proc.stderr
+    assert _snapshot(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["eval"]  # no temporary folder left beside it
+
+
+def test_an_agent_folder_without_a_model_is_refused_up_front(tmp_path):
+    (tmp_path / "not_an_agent").mkdir()
+    proc = run_cli("--env", "crossing", "--agent", str(tmp_path / "not_an_agent"), "--out", str(tmp_path / "x"),
+                   timeout=120)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "expected one <EnvId>.zip" in proc.stderr.splitlines()[-1]
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_run_that_fails_midway_leaves_out_as_it_was(tmp_path, monkeypatch, capsys):
+    """The second episode's policy fails: the earlier run's files are all still there, nothing half-written."""
+    from footstep_gym.evaluation import policies
+
+    script = _load_script()
+    real = policies.make_policy
+
+    def failing(name, robot=None, seed=None, **kwargs):
+        if seed == FIRST_TEST_SEED + 1:
+            raise RuntimeError("simulated failure")
+        return real(name, robot, seed=seed, **kwargs)
+
+    monkeypatch.setattr(policies, "make_policy", failing)
+    out = tmp_path / "eval"
+    before = _earlier_run(out)
+    code = script.main(["--env", "crossing", "--policy", FASTEST_POLICY, "--episodes", "2", "--workers", "1",
+                        "--out", str(out)])
+    assert code == 1
+    assert "simulated failure" in capsys.readouterr().err.splitlines()[-1]
+    assert _snapshot(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["eval"]
+
+
+def test_a_worker_failing_on_a_broken_agent_leaves_out_as_it_was(tmp_path):
+    """Through the CLI: an agent whose files look right but whose model does not load fails in the worker."""
+    broken = tmp_path / "broken" / "FootstepCrossing-v0_1"
+    (broken / "FootstepCrossing-v0").mkdir(parents=True)
+    (broken / "FootstepCrossing-v0.zip").write_bytes(b"not a zip file")
+    (broken / "FootstepCrossing-v0" / "args.yml").write_text("algo: ppo\n")
+    out = tmp_path / "eval"
+    before = _earlier_run(out)
+    proc = run_cli("--env", "crossing", "--agent", str(broken), "--episodes", "1", "--workers", "2",
+                   "--out", str(out), timeout=300)
+    assert proc.returncode == 1
+    assert "left as it was" in proc.stderr.splitlines()[-1]
+    assert _snapshot(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["broken", "eval"]
+
+
+def test_a_finished_run_replaces_the_earlier_one_and_keeps_the_users_files(tmp_path):
+    out = tmp_path / "eval"
+    _earlier_run(out)
+    proc = run_cli("--env", "crossing", "--policy", FASTEST_POLICY, "--episodes", "1", "--workers", "1",
+                   "--no-figures", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "notes.txt").read_text() == "mine"
+    assert not (out / "figures").exists()  # the earlier run's figures; this run drew none
+    assert json.loads((out / "run.json").read_text())["envs"] == ["crossing"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["eval"]
+
+
+# ---------------------------------------------------------------- what a user sees (issue 17 §4)
+def test_each_process_warms_a_cell_up_once_before_timing_it(monkeypatch):
+    """The first acts of a fresh process load the compiled kernels: they run untimed, on a throwaway policy."""
+    from footstep_gym.evaluation import runner
+
+    monkeypatch.setattr(runner, "_warmed", set())
+    made: list[list[str]] = []  # per policy instance, its calls
+
+    class Logged(StraightAhead):
+        def __init__(self, robot, seed=None):
+            super().__init__(robot, seed)
+            made.append([])
+
+        def act(self, observation, snapshot):
+            made[-1].append("act")
+            return super().act(observation, snapshot)
+
+    def factory(cell, robot, seed):
+        return Logged(robot, seed)
+
+    cell = Cell("FootstepCrossing-v0", "crossing", "logged")
+    first = run_episode(Task(0, cell, 1), factory=factory)
+    assert len(made) == 2  # the warm-up's policy, then the timed one
+    assert len(made[0]) == min(runner.WARMUP_ACTS, first.steps) > 0
+    assert len(first.plan_ms) == len(made[1]) == first.steps  # only the second policy's acts are timed
+    second = run_episode(Task(0, cell, 2), factory=factory)
+    assert len(made) == 3 and len(second.plan_ms) == len(made[2])  # this process is warm for the cell now
+    unwarmed = run_episode(Task(0, cell, 1), factory=factory, warm=False)  # the warm-up changes no result
+    assert (unwarmed.outcome, unwarmed.steps, unwarmed.path_length) == (first.outcome, first.steps,
+                                                                           first.path_length)
+
+
+WARM_PROBE = """
+import json, numba
+import footstep_gym.planners.kernels as K, footstep_gym.sweep_kernel as S
+from footstep_gym.evaluation.runner import Cell, Task, default_factory, run_episode
+kernels = [f for m in (K, S) for f in vars(m).values() if isinstance(f, numba.core.registry.CPUDispatcher)]
+loaded = lambda: sum(len(k.overloads) for k in kernels)
+class Counted:  # counts the kernels each act loads
+    def __init__(self, policy):
+        self.policy, self.loads = policy, []
+    @property
+    def last_info(self):
+        return self.policy.last_info
+    def reset(self, seed=None):
+        self.policy.reset(seed=seed)
+    def act(self, obs, snapshot):
+        before = loaded()
+        action = self.policy.act(obs, snapshot)
+        self.loads.append(loaded() - before)
+        return action
+instances = []
+def factory(cell, robot, seed):
+    instances.append(Counted(default_factory(cell, robot, seed)))
+    return instances[-1]
+r = run_episode(Task(0, Cell("FootstepDoor-v0", "door", "period-aware", (("door_speed", 17.0),)), 20000),
+                factory=factory)
+print(json.dumps({"loads": [i.loads for i in instances], "timed_acts": len(r.plan_ms)}))
+"""
+
+
+def test_kernels_load_in_the_warm_up_not_in_a_timed_act():
+    """In a fresh process, every numba kernel the planner uses is loaded (or compiled) before the first
+    timed act: no timed act loads one (checked on the kernels themselves, not on timings)."""
+    proc = subprocess.run([sys.executable, "-c", WARM_PROBE], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    probe = json.loads(proc.stdout.splitlines()[-1])
+    timed = probe["loads"][-1]  # the runner builds the timed episode's policy last
+    assert len(timed) == probe["timed_acts"]
+    assert sum(timed) == 0, f"timed acts loaded kernels: {timed}"
+    assert len(probe["loads"]) == 2 and sum(probe["loads"][0]) > 0  # the warm-up's policy loaded them
+
+
+def test_missing_shipped_agents_are_one_line_not_warnings(tmp_path, capsys, recwarn):
+    script = _load_script()
+    settings = script.parse_settings(["--env", "door", "--env", "crowd", "--policy", "ppo", "--policy", "sac",
+                                      "--policy", FASTEST_POLICY, "--agents-dir", str(tmp_path)])
+    cells = script.make_cells(settings)
+    assert [c.policy for c in cells] == [FASTEST_POLICY, FASTEST_POLICY]
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "ppo on FootstepDoor-v0, FootstepCrowd-v0" in err[0] and "sac on" in err[0]
+    assert not [w for w in recwarn if "agent" in str(w.message)]
+
+
+def test_the_iqm_bootstrap_raises_no_future_warning():
+    import warnings
+
+    from footstep_gym.evaluation.stats import iqm_interval
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert iqm_interval([0.2, 0.5, 0.9])[0] == pytest.approx(0.5 + 0.1 / 3, abs=0.1)
+
+
+def test_file_names_are_safe_and_the_same_everywhere(tmp_path):
+    from footstep_gym.evaluation import report
+    from footstep_gym.evaluation.runner import safe_name
+
+    assert safe_name("door_17", "agent:FootstepDoor-v0_1", "seed20000") == "door_17_agent-FootstepDoor-v0_1_seed20000"
+    assert safe_name("crowd_0.2", "period-aware") == "crowd_0.2_period-aware"
+    cells = [Cell("FootstepDoor-v0", "door", "agent:FootstepDoor-v0_1", (("door_speed", 8.0),), run="x")]
+    results = [run_episode(Task(0, cells[0], 3, record=True), factory=stand_in)]
+    written = report.write_pictures(tmp_path, cells, results, "period-aware")
+    names = sorted(str(p.relative_to(tmp_path)) for p in written)
+    assert names == ["figures/door_8.png", "tables/door_8_agent-FootstepDoor-v0_1_seed3.md"]
+
+
+def test_videos_go_to_a_new_folder_without_warnings_and_with_safe_names(tmp_path, monkeypatch):
+    """Gymnasium warned "Overwriting existing videos" from the second video of a fresh folder on."""
+    pytest.importorskip("moviepy")
+    pytest.importorskip("pygame")
+    import warnings
+
+    from footstep_gym.evaluation import runner
+
+    monkeypatch.setattr(runner, "default_factory", stand_in)
+    cells = [Cell("FootstepDoor-v0", "door", policy, (("door_speed", 8.0),)) for policy in ("straight", "agent:x")]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        paths = [runner.record_video(c, 3, tmp_path / "videos") for c in cells]
+    assert not [str(w.message) for w in caught if "video" in str(w.message).lower()]
+    assert [p.name for p in paths] == ["door_8_straight.mp4", "door_8_agent-x.mp4"]
+    assert sorted(p.name for p in (tmp_path / "videos").iterdir()) == sorted(p.name for p in paths)

@@ -60,6 +60,24 @@ def resolve_run(path: str | Path) -> tuple[Path, Path, Path | None]:
     return model, folder, args if args.is_file() else None
 
 
+def check_run(path: str | Path, algo: str | None = None) -> tuple[Path, Path, str]:
+    """``(model zip, folder of config.yml/vecnormalize.pkl, algorithm)`` of a zoo run folder or ``.zip``.
+
+    Everything :class:`ZooAgent` checks before it loads the model (no torch): the files are
+    there and the algorithm (``algo``, else the run's ``args.yml``) is one this loader knows.
+    Raises ``FileNotFoundError`` or ``ValueError`` naming the agent.
+    """
+    model_path, folder, args_path = resolve_run(path)
+    if algo is None and args_path is not None:
+        algo = zoo_yaml(args_path).get("algo")
+    if algo is None:
+        raise ValueError(f"agent {str(path)!r}: no args.yml beside the model to name its algorithm; "
+                         f"pass algo= one of {sorted(ALGORITHMS)}")
+    if algo not in ALGORITHMS:
+        raise ValueError(f"agent {str(path)!r}: algorithm {algo!r} not supported; one of {sorted(ALGORITHMS)}")
+    return model_path, folder, algo
+
+
 class ZooAgent:
     """A trained agent as a footstep policy: ``reset(seed)``, ``act(obs, snapshot) -> command``.
 
@@ -73,14 +91,7 @@ class ZooAgent:
         import torch
 
         torch.set_num_threads(1)  # one core per evaluation worker (PLATFORM: more threads are slower)
-        model_path, folder, args_path = resolve_run(path)
-        if algo is None and args_path is not None:
-            algo = zoo_yaml(args_path).get("algo")
-        if algo is None:
-            raise ValueError(f"agent {str(path)!r}: no args.yml beside the model to name its algorithm; "
-                             f"pass algo= one of {sorted(ALGORITHMS)}")
-        if algo not in ALGORITHMS:
-            raise ValueError(f"agent {str(path)!r}: algorithm {algo!r} not supported; one of {sorted(ALGORITHMS)}")
+        model_path, folder, algo = check_run(path, algo)
         import stable_baselines3
 
         self.algo = algo
@@ -100,7 +111,10 @@ class ZooAgent:
         if bounds is not None:
             from gymnasium.wrappers.utils import rescale_box
 
-            agent_box, _, self._to_command = rescale_box(env_box, *bounds)
+            # The agent's bounds in the box's own dtype (Python floats would be float64, which
+            # Gymnasium's Box warns about casting); -1 and 1 are exact in float32 either way.
+            lo, hi = (np.full(env_box.shape, b, dtype=env_box.dtype) for b in bounds)
+            agent_box, _, self._to_command = rescale_box(env_box, lo, hi)
         else:
             agent_box = env_box
         if self.model.action_space.shape != agent_box.shape or not (

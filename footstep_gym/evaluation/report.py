@@ -10,7 +10,7 @@ import csv
 from pathlib import Path
 from typing import Any
 
-from footstep_gym.evaluation.runner import Cell
+from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, safe_name
 from footstep_gym.evaluation.stats import EpisodeResult
 
 
@@ -163,10 +163,10 @@ def write_pictures(out: Path, cells: list[Cell], results: list[EpisodeResult], s
             continue
         setting = cells[indices[0]].setting
         title = f"{env_id}" + (f" ({params_text(traces[0].params)})" if traces[0].params else "") + f", seed {seed}"
-        written.append(episode_figure(traces, out / "figures" / f"{setting}.png", title))
+        written.append(episode_figure(traces, out / "figures" / f"{safe_name(setting)}.png", title))
         if scenario in table_scenarios:
             for tr in traces:
-                path = out / "tables" / f"{setting}_{tr.policy}_seed{seed}.md"
+                path = out / "tables" / f"{safe_name(setting, tr.policy, f'seed{seed}')}.md"
                 written.append(write_command_table(tr, path))
     return written
 
@@ -241,7 +241,9 @@ the smallest gap between the robot's body circle and any obstacle over an episod
 env's collision checks), ZMP margin the smallest distance of the ZMP from the stable
 region's edge over an episode; both in mm as median / min over the episodes. Act time is
 the wall clock of `policy.act` per footstep (planning, or an agent's inference), pooled
-over the cell's footsteps (it depends on the machine and the load, the other fields do not).
-"""
+over the cell's footsteps (it depends on the machine and the load, the other fields do not),
+timed after each worker process's untimed warm-up of {warmup} acts per cell (a fresh
+process's first acts load the compiled kernels or the agent's network: start-up, not planning).
+""".format(warmup=WARMUP_ACTS)
 
 

@@ -8,6 +8,11 @@ a :class:`Trace`: everything the figures and command tables need, taken from wha
 records (``env.unwrapped.history``, the ``info`` of each step) and from ``sensing()``
 before every footstep and once after the last one (obstacle poses, CoM, robot centre).
 
+The policy's act time is measured after a warm-up (:func:`warm_up`): the first acts of a
+policy in a fresh process load (or compile) the planners' numba kernels and an agent's
+torch graph, which is start-up, not planning; so each process first acts
+:data:`WARMUP_ACTS` times untimed, on a throwaway env, with each cell's policy.
+
 :func:`run_tasks` runs many episodes on a backend (``"local"``: worker processes on this
 machine; ``"ray"``: Ray tasks on a local Ray or a cluster), with a progress bar that moves
 as episodes finish; the results are the same whatever the backend.
@@ -17,6 +22,9 @@ from __future__ import annotations
 
 import math
 import os
+import re
+import shutil
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +40,19 @@ from footstep_gym.evaluation.stats import EpisodeResult
 PolicyFactory = Callable[..., Any]
 
 BACKENDS = ("local", "ray")
+
+#: Untimed acts of each cell's policy, once per process, before its first timed episode (:func:`warm_up`).
+WARMUP_ACTS = 10
+
+
+def safe_name(*parts: str) -> str:
+    """One file name from ``parts`` joined by ``_``, safe on every file system and shell.
+
+    Every character other than a letter, a digit, ``.``, ``-`` or ``_`` becomes ``-``:
+    ``safe_name("door_17", "agent:FootstepDoor-v0_1")`` is ``door_17_agent-FootstepDoor-v0_1``.
+    Every file an evaluation names after a setting or a policy goes through this.
+    """
+    return re.sub(r"[^A-Za-z0-9._-]", "-", "_".join(parts))
 
 
 @dataclass(frozen=True)
@@ -162,10 +183,48 @@ def _polyline_length(points: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
 
 
-def run_episode(task: Task, factory: PolicyFactory = default_factory) -> EpisodeResult:
-    """Run ``task``'s episode to its end; record a :class:`Trace` if ``task.record``."""
+#: What this process has warmed up: (env id, params, policy, run, factory) of each cell.
+_warmed: set[tuple[Any, ...]] = set()
+
+
+def warm_up(cell: Cell, seed: int, factory: PolicyFactory = default_factory, acts: int = WARMUP_ACTS) -> bool:
+    """Once per process and cell: ``acts`` untimed acts of a throwaway policy on a throwaway env.
+
+    A fresh process's first acts load the planners' compiled kernels from numba's disk
+    cache (a few hundred ms; seconds of compilation after an install or an edit of the
+    kernels) and build an agent's torch graph. The kernels a policy needs appear in its
+    first few acts (each loads once per process); this runs them before any act is timed.
+    The warm-up's env and policy are discarded: the timed episode builds and seeds its own,
+    so results do not depend on it. Returns whether it ran (False: this process is warm).
+    """
+    key = (cell.env_id, cell.params, cell.policy, cell.run, factory)
+    if key in _warmed:
+        return False
+    env = gym.make(cell.env_id, **cell.params_dict)
+    try:
+        base = env.unwrapped
+        policy = factory(cell, base.robot, seed)
+        obs, _ = env.reset(seed=seed)
+        policy.reset(seed=seed)
+        for _ in range(acts):
+            obs, _, terminated, truncated, _ = env.step(policy.act(obs, base.sensing()))
+            if terminated or truncated:
+                break
+    finally:
+        env.close()
+    _warmed.add(key)
+    return True
+
+
+def run_episode(task: Task, factory: PolicyFactory = default_factory, warm: bool = True) -> EpisodeResult:
+    """Run ``task``'s episode to its end; record a :class:`Trace` if ``task.record``.
+
+    ``warm``: run :func:`warm_up` first (it acts only on a process's first episode of the cell).
+    """
     cell, seed = task.cell, task.seed
     try:
+        if warm:
+            warm_up(cell, seed, factory)
         return _run(task, factory)
     except Exception as exc:  # name the episode: a worker's traceback alone does not
         run = f" run={cell.run_name}" if cell.run else ""
@@ -326,21 +385,29 @@ def record_video(cell: Cell, seed: int, folder: str | Path, name: str | None = N
     from footstep_gym.wrappers import RecordVideo
 
     folder = Path(folder)
-    name = name or f"{cell.setting}_{cell.policy}"
-    env = gym.make(cell.env_id, render_mode="rgb_array_list", **cell.params_dict)
-    env = RecordVideo(env, str(folder), name_prefix=name, episode_trigger=lambda _: True, disable_logger=True)
+    name = safe_name(name or safe_name(cell.setting, cell.policy))
+    folder.mkdir(parents=True, exist_ok=True)
+    # The recorder writes into a folder of its own that does not exist yet (an existing one
+    # makes Gymnasium warn that it overwrites videos), and the file is moved out of it.
+    scratch = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=folder))
     try:
-        policy = default_factory(cell, env.unwrapped.robot, seed)
-        obs, _ = env.reset(seed=seed)
-        policy.reset(seed=seed)
-        terminated = truncated = False
-        while not (terminated or truncated):
-            obs, _, terminated, truncated, _ = env.step(policy.act(obs, env.unwrapped.sensing()))
+        env = gym.make(cell.env_id, render_mode="rgb_array_list", **cell.params_dict)
+        env = RecordVideo(env, str(scratch / "recording"), name_prefix=name, episode_trigger=lambda _: True,
+                          disable_logger=True)
+        try:
+            policy = default_factory(cell, env.unwrapped.robot, seed)
+            obs, _ = env.reset(seed=seed)
+            policy.reset(seed=seed)
+            terminated = truncated = False
+            while not (terminated or truncated):
+                obs, _, terminated, truncated, _ = env.step(policy.act(obs, env.unwrapped.sensing()))
+        finally:
+            env.close()
+        path = scratch / "recording" / f"{name}-episode-0.mp4"
+        if not path.is_file():
+            raise RuntimeError(f"RecordVideo wrote no {path.name} for {name}")
+        final = folder / f"{name}.mp4"
+        path.replace(final)
     finally:
-        env.close()
-    path = folder / f"{name}-episode-0.mp4"
-    if not path.is_file():
-        raise RuntimeError(f"RecordVideo wrote no {path.name} in {folder}")
-    final = folder / f"{name}.mp4"
-    path.replace(final)
+        shutil.rmtree(scratch, ignore_errors=True)
     return final

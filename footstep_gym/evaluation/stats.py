@@ -32,6 +32,7 @@ the field's standard for results over training seeds).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -163,8 +164,14 @@ def iqm_interval(rates: list[float], reps: int = 2000, seed: int = 0) -> tuple[f
     from rliable import metrics
 
     scores = {"agent": np.asarray(rates, dtype=float).reshape(-1, 1)}  # (runs, tasks)
-    point, interval = rly.get_interval_estimates(
-        scores, lambda x: np.array([metrics.aggregate_iqm(x)]), reps=reps, random_state=np.random.RandomState(seed))
+    with warnings.catch_warnings():
+        # rliable seeds its bootstrap (arch's IIDBootstrap) through ``random_state``, which arch
+        # deprecates with a FutureWarning; rliable offers no other way to seed it.
+        warnings.filterwarnings("ignore", message="random_state is deprecated", category=FutureWarning,
+                                module=r"arch\.bootstrap")
+        point, interval = rly.get_interval_estimates(
+            scores, lambda x: np.array([metrics.aggregate_iqm(x)]), reps=reps,
+            random_state=np.random.RandomState(seed))
     return float(point["agent"][0]), float(interval["agent"][0, 0]), float(interval["agent"][1, 0])
 
 

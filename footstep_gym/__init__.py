@@ -3,6 +3,11 @@
 ``import footstep_gym`` registers ``FootstepDoor-v0``, ``FootstepCrossing-v0``,
 ``FootstepCrowd-v0`` and ``FootstepMix-v0`` (each episode one of the three scenes);
 ``gymnasium.make("footstep_gym:FootstepDoor-v0")`` does it without a prior import.
+
+The ids are registered without ``max_episode_steps``: each env truncates by itself at its
+scenario's ``max_steps`` (which ``env.spec.max_episode_steps`` reports), and a registered
+limit would make ``gymnasium.make`` add a second one, a ``TimeLimit`` wrapper
+(``FootstepEnv``'s docstring, "Episode End").
 """
 
 from gymnasium.envs.registration import register, registry

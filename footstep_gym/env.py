@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import cmath
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -10,6 +11,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.envs.registration import EnvSpec
 
 from footstep_gym import config, footstep, lipm
 from footstep_gym.config import plain, positive
@@ -37,6 +39,7 @@ class EnvConfig:
     max_check_interval: float = positive()  # [s]
     collision_motion_fraction: float = positive()
     compiled_sweep: bool = plain()  # the sweep's checks compiled (numba) or asked of pymunk one by one; same answers
+    fixed_period: bool = plain()  # the action is [S, L, theta]; T_SS and T_DS are held at the robot's nominal ones
     max_sweep_checks: int = positive()  # collision checks per footstep at most (bounds a step's cost)
     reward_progress: float = plain()  # per m
     reward_time: float = plain()  # per s
@@ -62,6 +65,14 @@ def _pair(z: complex) -> tuple[float, float]:
     return (z.real, z.imag)
 
 
+def with_step_limit(spec: EnvSpec | None, max_steps: int) -> EnvSpec | None:
+    """``spec`` (what ``gymnasium.make`` gives an env) reporting ``max_episode_steps=max_steps``, the step at
+    which the env truncates by itself; a spec that states a limit already is kept as it is."""
+    if spec is None or spec.max_episode_steps is not None:
+        return spec
+    return dataclasses.replace(spec, max_episode_steps=max_steps)
+
+
 class FootstepEnv(gym.Env):
     r"""Humanoid footstep planning among moving obstacles, with the walking period in the action.
 
@@ -83,16 +94,16 @@ class FootstepEnv(gym.Env):
     ``Box(5,)`` float32, the footstep command in SI units (paper eq. 5), bounds from
     ``configs/robot.yaml``:
 
-    | index | field | meaning | unit | default range |
+    | index | field | meaning | unit | range (``robot.yaml`` key) |
     |---|---|---|---|---|
-    | 0 | S | forward stride of the new foot in the support foot's frame | m | [-0.04, 0.10] |
-    | 1 | L | side stride, outward from the support foot (> 0 for either foot) | m | [0.07, 0.12] |
-    | 2 | θ | new foot's yaw relative to the support foot (counter-clockwise > 0) | rad | [-0.4, 0.4] |
-    | 3 | T_SS | single-support time | s | [0.1, 0.6] |
-    | 4 | T_DS | double-support time | s | [0.1, 0.3] |
+    | 0 | S | forward stride of the new foot in the support foot's frame | m | ``stride_front`` |
+    | 1 | L | side stride, outward from the support foot (> 0 for either foot) | m | ``stride_side`` |
+    | 2 | θ | new foot's yaw relative to the support foot (counter-clockwise > 0) | rad | ± max(``turn_inner``, ``turn_outer``) |
+    | 3 | T_SS | single-support time | s | ``t_ss`` |
+    | 4 | T_DS | double-support time | s | ``t_ds`` |
 
     θ's limits depend on the swinging foot: turning away from the support foot is allowed
-    up to ``turn_outer`` (0.4), towards it up to ``turn_inner`` (0.2). An action is read
+    up to ``turn_outer``, towards it up to ``turn_inner``. An action is read
     in its own dtype: a float32 action at a float32-rounded limit (the box's bounds, the
     turn limits) is that limit exactly, so what SB3 sends at the box's edge is the command
     it rounds from. A finite command outside the box is clipped (``info["clipped"]``);
@@ -101,33 +112,46 @@ class FootstepEnv(gym.Env):
     leaves the stable region ends the episode as a fall.
 
     ## Observation Space
-    ``Box(12 + 5K,)`` float32 (K = ``n_obstacles_observed``, default 6: 42 values), the
-    same layout for the three envs. "Local" means in the support foot's frame (x forward,
-    y left).
+    ``Box(12 + 5K,)`` float32 (K = ``n_obstacles_observed``), the same layout for the three
+    envs. "Local" means in the support foot's frame (x forward, y left). Scales and ranges
+    are keys of ``configs/env.yaml``; bounds are inclusive.
 
-    | index | meaning | unit / scaling |
-    |---|---|---|
-    | 0-1 | goal position, local, relative to the support foot | m / ``observation_position_scale`` (2 m) |
-    | 2 | support side: +1 left foot, -1 right foot | - |
-    | 3-4 | CoM position relative to the support foot, local | m / ``observation_com_scale`` (0.1 m) |
-    | 5-6 | CoM velocity, local | m/s / ``observation_velocity_scale`` (0.5 m/s) |
-    | 7-11 | previous command, mapped from the action box to [-1, 1] | - |
-    | 12 + 5k + 0..1 | closest point of the k-th nearest obstacle shape, local, relative to the CoM | m / 2 m |
-    | 12 + 5k + 2..3 | velocity of that point, local | m/s / 0.5 m/s |
-    | 12 + 5k + 4 | 1 if this slot holds a shape, 0 if padding (then the slot is all zeros) | - |
+    | index | meaning | unit / scaling | bounds |
+    |---|---|---|---|
+    | 0-1 | goal position, local, relative to the support foot | m / ``observation_position_scale`` | ±inf |
+    | 2 | support side: +1 left foot, -1 right foot | - | [-1, 1] |
+    | 3-4 | CoM position relative to the support foot, local | m / ``observation_com_scale`` | ±inf |
+    | 5-6 | CoM velocity, local | m/s / ``observation_velocity_scale`` | ±inf |
+    | 7-11 | previous command, mapped from the action box to [-1, 1] | - | [-1, 1] |
+    | 12 + 5k + 0..1 | closest point of the k-th nearest obstacle shape, local, relative to the CoM | m / ``observation_position_scale`` | ±R |
+    | 12 + 5k + 2..3 | velocity of that point, local | m/s / ``observation_velocity_scale`` | ±inf |
+    | 12 + 5k + 4 | 1 if this slot holds a shape, 0 if padding (then the slot is all zeros) | - | [0, 1] |
 
-    Shapes (walls included) are sorted nearest first and limited to ``sensing_range``.
+    Shapes (walls included) are sorted nearest first and limited to those within
+    ``sensing_range`` of the CoM, so a shape's closest point is at most that far from it:
+    R = ``sensing_range`` / ``observation_position_scale``. (A CoM inside a shape, in practice
+    only from a start placed in an obstacle, sees the closest point at most the shape's
+    half-thickness away: within R too unless the shape is thicker than 2 ``sensing_range``.)
+    Commands are clipped to the action box before they are mapped; the one after ``reset``
+    is the nominal one, in the box unless ``robot.stride_front`` leaves out S = 0, and then
+    slot 7's bound widens to hold it. The other slots have no bound by construction: the
+    goal is any point of the floor and the robot may walk anywhere in ``max_steps``
+    footsteps; the CoM's offset and velocity follow the LIPM from step to step, whose
+    feasibility check limits the ZMP, not the CoM (and a collision stops the CoM mid-step);
+    an obstacle's speed is limited only per scene, by the scenario's ``max_*`` keys, and one
+    space serves the three scenes and every setting. Gymnasium's ``check_env`` warns about
+    those infinite bounds.
 
     ## Rewards
     Each term is reported in ``info["rewards"]``; the reward is their sum. Weights are
     keys of ``configs/env.yaml``:
 
-    * ``progress``: ``reward_progress`` (10) × metres the robot centre (midpoint of the
-      feet) got closer to the goal;
-    * ``time``: ``reward_time`` (-0.1) × seconds simulated in the step;
-    * ``step``: ``reward_step`` (-0.05) per footstep;
-    * ``goal`` / ``collision`` / ``fall``: ``reward_goal`` (+10), ``reward_collision`` (-10),
-      ``reward_fall`` (-10) on those terminations.
+    * ``progress``: ``reward_progress`` × metres the robot centre (midpoint of the feet)
+      got closer to the goal;
+    * ``time``: ``reward_time`` × seconds simulated in the step;
+    * ``step``: ``reward_step`` per footstep;
+    * ``goal`` / ``collision`` / ``fall``: ``reward_goal``, ``reward_collision``,
+      ``reward_fall`` on those terminations.
 
     ## Starting State
     The robot stands at the scenario's ``start`` (jittered by ``start_jitter``) facing
@@ -138,7 +162,16 @@ class FootstepEnv(gym.Env):
     ## Episode End
     Terminated on ``"goal"`` (robot centre within ``goal_tolerance``), ``"collision"`` (the
     body circle touches an obstacle at any time of a step) or ``"fall"`` (infeasible step).
-    Truncated after ``max_steps`` footsteps or ``time_limit`` simulated seconds. ``step``
+    Truncated after ``max_steps`` footsteps or ``time_limit`` simulated seconds (keys of the
+    scenario's YAML, e.g. ``gymnasium.make(..., max_steps=500)``). The env truncates by
+    itself, the one place that holds its step limit: ``env.spec.max_episode_steps`` reports
+    ``max_steps`` (filled in when ``gymnasium.make`` gives the env its spec), while the
+    registry's ``gymnasium.spec(id).max_episode_steps`` stays ``None`` so that
+    ``gymnasium.make`` adds no ``TimeLimit`` wrapper: a second limit would cut a raised
+    ``max_steps`` short and flag a termination on the last step as truncated too.
+    ``gymnasium.make(id, max_episode_steps=N)`` still adds one (its spec then reports N):
+    episodes end at the smaller of N and ``max_steps``, so raise the limit with
+    ``max_steps``; ``gymnasium.make(env.spec)`` adds one at the env's own limit. ``step``
     after the episode ended (terminated or truncated) raises ``gymnasium.error.ResetNeeded``
     naming how and when it ended; call ``reset()`` first (vector envs and SB3 do).
 
@@ -163,11 +196,11 @@ class FootstepEnv(gym.Env):
     ``configs/env.yaml`` (e.g. ``reward_time=-0.2``), and ``robot={...}`` for keys of
     ``configs/robot.yaml``. Unknown keys raise ``ValueError`` naming them.
     Speeds and scales the collision sweep's cost grows with have upper bounds, keys of the
-    scenario's YAML: ``door_speed <= max_door_speed`` (360 deg/s), ``door_radius <=
-    max_door_radius`` (2 m), ``obstacle_speed <= max_obstacle_speed`` (5 m/s),
-    ``arrival_speed <= max_arrival_speed`` (2 m/s), ``crowd_speed <= max_crowd_speed``
-    (2 m/s), ``2 pi breathing_amplitude / breathing_period[0] <= max_breathing_speed``
-    (1 m/s); a value or ``randomize`` range above its bound raises ``ConfigError`` naming
+    scenario's YAML: ``door_speed <= max_door_speed`` (deg/s), ``door_radius <=
+    max_door_radius`` (m), ``obstacle_speed <= max_obstacle_speed`` (m/s),
+    ``arrival_speed <= max_arrival_speed`` (m/s), ``crowd_speed <= max_crowd_speed``
+    (m/s), ``2 pi breathing_amplitude / breathing_period[0] <= max_breathing_speed``
+    (m/s); a value or ``randomize`` range above its bound raises ``ConfigError`` naming
     both keys. Whatever the settings, a footstep makes at most ``max_sweep_checks``
     (``configs/env.yaml``) collision checks.
     ``render_mode``: ``"rgb_array"`` (an ``(H, W, 3)`` uint8 frame of the present),
@@ -182,6 +215,7 @@ class FootstepEnv(gym.Env):
     """
 
     metadata = {"render_modes": ["human", "rgb_array", "rgb_array_list"], "render_fps": 4}
+    _spec: EnvSpec | None = None
 
     def __init__(self, scenario: str = "door", render_mode: str | None = None, **overrides: Any) -> None:
         if scenario not in SCENARIOS:
@@ -207,9 +241,15 @@ class FootstepEnv(gym.Env):
         #: Overrides :attr:`env_name` (an owner such as ``FootstepMixEnv`` names its scene envs).
         self.display_name: str | None = None
 
+        #: Fields of the action: all five, or ``[S, L, theta]`` with the period fixed (``fixed_period``).
+        self.action_fields = COMMAND_FIELDS[:3] if self.config.fixed_period else COMMAND_FIELDS
+        n_act = len(self.action_fields)
         self.action_space = spaces.Box(
-            self.robot.command_low.astype(np.float32), self.robot.command_high.astype(np.float32), dtype=np.float32
+            self.robot.command_low[:n_act].astype(np.float32), self.robot.command_high[:n_act].astype(np.float32),
+            dtype=np.float32
         )
+        # What the fixed-period form appends to each action: the nominal T_SS, T_DS (float64, exact).
+        self._fixed_tail = self.robot.nominal_command[n_act:].tolist()
         # The robot's limits exactly (float64); the float32 box's bounds round them.
         self._low64 = self.robot.command_low
         self._high64 = self.robot.command_high
@@ -220,8 +260,23 @@ class FootstepEnv(gym.Env):
         self._limits_rounded: dict[np.dtype, list[dict[float, float]]] = {}  # per action dtype, see _validate_action
         self._low_list, self._high_list = self._low64.tolist(), self._high64.tolist()
         self._span_list = (self._high64 - self._low64).tolist()
-        n_obs = 12 + 5 * self.config.n_obstacles_observed
-        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(n_obs,), dtype=np.float32)
+        # Bounds per slot (docstring, "Observation Space"): finite where the layout has them, inclusive. Each
+        # is the float64 bound cast to float32 as _observation casts its values; float32 rounding is monotone,
+        # so every value within its bound in float64 lies within it in float32.
+        inf = math.inf
+        # The previous command after reset, the nominal one, mapped as _set_previous_command maps it: it lies in
+        # [-1, 1] unless robot.stride_front leaves out S = 0 (every command applied after it is clipped to the box).
+        nominal = [2.0 * (c - lo) / span - 1.0
+                   for c, lo, span in zip(self.robot.nominal_command.tolist(), self._low_list, self._span_list)]
+        # A listed shape's closest point lies within sensing_range of the CoM (World.nearest); the relative slack
+        # covers float64's rounding of that point (a few ulps of the world coordinates), not float32's.
+        reach = self.config.sensing_range / self.config.observation_position_scale * (1.0 + 1e-9)
+        low = [-inf, -inf, -1.0, -inf, -inf, -inf, -inf, *(min(-1.0, v) for v in nominal)]
+        high = [inf, inf, 1.0, inf, inf, inf, inf, *(max(1.0, v) for v in nominal)]
+        low += [-reach, -reach, -inf, -inf, 0.0] * self.config.n_obstacles_observed
+        high += [reach, reach, inf, inf, 1.0] * self.config.n_obstacles_observed
+        self.observation_space = spaces.Box(np.array(low, dtype=np.float32), np.array(high, dtype=np.float32),
+                                            dtype=np.float32)
 
         self.world: World | None = None
         self._static_key = None  # what the world's walls were built for (Scenario.static_key)
@@ -242,6 +297,16 @@ class FootstepEnv(gym.Env):
         self.terminated = False
         self.ended: str | None = None  # why the episode ended ("fall", "truncated: max_steps=200"), None while under way
         self.history: dict[str, list] = {"footprints": [], "com": [], "zmp": []}
+
+    @property
+    def spec(self) -> EnvSpec | None:
+        """The spec ``gymnasium.make`` gave this env (``None`` if built directly), its
+        ``max_episode_steps`` the scenario's ``max_steps`` (see "Episode End")."""
+        return self._spec
+
+    @spec.setter
+    def spec(self, spec: EnvSpec | None) -> None:
+        self._spec = with_step_limit(spec, self.scenario_config.max_steps)
 
     @property
     def env_name(self) -> str:
@@ -332,23 +397,22 @@ class FootstepEnv(gym.Env):
         Plain Python after the conversion: numpy's per-call cost on 5 numbers was a tenth
         of a step.
         """
-        if type(action) is np.ndarray and action.shape == (5,) and action.dtype in _FLOAT_DTYPES:
+        fields = self.action_fields
+        if type(action) is np.ndarray and action.shape == (len(fields),) and action.dtype in _FLOAT_DTYPES:
             raw, values = action, action.tolist()  # float32 and float64 convert to Python floats exactly
         else:
             try:
                 raw = np.asarray(action)
                 a = raw.astype(np.float64)
             except (TypeError, ValueError) as exc:
-                raise ActionError(f"{self.env_name}: action must be 5 numbers [S, L, theta, T_SS, T_DS], "
+                raise ActionError(f"{self.env_name}: action must be {len(fields)} numbers [{', '.join(fields)}], "
                                   f"got {action!r}") from exc
-            if a.shape != (5,):
-                raise ActionError(f"{self.env_name}: action shape={a.shape} but expected (5,) = "
-                                  "[S, L, theta, T_SS, T_DS]")
+            if a.shape != (len(fields),):
+                raise ActionError(f"{self.env_name}: action shape={a.shape} but expected ({len(fields)},) = "
+                                  f"[{', '.join(fields)}]")
             values = a.tolist()
-        isfinite = math.isfinite
-        if not (isfinite(values[0]) and isfinite(values[1]) and isfinite(values[2]) and isfinite(values[3])
-                and isfinite(values[4])):
-            bad = [f"{name}={v}" for name, v in zip(COMMAND_FIELDS, values) if not isfinite(v)]
+        if not all(map(math.isfinite, values)):
+            bad = [f"{name}={v}" for name, v in zip(fields, values) if not math.isfinite(v)]
             raise ActionError(f"{self.env_name}: action has non-finite field(s): {', '.join(bad)}")
         dtype = raw.dtype
         if dtype.kind == "f" and dtype.itemsize < 8:
@@ -364,6 +428,8 @@ class FootstepEnv(gym.Env):
                     rounded.append(table)
                 self._limits_rounded[dtype] = rounded
             values = [table.get(v, v) for table, v in zip(rounded, values)]
+        if self._fixed_tail:
+            values += self._fixed_tail
         command = [lo if v < lo else hi if v > hi else v for v, lo, hi in zip(values, self._low_list, self._high_list)]
         return command, command != values
 

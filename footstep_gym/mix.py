@@ -11,8 +11,9 @@ from typing import Any, Mapping
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.envs.registration import EnvSpec
 
-from footstep_gym.env import FootstepEnv
+from footstep_gym.env import FootstepEnv, with_step_limit
 from footstep_gym.errors import ConfigError
 
 SCENES = ("door", "crossing", "crowd")
@@ -28,7 +29,12 @@ class FootstepMixEnv(gym.Env):
     the scene and the episode; resets without a seed continue the stream.
 
     ## Action and Observation Spaces
-    Those of :class:`~footstep_gym.env.FootstepEnv` (identical for the three scenes).
+    Those of :class:`~footstep_gym.env.FootstepEnv` (identical for the three scenes; where the
+    scenes' ``sensing_range`` or ``observation_position_scale`` differ, the observation box is
+    the smallest holding each scene's).
+
+    ## Episode End
+    Each scene's, at its own ``max_steps``; ``env.spec.max_episode_steps`` is the largest of them.
 
     ## Info
     The scene env's info plus ``scene`` (``"door"``, ``"crossing"`` or ``"crowd"``).
@@ -50,6 +56,7 @@ class FootstepMixEnv(gym.Env):
     """
 
     metadata = FootstepEnv.metadata
+    _spec: EnvSpec | None = None
 
     def __init__(self, scenes: tuple[str, ...] | list[str] = SCENES, weights: list[float] | None = None,
                  render_mode: str | None = None, door: Mapping[str, Any] | None = None,
@@ -79,12 +86,25 @@ class FootstepMixEnv(gym.Env):
             env.display_name = f"{type(self).__name__} (scene {name!r})"  # reset() puts the registered id in
         first = self.envs[scenes[0]]
         for name, env in self.envs.items():
-            if env.action_space != first.action_space or env.observation_space != first.observation_space:
+            if env.action_space != first.action_space or env.observation_space.shape != first.observation_space.shape:
                 raise ConfigError(f"scene {name!r} has other spaces than {scenes[0]!r}; "
                                   "robot and n_obstacles_observed must agree across scenes")
         self.action_space = first.action_space
-        self.observation_space = first.observation_space
+        # The scenes' bounds differ where their sensing_range or observation_position_scale do: the box holding all.
+        boxes = [env.observation_space for env in self.envs.values()]
+        self.observation_space = gym.spaces.Box(np.min([b.low for b in boxes], axis=0),
+                                                np.max([b.high for b in boxes], axis=0), dtype=np.float32)
         self.scene = scenes[0]
+
+    @property
+    def spec(self) -> EnvSpec | None:
+        """The spec ``gymnasium.make`` gave this env, its ``max_episode_steps`` the largest of the
+        scenes' ``max_steps`` (each scene's episodes truncate at its own)."""
+        return self._spec
+
+    @spec.setter
+    def spec(self, spec: EnvSpec | None) -> None:
+        self._spec = with_step_limit(spec, max(env.scenario_config.max_steps for env in self.envs.values()))
 
     @property
     def current(self) -> FootstepEnv:

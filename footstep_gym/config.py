@@ -167,7 +167,8 @@ def split_overrides(
     """Sort flat keyword overrides into the dataclass ``groups`` they belong to.
 
     Returns ``({group: {key: value}}, leftover)``. A key may be given as ``group={...}``
-    too (e.g. ``robot={"com_height": 0.25}``).
+    too (e.g. ``robot={"com_height": 0.25}``), and a group whose class has profiles as the
+    profile's name (``robot="darwin-op"``, the same as ``robot={"profile": "darwin-op"}``; see :func:`load`).
     """
     out: dict[str, dict[str, Any]] = {name: {} for name, _ in groups}
     leftover: dict[str, Any] = {}
@@ -177,8 +178,10 @@ def split_overrides(
             field_owner.setdefault(f.name, name)
     for key, value in overrides.items():
         if key in out:
+            if isinstance(value, str):  # a profile's name
+                value = {PROFILE_KEY: value}
             if not isinstance(value, Mapping):
-                raise ConfigError(f"{key} must be a mapping of overrides, got {value!r}")
+                raise ConfigError(f"{key} must be a mapping of overrides or a profile name, got {value!r}")
             out[key].update(value)
         elif key in field_owner:
             out[field_owner[key]][key] = value
@@ -187,9 +190,52 @@ def split_overrides(
     return out, leftover
 
 
-def load(cls: type[T], relative: str, overrides: Mapping[str, Any] | None = None) -> T:
-    """Load ``configs/<relative>`` into ``cls`` with ``overrides`` applied on top."""
+# ---------------------------------------------------------------- profiles
+#: The override key that names a profile: ``{"profile": "darwin-op", "com_height": 0.25}``.
+PROFILE_KEY = "profile"
+
+
+def profile_names(folder: str) -> list[str]:
+    """The profiles in ``configs/<folder>/`` (file names without ``.yaml``), sorted."""
+    path = config_dir() / folder
+    return sorted(p.stem for p in path.glob("*.yaml")) if path.is_dir() else []
+
+
+def read_profile(cls: type, name: Any) -> dict[str, Any]:
+    """The keys profile ``name`` sets for ``cls`` (``configs/<cls.PROFILE_FOLDER>/<name>.yaml``).
+
+    A profile holds only keys that differ from the class's base file; unknown profile names,
+    and keys that are not fields of ``cls``, raise :class:`ConfigError` naming the known ones.
+    """
+    folder = getattr(cls, "PROFILE_FOLDER", None)
+    if folder is None:
+        raise ConfigError(f"{cls.__name__} has no profiles; got {PROFILE_KEY}={name!r}")
+    known = profile_names(folder)
+    if not isinstance(name, str) or name not in known:
+        raise ConfigError(f"unknown {cls.__name__.lower()} profile {name!r}; known profiles: {', '.join(known) or '(none)'} "
+                          f"(configs/{folder}/<name>.yaml)")
+    relative = f"{folder}/{name}.yaml"
     data = read_yaml(relative)
+    fields = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    unknown = [k for k in data if k not in fields]
+    if unknown:
+        raise ConfigError(_unknown_keys_message(relative, unknown, list(fields)))
+    return data
+
+
+def load(cls: type[T], relative: str, overrides: Mapping[str, Any] | str | None = None) -> T:
+    """Load ``configs/<relative>`` into ``cls`` with ``overrides`` applied on top.
+
+    For a class with profiles (``cls.PROFILE_FOLDER``, e.g. :class:`~footstep_gym.robot.Robot`):
+    ``overrides`` may be a profile's name, or hold one under ``"profile"``; the profile's keys
+    apply on top of the base file and the other overrides on top of the profile.
+    """
+    data = read_yaml(relative)
+    if isinstance(overrides, str):
+        overrides = {PROFILE_KEY: overrides}
+    if overrides and PROFILE_KEY in overrides:
+        overrides = dict(overrides)
+        data.update(read_profile(cls, overrides.pop(PROFILE_KEY)))
     if overrides:
         fields = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
         unknown = [k for k in overrides if k not in fields]

@@ -22,7 +22,15 @@ COMMAND_FIELDS = ("S", "L", "theta", "t_ss", "t_ds")
 
 @dataclass(frozen=True)
 class Robot:
-    """A DARwIn-OP-sized humanoid; every length in m, time in s, angle in rad."""
+    """A DARwIn-OP-sized humanoid; every length in m, time in s, angle in rad.
+
+    ``configs/robot.yaml`` holds the defaults; a *profile* (``configs/robots/<name>.yaml``, e.g.
+    ``darwin-op``: the limits the paper's own footstep commands need) holds only the keys that
+    differ from it (:func:`load_robot`, ``gym.make(..., robot="darwin-op")``).
+    """
+
+    #: Where the profiles are (``configs/robots/<name>.yaml``); not a field.
+    PROFILE_FOLDER = "robots"
 
     gravity: float = positive()  # [m/s^2]
     com_height: float = positive()  # [m]
@@ -104,6 +112,16 @@ class Robot:
         return np.array([0.0, self.nominal_side_stride, 0.0, self.nominal_t_ss, self.nominal_t_ds])
 
 
-def load_robot(overrides: Mapping[str, Any] | None = None) -> Robot:
-    """The robot of ``configs/robot.yaml`` with ``overrides`` applied."""
+def load_robot(overrides: Mapping[str, Any] | str | None = None) -> Robot:
+    """The robot of ``configs/robot.yaml`` with ``overrides`` applied.
+
+    ``overrides``: keys of ``configs/robot.yaml``; or a profile's name (``"darwin-op"``); or
+    both, ``{"profile": "darwin-op", "com_height": 0.25}`` (the profile over the base file, the
+    other keys over the profile). Unknown profiles raise ``ConfigError`` naming the known ones.
+    """
     return config.load(Robot, "robot.yaml", overrides)
+
+
+def robot_profiles() -> list[str]:
+    """The names of the robot profiles (``configs/robots/*.yaml``)."""
+    return config.profile_names(Robot.PROFILE_FOLDER)

@@ -334,3 +334,74 @@ def test_bounds_must_be_positive(bound):
     env_id = "FootstepCrossing-v0" if bound == "max_obstacle_speed" else "FootstepDoor-v0"
     with pytest.raises(ConfigError, match=bound):
         gym.make(env_id, **{bound: 0})
+
+
+# ====================================================================== robot profiles (configs/robots/)
+def test_robot_profiles_are_listed_and_hold_only_known_keys_that_differ():
+    """Each profile is a file of ``configs/robots/``; it names only keys of ``configs/robot.yaml`` and only those it
+    changes (a key equal to the base would hide which limits the profile is about)."""
+    from footstep_gym.robot import robot_profiles
+
+    assert "darwin-op" in robot_profiles()
+    base = read_yaml("robot.yaml")
+    for name in robot_profiles():
+        data = read_yaml(f"robots/{name}.yaml")
+        assert data and set(data) <= set(base), name
+        assert all(as_plain(data[k]) != as_plain(base[k]) for k in data), (name, data)
+
+
+@pytest.mark.parametrize("robot", ["darwin-op", {"profile": "darwin-op"}])
+def test_a_robot_profile_reaches_the_env_by_name(robot):
+    env = gym.make("FootstepDoor-v0", robot=robot)
+    env.reset(seed=0)
+    got = env.unwrapped.robot
+    profile = read_yaml("robots/darwin-op.yaml")
+    expected = {**read_yaml("robot.yaml"), **profile}
+    for key, value in expected.items():
+        assert as_plain(getattr(got, key)) == pytest.approx(as_plain(value)), key
+    assert got == load_robot("darwin-op") == load_robot({"profile": "darwin-op"})
+    assert got != load_robot()
+
+
+def test_overrides_apply_on_top_of_a_profile():
+    env = gym.make("FootstepDoor-v0", robot={"profile": "darwin-op", "turn_inner": 0.3, "body_radius": 0.12})
+    robot = env.unwrapped.robot
+    assert robot.turn_inner == 0.3 and robot.body_radius == 0.12
+    assert robot.stride_side == tuple(read_yaml("robots/darwin-op.yaml")["stride_side"])
+
+
+def test_make_policy_takes_a_robot_profile():
+    from footstep_gym.planners import make_policy
+
+    for robot in ("darwin-op", {"profile": "darwin-op"}, load_robot("darwin-op")):
+        assert make_policy("paper-period-aware", robot, seed=0).robot == load_robot("darwin-op")
+    assert make_policy("period-aware", {"body_radius": 0.12}).robot.body_radius == 0.12
+
+
+@pytest.mark.parametrize("robot", ["nao", {"profile": "nao"}, {"profile": 3}])
+def test_unknown_robot_profile_names_the_known_ones(robot):
+    with pytest.raises(ConfigError, match="unknown robot profile.*known profiles: .*darwin-op"):
+        gym.make("FootstepDoor-v0", robot=robot)
+    with pytest.raises(ConfigError, match="known profiles: .*darwin-op"):
+        load_robot(robot)
+
+
+def test_a_profile_with_an_unknown_key_is_rejected_by_name(tmp_path, monkeypatch):
+    shutil.copytree(config_dir(), tmp_path / "configs")
+    (tmp_path / "configs" / "robots" / "broken.yaml").write_text("turn_iner: 0.3\n")
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(tmp_path / "configs"))
+    with pytest.raises(ConfigError, match="robots/broken.yaml.*'turn_iner' \\(did you mean 'turn_inner'\\?\\)"):
+        load_robot("broken")
+
+
+def test_a_profile_is_validated_like_the_base_file(tmp_path, monkeypatch):
+    shutil.copytree(config_dir(), tmp_path / "configs")
+    (tmp_path / "configs" / "robots" / "crossed.yaml").write_text("stride_side: [-0.01, 0.12]\n")
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(tmp_path / "configs"))
+    with pytest.raises(ConfigError, match="stride_side must be > 0"):
+        load_robot("crossed")
+
+
+def test_only_a_class_with_profiles_takes_one():
+    with pytest.raises(ConfigError, match="DoorConfig has no profiles"):
+        config.load(DoorConfig, "scenarios/door.yaml", {"profile": "darwin-op"})

@@ -6,8 +6,10 @@ that returns a small record: :class:`PeriodSearch` -> :class:`PeriodChoice` (sta
 :class:`PathChoice` (stage 2, :mod:`.rrt`), :class:`CommandRepair` ->
 :class:`RepairChoice` (stage 3, :mod:`.pso`). :mod:`.reference` holds the policy
 interface and the registry (``period-aware``, ``fixed-period``, ``pso-only``,
-``paper-period-aware``, ``paper-fixed-period``); :mod:`.ablation` names the variants
-with one of our additions switched off.
+``paper-period-aware``, ``paper-fixed-period``, and ``paper-period-aware-t0-<s>`` with T0
+fixed; the paper's planners follow :data:`PAPER_READINGS` where the paper differs from our
+defaults, docs/model.md §5.3); :mod:`.ablation` names the variants with one of our
+additions switched off.
 """
 
 from footstep_gym.planners.ablation import ablation_variants
@@ -43,6 +45,7 @@ from footstep_gym.planners.pso import (
 )
 from footstep_gym.planners.reference import (
     PAPER,
+    PAPER_READINGS,
     POLICIES,
     FixedPeriodPlanner,
     PeriodAwarePlanner,
@@ -58,7 +61,7 @@ from footstep_gym.planners.rrt import ModifiedRRT, PathChoice, PathSearch, RRTPa
 from footstep_gym.planners.walks import WalkStart, node_of_foot, walk_start
 
 __all__ = [
-    "PAPER", "POLICIES", "AdditionsParams", "BodyModel", "CommandRepair", "FixedPeriodPlanner",
+    "PAPER", "PAPER_READINGS", "POLICIES", "AdditionsParams", "BodyModel", "CommandRepair", "FixedPeriodPlanner",
     "GoalRollouts", "ModifiedRRT", "NextNodeFan", "ObstaclePredictor", "PSOOnlyParams", "PSOOnlyPlanner",
     "PSOParams", "PSOResult", "PathChoice", "PathSearch", "PeriodAwarePlanner", "PeriodChoice", "PeriodSearch",
     "PeriodSearchParams", "PeriodSearchResult", "PlannerConfig", "Policy", "PolicySpec", "PredictionParams",

@@ -16,7 +16,11 @@ once, stopping at the first shape that blocks a point:
 
 The shapes are one table ``(S, 13)`` (:attr:`.prediction.ObstaclePredictor.kernel_shapes`), one row
 per shape, its columns named by the constants below. Every kernel is held equal to the numpy code
-it replaces by ``tests/test_kernels.py`` (the same booleans, times and trees, not approximately).
+it replaces by ``tests/test_kernels.py``: the same booleans, instants and tree shapes exactly, the
+floats to a few ulps. The kernels call libm (``math.cos``, ``math.atan2``, ...) and never fuse a
+multiply-add; numpy picks SIMD kernels per CPU at run time, which round some results an ulp otherwise
+(``arctan2``, ``exp`` with AVX-512; complex products fused with AVX2), so the two agree bit for bit on
+some CPUs and not on others.
 
 Compiled on first use and cached on disk (``cache=True``): the first call of a fresh
 install costs the compilation (several seconds for all of them), later processes load them
@@ -230,7 +234,8 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
                 goal_x: float, goal_y: float, goal_radius: float, step_size: float, has_first: bool,
                 first_lo: float, first_hi: float, left_lo: float, left_hi: float, right_lo: float, right_hi: float,
                 period: float, time_aware: bool, fractions: np.ndarray, shift: float, shapes: np.ndarray,
-                need2: np.ndarray, horizon: np.ndarray, goal_nodes: np.ndarray) -> tuple[int, int]:
+                need2: np.ndarray, horizon: np.ndarray, goal_nodes: np.ndarray,
+                check_node: bool = False) -> tuple[int, int]:
     """One batch of :meth:`.rrt.ModifiedRRT.plan` (Algorithm 2, steps 5-16) on the tree's arrays, in place.
 
     Each sample ``samples[i]`` [m] extends from its nearest node among the first ``n`` (the tree as
@@ -242,9 +247,12 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
     to the midpoint of parent and new node is checked at ``fractions`` of the step during
     ``[depth T, (depth + 1) T]`` (at ``T`` if not ``time_aware``), shifted by ``shift`` [m] towards
     the parent's foot, against the shapes (blocked closer than ``sqrt(need2[s])``, up to
-    ``horizon[s]``). Free extensions are appended from index ``n`` on; those whose body lands in
-    the goal region are written to ``goal_nodes``. Returns the new node count and how many goal
-    nodes were written: the same arithmetic, in the same order, as the numpy methods of the RRT.
+    ``horizon[s]``). With ``check_node`` (``prediction.check: node``, the paper's check) the new node
+    itself is checked instead, at the start and at the end of its step (``depth T`` and
+    ``(depth + 1) T``; ``0`` and ``T`` if not ``time_aware``). Free extensions are appended from index
+    ``n`` on; those whose body lands in the goal region are written to ``goal_nodes``. Returns the
+    new node count and how many goal nodes were written: the same arithmetic, in the same order, as
+    the numpy methods of the RRT.
     """
     n0 = n
     n_goal = 0
@@ -277,13 +285,18 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
         t0 = depth[p] * period
         t1 = t0 + period
         free = True
-        for k in range(fractions.size):
-            s = fractions[k]
-            x = bx0 + s * (bx1 - bx0) + shift * nrm_x
-            y = by0 + s * (by1 - by0) + shift * nrm_y
-            if not _point_free(x, y, t0 + s * (t1 - t0) if time_aware else period, shapes, need2, horizon):
-                free = False
-                break
+        if check_node:
+            x, y = nx + shift * nrm_x, ny + shift * nrm_y
+            free = (_point_free(x, y, t0 if time_aware else 0.0, shapes, need2, horizon)
+                    and _point_free(x, y, t1 if time_aware else period, shapes, need2, horizon))
+        else:
+            for k in range(fractions.size):
+                s = fractions[k]
+                x = bx0 + s * (bx1 - bx0) + shift * nrm_x
+                y = by0 + s * (by1 - by0) + shift * nrm_y
+                if not _point_free(x, y, t0 + s * (t1 - t0) if time_aware else period, shapes, need2, horizon):
+                    free = False
+                    break
         if not free:
             continue
         xy[n, 0], xy[n, 1], heading[n], parent[n] = nx, ny, h, p

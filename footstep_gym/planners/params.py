@@ -50,17 +50,24 @@ class PredictionParams:
     unsteady_turn_rad_s: float = nonnegative()  # [rad/s] likewise for the angular velocity
     safety_margin_m: float = nonnegative()  # [m] added to robot.body_radius in every collision check
     edge_samples: int = positive()  # points checked along each body-path segment (>= 2)
+    check: str = plain()  # "path": the body's path to the midpoint of two nodes; "node": the node itself (the paper)
+
+    #: The values of ``check``.
+    CHECKS = ("path", "node")
 
     def validate(self) -> None:
         if self.edge_samples < 2:
             raise ConfigError(f"prediction.edge_samples must be >= 2, got {self.edge_samples}")
+        if self.check not in self.CHECKS:
+            raise ConfigError(f"prediction.check must be one of {', '.join(self.CHECKS)}, got {self.check!r}")
 
 
 @dataclass(frozen=True)
 class PeriodSearchParams:
     """Stage 1, Algorithm 1 and its collision predicate (:class:`GoalRollouts`)."""
 
-    t0_s: float = positive()  # [s] shortest period T0 the search may return
+    t0_s: float = positive()  # [s] shortest period T0 the search may return (and where the reachable T0 is sought)
+    t0_reachable: bool = plain()  # T0 = the shortest period reachable in one step from the CoM state (the paper's text)
     iterations: int = positive()  # N: resolution (T_n - T0) / 2**N
     scan_periods: int = positive()  # periods the centred scan tries between T0 and T_n (additions.centred_period)
     floor_grid: int = positive()  # periods tried for the shortest period reachable in one step

@@ -22,6 +22,15 @@ never collides where a longer one does not):
 * else bisect with ``free(lo)``, ``collides(hi)`` for ``iterations`` passes and return
   ``lo``: the longest free period to within ``(T_n - T0) / 2**iterations``.
 
+``T0`` itself has two readings (docs/model.md §5.3). Algorithm 1 prints ``T0 <- 0``; its text
+says "T0 is determined to be a short walking period that the robot can use".
+``period_search.t0_reachable`` follows the text: ``T0`` is :func:`shortest_feasible_period`,
+the shortest period one step can reach from the current CoM state (from the nominal steady
+gait about 0.37 s, the shortest period of the paper's Table 2). Off, ``T0`` is the fixed
+``period_search.t0_s`` (0.3 s, ours: T_SS 0.1 s, which the LIPM cannot reach from the steady
+gait in one step). The paper's planners (``paper-*``) use the text's reading;
+``paper-period-aware-t0-<s>`` holds ``T0`` fixed at ``<s>`` seconds.
+
 Our additions, each a switch of ``configs/planner.yaml`` (section ``additions``):
 
 * ``lipm_windows``: :func:`shortest_feasible_period` is ``T0`` made state-dependent: the
@@ -241,6 +250,9 @@ class PeriodSearch:
         self._floor_of: Snapshot | None = None  # the snapshot of the floor remembered
         self._floor_value = self.t0
         self.lipm_windows = add.lipm_windows
+        # T0 = the shortest period reachable from the CoM state: the paper's text (§2.2) and part of lipm_windows.
+        self.t0_reachable = ps.t0_reachable or add.lipm_windows
+        self.check_node = config.prediction.check == "node"
         self.centred_period = add.centred_period
         waits = tuple(int(w) for w in ps.rollout_wait_steps if w > 0)
         fractions = tuple(ps.rollout_stride_fractions)
@@ -309,7 +321,7 @@ class PeriodSearch:
         if not self.long_lookahead:
             return NextNodeFan(search_body, self.robot, start, snapshot.goal, snapshot.goal_tolerance,
                                step_size=self.step_size, stride_fractions=fractions,
-                               directions=self.fan_directions, **common)
+                               directions=self.fan_directions, check_node=self.check_node, **common)
         return GoalRollouts(search_body, self.robot, start, snapshot.goal, snapshot.goal_tolerance,
                             horizon=self.horizon, step_size=self.step_size, lane_offsets=self.lane_offsets,
                             stride_fractions=fractions, lookahead=self.lookahead, wait_steps=wait_steps,
@@ -324,7 +336,7 @@ class PeriodSearch:
             free_walks = tuple(walks.free_walks(t_n))
             return PeriodChoice(t_n, bool(free_walks), free_walks, self.stride_window(snapshot, t_n), t_n,
                                 bool(free_walks), 1, second_tier)
-        floor = self._floor(snapshot) if self.lipm_windows else self.t0
+        floor = self._floor(snapshot) if self.t0_reachable else self.t0
         blocked_at: dict[float, np.ndarray] = {}  # per period scanned, when each walk is first blocked [s]
         if self.centred_period:
             periods = np.linspace(floor, t_n, self.scan_periods)

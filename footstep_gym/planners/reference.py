@@ -32,8 +32,12 @@ What we add to the paper's planner is a set of named switches (``configs/planner
 section ``additions``: the second tier of the period search, the centred period, the long
 look-ahead, short horizons for unsteady shapes, the LIPM's windows, the fallback, ...).
 ``paper-period-aware`` and ``paper-fixed-period`` are the same classes with every switch
-off: the paper's algorithm and nothing else. ``<policy>-no-<switch>`` names a policy with
-one switch off (:mod:`.ablation`).
+off and, where the paper specifies something else than our defaults, the paper's reading
+(:data:`PAPER_READINGS`: the text's T0, the one-sample RRT, the node checked now and after
+T, a constant penalty, a finer bisection; every deviation is listed in docs/model.md §5.3).
+``<policy>-no-<switch>`` names a policy with one switch off (:mod:`.ablation`);
+``paper-period-aware-t0-<s>`` is the paper's planner with T0 fixed at ``<s>`` seconds
+(``paper-period-aware-t0-0.3`` is our earlier reading of Algorithm 1's T0).
 
 ``fixed-period`` — the same planner "without considering the walking period" (the
 paper's comparison, Fig. 8 A-C): the period is not a decision variable *anywhere*. The
@@ -54,6 +58,7 @@ search space of the PSO").
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -264,27 +269,53 @@ class PolicySpec:
     """A registered policy: its class and the ``configs/planner.yaml`` overrides that make it.
 
     ``additions``: switches of the ``additions`` section set on top of the YAML (e.g. all
-    off for the paper's planners).
+    off for the paper's planners); ``readings``: other keys, ``{section: {key: value}}``
+    (e.g. :data:`PAPER_READINGS`).
     """
 
     planner: type[_Planner]
     additions: Mapping[str, bool] = field(default_factory=dict)
+    readings: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+
+    def defaults(self) -> dict[str, dict[str, Any]]:
+        """The policy's own config values, ``{section: {key: value}}``, for :func:`load_planner_config`."""
+        out = {section: dict(values) for section, values in self.readings.items()}
+        if self.additions:
+            out["additions"] = {**out.get("additions", {}), **self.additions}
+        return out
 
 
 #: Every switch of ``additions`` off: the paper's planner, nothing else (docs/model.md §5).
 PAPER = {f.name: False for f in dataclasses.fields(AdditionsParams)}
+
+#: Where the paper specifies something other than our defaults of ``configs/planner.yaml``, the paper's
+#: planners follow the paper (docs/model.md §5.3, one row per deviation, with what the paper says):
+PAPER_READINGS: dict[str, dict[str, Any]] = {
+    # §2.2: "T0 is determined to be a short walking period that the robot can use" (not the fixed 0.3 s).
+    # N is not given; Table 2's periods move in 10-20 ms steps: (T_n - T0) / 2^6 = 6 ms.
+    "period_search": {"t0_reachable": True, "iterations": 6},
+    # Algorithm 2 draws and extends one sample at a time.
+    "rrt": {"batch_size": 1},
+    # Algorithm 2 step 11 tests "the selected node"; §2.2 checks "the predicted position of the obstacle and the
+    # current obstacle position".
+    "prediction": {"check": "node"},
+    # Eq. (7): P is a constant when infeasible (its value 1 cannot be meant: Table 2's own repairs cost more).
+    "pso": {"violation_weight": 0.0},
+}
 
 #: The registry of scripted policies, by name.
 POLICIES: dict[str, PolicySpec] = {
     "period-aware": PolicySpec(PeriodAwarePlanner),
     "fixed-period": PolicySpec(FixedPeriodPlanner),
     "pso-only": PolicySpec(PSOOnlyPlanner),
-    "paper-period-aware": PolicySpec(PeriodAwarePlanner, PAPER),
-    "paper-fixed-period": PolicySpec(FixedPeriodPlanner, PAPER),
+    "paper-period-aware": PolicySpec(PeriodAwarePlanner, PAPER, PAPER_READINGS),
+    "paper-fixed-period": PolicySpec(FixedPeriodPlanner, PAPER, PAPER_READINGS),
 }
 
 #: ``<policy>-no-<switch>``: a staged policy of :data:`POLICIES` with one switch of ``additions`` off.
 VARIANT_SEPARATOR = "-no-"
+#: ``<paper policy>-t0-<seconds>``: a paper planner with T0 fixed (``period_search.t0_reachable`` off, ``t0_s``).
+T0_SEPARATOR = "-t0-"
 
 
 def switch_of(label: str) -> str:
@@ -298,8 +329,31 @@ def variant_name(policy: str, switch: str) -> str:
     return f"{policy}{VARIANT_SEPARATOR}{switch.replace('_', '-')}"
 
 
+def fixed_t0_name(policy: str, t0_s: float) -> str:
+    """The name of paper planner ``policy`` with T0 fixed at ``t0_s`` [s]: ``paper-period-aware-t0-0.3``."""
+    return f"{policy}{T0_SEPARATOR}{t0_s:g}"
+
+
+def _fixed_t0_spec(name: str) -> PolicySpec | None:
+    """``<paper policy>-t0-<seconds>``: that policy with ``period_search.t0_reachable`` off and ``t0_s`` set."""
+    base, sep, value = name.rpartition(T0_SEPARATOR)
+    spec = POLICIES.get(base)
+    if not sep or spec is None or spec.planner is not PeriodAwarePlanner or spec.additions.get("lipm_windows", True):
+        return None  # only a period-searching planner without the LIPM's windows (which set T0 themselves)
+    try:
+        t0 = float(value)
+    except ValueError:
+        return None
+    if not (math.isfinite(t0) and t0 > 0):
+        return None
+    readings = {section: dict(values) for section, values in spec.readings.items()}
+    readings["period_search"] = {**readings.get("period_search", {}), "t0_reachable": False, "t0_s": t0}
+    return PolicySpec(spec.planner, spec.additions, readings)
+
+
 def policy_spec(name: str) -> PolicySpec:
-    """The :class:`PolicySpec` of a registered name or of a variant ``<policy>-no-<switch>``."""
+    """The :class:`PolicySpec` of a registered name, of a variant ``<policy>-no-<switch>`` or of
+    ``<paper policy>-t0-<seconds>``."""
     if name in POLICIES:
         return POLICIES[name]
     switches = [f.name for f in dataclasses.fields(AdditionsParams)]
@@ -307,18 +361,26 @@ def policy_spec(name: str) -> PolicySpec:
     if sep and base in POLICIES and switch_of(label) in switches:
         spec = POLICIES[base]
         if issubclass(spec.planner, PeriodAwarePlanner):
-            return PolicySpec(spec.planner, {**spec.additions, switch_of(label): False})
+            return PolicySpec(spec.planner, {**spec.additions, switch_of(label): False}, spec.readings)
+    fixed = _fixed_t0_spec(name)
+    if fixed is not None:
+        return fixed
     variants = ", ".join(variant_name("period-aware", s) for s in switches)
-    raise ValueError(f"unknown policy {name!r}; known: {', '.join(sorted(POLICIES))}, and <staged policy>-no-<switch> "
-                     f"such as {variants}")
+    raise ValueError(f"unknown policy {name!r}; known: {', '.join(sorted(POLICIES))}, <staged policy>-no-<switch> "
+                     f"such as {variants}, and {fixed_t0_name('paper-period-aware', 0.3)} (the paper's planner "
+                     f"with T0 fixed at 0.3 s)")
 
 
-def make_policy(name: str, robot: Robot | None = None, seed: int | None = None,
+def make_policy(name: str, robot: Robot | str | Mapping[str, Any] | None = None, seed: int | None = None,
                 config: PlannerConfig | None = None, **overrides: Any) -> Policy:
     """A policy by name with ``configs/planner.yaml`` (plus ``overrides``) and ``robot``.
 
-    ``name``: a key of :data:`POLICIES` or a variant ``<policy>-no-<switch>`` (that policy
-    with one switch of the ``additions`` section off, see :mod:`.ablation`).
+    ``name``: a key of :data:`POLICIES`, a variant ``<policy>-no-<switch>`` (that policy
+    with one switch of the ``additions`` section off, see :mod:`.ablation`) or
+    ``<paper policy>-t0-<seconds>`` (T0 fixed). ``robot``: a :class:`Robot`, or what
+    ``gym.make(..., robot=...)`` takes: a profile name (``"darwin-op"``), a mapping of
+    ``configs/robot.yaml`` overrides, or both (``{"profile": "darwin-op", ...}``); ``None``:
+    ``configs/robot.yaml``.
     ``overrides`` are planner config keys, per section (``rrt={"iterations": 200}``) or flat
     (``rrt_iterations=200``), applied on top of the YAML and of the policy's own switches;
     ``config`` (a ready :class:`PlannerConfig`, used as given) and ``overrides`` are exclusive.
@@ -327,5 +389,7 @@ def make_policy(name: str, robot: Robot | None = None, seed: int | None = None,
     if config is None or overrides:
         if config is not None:
             raise ValueError("pass either config or overrides, not both")
-        config = load_planner_config(overrides, defaults={"additions": spec.additions})
-    return spec.planner(robot if robot is not None else load_robot(), config, seed, name)
+        config = load_planner_config(overrides, defaults=spec.defaults())
+    if not isinstance(robot, Robot):
+        robot = load_robot(robot)
+    return spec.planner(robot, config, seed, name)

@@ -30,6 +30,7 @@ import numpy as np
 from footstep_gym import footstep
 from footstep_gym.footstep import LEFT, RIGHT
 from footstep_gym.planners import kernels
+from footstep_gym.planners.prediction import support_normal
 from footstep_gym.planners.walks import BodyCheck, WalkStart, steps_to_goal, walks_free, walks_survival_at
 from footstep_gym.robot import Robot
 
@@ -167,12 +168,17 @@ class NextNodeFan(_Walks):
     evenly across the hardware angle limits of the support side (the selectable range of
     the next node); each body step to them is checked against the obstacles predicted
     over ``[0, T]``. The period collides iff every candidate does.
+
+    ``check_node`` (``prediction.check: node``, the paper's Fig. 2 read literally): the next
+    node itself is checked against the obstacles now and predicted after ``T``, instead of
+    the body's step to it.
     """
 
     def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
                  goal_radius: float, *, step_size: float, stride_fractions: Sequence[float], directions: int,
-                 edge_samples: int, first_stride: StrideWindow | None = None) -> None:
+                 edge_samples: int, first_stride: StrideWindow | None = None, check_node: bool = False) -> None:
         super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, first_stride=first_stride)
+        self.check_node = check_node
         lo, hi = footstep.turn_bounds(start.side, robot)
         turn, frac = np.meshgrid(np.linspace(lo, hi, directions), np.asarray(stride_fractions, float), indexing="ij")
         self._headings = float(start.heading) + turn.ravel()
@@ -190,3 +196,22 @@ class NextNodeFan(_Walks):
                                                                     np.sin(self._headings)], axis=1)
         headings = np.stack([np.full(n, float(self.start.heading)), self._headings], axis=1)
         return nodes, headings
+
+    def _node_blocked_at(self, nodes: np.ndarray, period: float) -> np.ndarray:
+        """``check_node``: ``(R,)`` [s] 0 where the next node is blocked now, ``period`` where only after
+        ``period``, ``inf`` where it is free at both."""
+        pts = np.repeat(nodes[:, 1], 2, axis=0)
+        times = np.tile([0.0, float(period)], len(nodes))
+        normal = support_normal(np.array([float(self.start.heading)]), np.array([self.start.side]))
+        free = self.body.free(pts, times, np.repeat(normal, len(pts), axis=0), period).reshape(-1, 2)
+        return np.where(~free[:, 0], 0.0, np.where(~free[:, 1], float(period), np.inf))
+
+    def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float) -> np.ndarray:
+        if not self.check_node:
+            return super()._free(nodes, headings, period)
+        return np.isinf(self._node_blocked_at(nodes, period))
+
+    def survival_table(self, periods: Sequence[float]) -> list[np.ndarray]:
+        if not self.check_node:
+            return super().survival_table(periods)
+        return [self._node_blocked_at(self.nodes(float(T))[0], float(T)) for T in periods]

@@ -36,6 +36,10 @@ short edges (small steps) let it wait for an obstacle to pass.
 * ``time_aware`` (``time_aware_rrt``): the timing above; off, every body point is checked
   against the obstacles predicted after one period ``T`` (the paper: "the position of
   the predicted obstacle before extending a node");
+* ``check_node`` (``prediction.check``): ``path`` (ours) checks the body's path as above; ``node``
+  (the paper: Algorithm 2 step 11 tests "the selected node", §2.2 against "the predicted position
+  of the obstacle and the current obstacle position") checks the new node itself, at the start and
+  the end of its step (now and after ``T`` when not time-aware; docs/model.md §5.3);
 
 * ``seeds`` (``rrt_seeds``): walks already known to be collision-free (the period search's free
   rollouts) are inserted as branches before sampling, so the tree never does worse
@@ -54,7 +58,9 @@ bounds the depth of the tree. With a :class:`~footstep_gym.planners.prediction.B
 batch (steps 5-16) and the seed walks are one compiled call each (:func:`.kernels.extend_tree`,
 :func:`.kernels.insert_walks`) on the tree's arrays; the numpy methods are the reference they are
 held equal to, node for node, and serve any other body check. The random numbers are drawn in
-numpy in the same order either way, so a seed grows the same tree.
+numpy in the same order either way, so a seed grows the same tree: the same nodes, parents and goal
+nodes, with coordinates and headings equal to a few ulps (bit for bit unless numpy's ``arctan2``
+takes its AVX-512 kernel, which rounds an ulp otherwise than libm's now and then).
 """
 
 from __future__ import annotations
@@ -138,15 +144,18 @@ class ModifiedRRT:
     ``edge_samples``: points checked along each body segment; ``clearance_weight`` [m of goal
     distance per m], ``clearance_cap`` [m]: how :meth:`best_partial_path` trades clearance for
     progress; ``time_aware``: a node at depth ``d`` is checked during ``[(d - 1) T, d T]`` (else
-    every point at ``T``); ``compiled``: with a :class:`~footstep_gym.planners.prediction.BodyModel`,
+    every point at ``T``); ``check_node`` (``prediction.check: node``, Algorithm 2 step 11): the new
+    node itself is checked, at the start and the end of its step (``0`` and ``T`` if not
+    ``time_aware``: the obstacles now and predicted after ``T``, §2.2), instead of the body's path;
+    ``compiled``: with a :class:`~footstep_gym.planners.prediction.BodyModel`,
     each batch is one compiled call (:func:`.kernels.extend_tree`; ``False``: the numpy methods, the
-    reference it is tested against; both grow the same tree).
+    reference it is tested against; both grow the same tree, its floats to a few ulps).
     """
 
     def __init__(self, robot: Robot, *, iterations: int, batch_size: int, step_size: float,
                  goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int,
                  clearance_weight: float = 0.0, clearance_cap: float = 0.0,
-                 time_aware: bool = True, compiled: bool = True) -> None:
+                 time_aware: bool = True, check_node: bool = False, compiled: bool = True) -> None:
         self.robot = robot
         self.iterations = iterations
         self.batch_size = batch_size
@@ -158,6 +167,7 @@ class ModifiedRRT:
         self.clearance_weight = clearance_weight
         self.clearance_cap = clearance_cap
         self.time_aware = time_aware
+        self.check_node = check_node
         self.compiled = compiled
         self.tree: Tree | None = None
         self.goal_nodes: list[int] = []
@@ -213,7 +223,7 @@ class ModifiedRRT:
 
     def _compiled_batch(self, body: BodyModel) -> Callable[[np.ndarray, np.ndarray], None]:
         """:meth:`_numpy_batch` as one compiled call per batch (:func:`.kernels.extend_tree`), for a
-        :class:`BodyModel`: the same tree."""
+        :class:`BodyModel`: the same tree (its floats to a few ulps)."""
         tree, pred = self.tree, body.predictor
         shift, needed = body.shift_and_clearance(self._period)
         need2 = (pred.kernel_radius + needed) ** 2
@@ -225,7 +235,7 @@ class ModifiedRRT:
         fixed = (float(self._goal[0]), float(self._goal[1]), float(self._goal_radius), float(self.step_size),
                  self._first_stride is not None, float(first_lo), float(first_hi), float(l_lo), float(l_hi),
                  float(r_lo), float(r_hi), float(self._period), bool(self.time_aware), fractions, float(shift),
-                 pred.kernel_shapes, need2, pred.kernel_horizon, goal_nodes)
+                 pred.kernel_shapes, need2, pred.kernel_horizon, goal_nodes, bool(self.check_node))
 
         def extend(samples: np.ndarray, redraw: np.ndarray) -> None:
             tree.n, n_goal = kernels.extend_tree(tree.xy, tree.heading, tree.side, tree.parent, tree.cost, tree.depth,
@@ -328,15 +338,22 @@ class ModifiedRRT:
     def _edges_free(self, parents: np.ndarray, new_xy: np.ndarray) -> np.ndarray:
         """Step 11: the body segment of each extension clears every obstacle at its own time."""
         tree = self.tree
-        starts = tree.body[parents]
-        ends = 0.5 * (tree.xy[parents] + new_xy)
         t0 = tree.depth[parents] * self._period
-        pts, times = body_path_points(starts, ends, t0, t0 + self._period, self.edge_samples)
-        if not self.time_aware:
-            times = np.full_like(times, self._period)  # the obstacles predicted after one period
-        normals = np.repeat(support_normal(tree.heading[parents], tree.side[parents]), self.edge_samples, axis=0)
+        if self.check_node:  # the node itself, now and after T (at the start and end of its step if time-aware)
+            k = 2
+            pts = np.repeat(new_xy, k, axis=0)
+            times = (np.stack([t0, t0 + self._period], axis=1).reshape(-1) if self.time_aware
+                     else np.tile([0.0, self._period], len(parents)))
+        else:
+            k = self.edge_samples
+            starts = tree.body[parents]
+            ends = 0.5 * (tree.xy[parents] + new_xy)
+            pts, times = body_path_points(starts, ends, t0, t0 + self._period, k)
+            if not self.time_aware:
+                times = np.full_like(times, self._period)  # the obstacles predicted after one period
+        normals = np.repeat(support_normal(tree.heading[parents], tree.side[parents]), k, axis=0)
         free = self._body.free(pts, times, normals, self._period)
-        return free.reshape(len(parents), self.edge_samples).all(axis=1)
+        return free.reshape(len(parents), k).all(axis=1)
 
     def _insert_seeds(self, seeds: Sequence[np.ndarray]) -> None:
         """Insert known-free walks (row 0 of each = the root) as chains of nodes from the root, all in one batch.
@@ -428,7 +445,7 @@ class PathSearch:
             goal_sample_rate=c.rrt.goal_sample_rate, n_paths=c.rrt.n_paths,
             sample_margin=c.rrt.sample_margin_m, edge_samples=c.prediction.edge_samples,
             clearance_weight=c.rrt.fallback_clearance_weight, clearance_cap=c.rrt.fallback_clearance_cap_m,
-            time_aware=add.time_aware_rrt)
+            time_aware=add.time_aware_rrt, check_node=c.prediction.check == "node")
         self.seed_paths = c.rrt.seed_paths if add.rrt_seeds else 0
         self.stay_until = c.prediction.horizon_s if add.fallback else None
         self.half_width = 0.5 * robot.nominal_side_stride

@@ -30,7 +30,7 @@ with ``time.perf_counter``. Measured:
   (the planners alternate seed by seed);
 * **PPO training throughput**: env steps/s inside ``model.learn`` with 1 and 2 envs for
   ``FootstepDoor-v0`` beside ``CartPole-v1`` with the same network and hyperparameters (the
-  ceiling: what PPO itself costs), through ``footstep_gym.training.ppo_throughput`` in a
+  ceiling: what PPO itself costs), through ``footstep_gym.rl.training.ppo_throughput`` in a
   subprocess (torch stays out of this one);
 * with ``--compare-with DIR``, the ``FootstepDoor-v0`` steady walk once more on the
   ``footstep_gym`` package of another checkout in ``DIR`` (a worker process, in the same
@@ -609,7 +609,8 @@ def bench_lipm(settings: Settings, seed: int) -> dict[str, Any]:
 # ------------------------------------------------------------------ planners
 def _make_policy_fn() -> tuple[Callable | None, str | None]:
     try:
-        from footstep_gym.planners import make_policy
+        import footstep_gym.planners  # noqa: F401  (the planners' modules, imported here once)
+        from footstep_gym import make_policy
     except Exception as exc:  # noqa: BLE001
         return None, f"footstep_gym.planners unavailable: {type(exc).__name__}: {exc}"
     return make_policy, None
@@ -1244,11 +1245,11 @@ def report(res: dict[str, Any]) -> str:
 def _ppo_child(spec: dict[str, Any]) -> dict[str, Any]:
     """Runs in its own interpreter (torch stays out of this one): PPO env steps/s per cell and round.
 
-    :func:`footstep_gym.training.ppo_throughput` (what ``train_rl.py --throughput`` reports):
+    :func:`footstep_gym.rl.training.ppo_throughput` (what ``train_rl.py --throughput`` reports):
     ``configs/rl/ppo.yml``'s model, wrappers and normalisation, ``n_envs`` envs in a
     ``DummyVecEnv``, one torch thread, a warm-up ``learn`` of one rollout, then a timed one.
     """
-    from footstep_gym import training
+    from footstep_gym.rl import training
 
     rates: dict[str, dict[str, list[float]]] = {}
     for _ in range(spec["rounds"]):  # rounds interleave the cells: background load hits them alike

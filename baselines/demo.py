@@ -22,7 +22,7 @@ def run(env_id: str, seed: int, steps: int, out: Path) -> Path:
     env = gym.make(env_id, render_mode="rgb_array")
     obs, _ = env.reset(seed=seed)
     try:
-        from footstep_gym.planners import make_policy
+        from footstep_gym import make_policy
 
         policy = make_policy("period-aware", env.unwrapped.robot, seed=seed)
         policy.reset(seed=seed)

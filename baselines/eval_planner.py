@@ -10,6 +10,10 @@ Usage::
         --policy ppo --episodes 10 --split validation --out runs/door --workers 2
     python baselines/eval_planner.py --env crowd --crowd-speed 0.2 --agent runs/rl/ppo/FootstepCrowd-v0_1
 
+The sweep flags (``--door-speed``, ``--crowd-speed``) are the scenarios' ``sweep_axes``
+(``footstep_gym.scenarios``): a scenario's key ``door_speed`` is ``--door-speed``, one cell per
+value; a scene without a sweep runs at its YAML's values.
+
 Each cell (env, setting, policy; for an agent, each training run) runs ``--episodes``
 episodes with the seeds of ``--split`` (disjoint ranges in ``configs/eval.yaml``: train,
 validation, test; the README's tables come from test), starting ``--seed`` seeds into it.
@@ -34,10 +38,12 @@ place only once it has finished: a run that fails or is interrupted leaves ``--o
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import math
 import os
 import platform
+import re
 import shlex
 import shutil
 import sys
@@ -49,12 +55,13 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import footstep_gym
-from footstep_gym.evaluation import policies as registry
+from footstep_gym import policies as registry
 from footstep_gym.evaluation import report
 from footstep_gym.evaluation.runner import (BACKENDS, WARMUP_ACTS, Cell, Task, record_video, run_tasks,
                                            safe_name)
 from footstep_gym.evaluation.splits import SPLITS, split_seeds
 from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, cell_record, over_runs
+from footstep_gym.scenarios import SCENARIOS, resolve_env_id, scene_of
 
 SHOWCASE_POLICY = "period-aware"  # the figures show a seed this policy solved, when there is one
 
@@ -65,39 +72,48 @@ class Profile:
 
     envs: tuple[str, ...]
     episodes: int
-    door_speeds: tuple[float, ...]  # [deg/s]
-    crowd_speeds: tuple[float, ...]  # [m/s]; () = the scenario's default
+    #: ``{scene: {key: values}}`` over the scenes' ``sweep_axes``: one cell per value (the product over a
+    #: scene's keys); a key not given (or given no values) stays at the scenario's default.
+    sweeps: dict[str, dict[str, tuple[float, ...]]]
     policies: tuple[str, ...] | None  # None: every registered policy
 
 
 PROFILES = {
     # About a minute on two cores: every planner and every shipped agent, 3 seeds.
-    "quick": Profile(envs=("door", "crossing", "crowd"), episodes=3, door_speeds=(17.0,), crowd_speeds=(),
+    "quick": Profile(envs=("door", "crossing", "crowd"), episodes=3, sweeps={"door": {"door_speed": (17.0,)}},
                      policies=None),
     # The paper's protocol: door at 8, 14, 17 deg/s, crossing, crowd; >= 20 seeds per cell.
-    "paper": Profile(envs=("door", "crossing", "crowd"), episodes=20, door_speeds=(8.0, 14.0, 17.0),
-                     crowd_speeds=(), policies=("period-aware", "fixed-period", "pso-only", "paper-period-aware",
-                                                "paper-fixed-period")),
+    "paper": Profile(envs=("door", "crossing", "crowd"), episodes=20,
+                     sweeps={"door": {"door_speed": (8.0, 14.0, 17.0)}},
+                     policies=("period-aware", "fixed-period", "pso-only", "paper-period-aware",
+                               "paper-fixed-period")),
     # period-aware with each addition switched off in turn, and the paper's planner (filled in by --ablation).
-    "ablation": Profile(envs=("door", "crossing", "crowd"), episodes=10, door_speeds=(17.0,), crowd_speeds=(),
+    "ablation": Profile(envs=("door", "crossing", "crowd"), episodes=10, sweeps={"door": {"door_speed": (17.0,)}},
                         policies=()),
     # The agents against both planners on every setting the README reports.
-    "agents": Profile(envs=("door", "crossing", "crowd"), episodes=20, door_speeds=(8.0, 11.0, 14.0, 17.0, 20.0),
-                      crowd_speeds=(0.16, 0.2), policies=("period-aware", "fixed-period", "ppo", "ppo-all", "sac")),
+    "agents": Profile(envs=("door", "crossing", "crowd"), episodes=20,
+                      sweeps={"door": {"door_speed": (8.0, 11.0, 14.0, 17.0, 20.0)},
+                              "crowd": {"crowd_speed": (0.16, 0.2)}},
+                      policies=("period-aware", "fixed-period", "ppo", "ppo-all", "sac")),
 }
 OWN_FILES = ("results.json", "results.csv", "episodes.csv", "summary.md", "run.json")
 OWN_DIRS = ("figures", "tables", "videos", "runs")
 
 
 # ---------------------------------------------------------------- command line
-def resolve_env(name: str) -> str:
-    """Scenario key (``door``/``crossing``/``crowd``) of a short name or an env id (``FootstepDoor-v0``)."""
-    wanted = name.strip().lower()
-    for key, env_id in footstep_gym.ENV_IDS.items():
-        if wanted in (key, env_id.lower(), f"footstep_gym:{env_id}".lower()):
-            return key
-    choices = ", ".join(list(footstep_gym.ENV_IDS) + list(footstep_gym.ENV_IDS.values()))
-    raise ValueError(f"unknown env {name!r}; choose from {choices}")
+def sweep_axes() -> dict[str, list[tuple[str, str]]]:
+    """``{key: [(scene, unit), ...]}``: every registered scenario's ``sweep_axes``, each key with the scenes
+    sweeping it (in ``SCENARIOS`` order). Each key is a flag: ``door_speed`` -> ``--door-speed``."""
+    axes: dict[str, list[tuple[str, str]]] = {}
+    for scene, cls in SCENARIOS.items():
+        for key, unit in cls.sweep_axes.items():
+            axes.setdefault(key, []).append((scene, unit))
+    return axes
+
+
+def flag_of(key: str) -> str:
+    """The command-line flag of sweep key ``key`` (``door_speed`` -> ``--door-speed``)."""
+    return "--" + key.replace("_", "-")
 
 
 def _int_at_least(minimum: int) -> Callable[[str], int]:
@@ -115,16 +131,20 @@ def _int_at_least(minimum: int) -> Callable[[str], int]:
     return parse
 
 
-def _speed(unit: str) -> Callable[[str], float]:
-    """An argparse type: a finite speed >= 0 in ``unit``."""
+def _sweep_value(scene: str, key: str, unit: str) -> Callable[[str], float]:
+    """An argparse type: a finite number in ``unit``, >= 0 (> 0) where the config field of ``key`` is
+    nonnegative (positive); the env checks the rest (e.g. ``max_*`` bounds) before anything runs."""
+    check = SCENARIOS[scene].Config.__dataclass_fields__[key].metadata.get("check")
+    least = {"nonnegative": ">= 0", "positive": "> 0", "fraction": "> 0"}.get(check or "")
 
     def parse(text: str) -> float:
         try:
             v = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a speed in {unit}, got {text!r}") from None
-        if not math.isfinite(v) or v < 0:
-            raise argparse.ArgumentTypeError(f"must be a finite speed >= 0 {unit}, got {text!r}")
+            raise argparse.ArgumentTypeError(f"expected a number in {unit}, got {text!r}") from None
+        if not math.isfinite(v) or (least == ">= 0" and v < 0) or (least == "> 0" and v <= 0):
+            raise argparse.ArgumentTypeError(f"must be a finite number{' ' + least if least else ''} {unit}, "
+                                             f"got {text!r}")
         return v
 
     return parse
@@ -132,6 +152,17 @@ def _speed(unit: str) -> Callable[[str], float]:
 
 def _list(values: Sequence[float]) -> str:
     return ", ".join(f"{v:g}" for v in values) or "the scenario's default"
+
+
+def _swept(profile: Profile, scene: str) -> str:
+    """``door at 8, 14, 17 deg/s`` (``scene`` with the profile's sweep of it), or just ``scene``."""
+    axes = {k: v for k, v in profile.sweeps.get(scene, {}).items() if v}
+    units = SCENARIOS[scene].sweep_axes if scene in SCENARIOS else {}
+    if len(axes) == 1:
+        (key, values), = axes.items()
+        return f"{scene} at {_list(values)} {units.get(key, '')}".rstrip()
+    parts = [f"{key} {_list(values)} {units.get(key, '')}".rstrip() for key, values in axes.items()]
+    return f"{scene} at {', '.join(parts)}" if parts else scene
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -144,20 +175,23 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog=f"policies (--policy):\n{listing}\n  <planner>-no-<switch>  a planner with one addition of "
                f"configs/planner.yaml off (the ablation's variants)\n\nWithout options: the quick default (all envs, every policy, "
-               f"{quick.episodes} seeds of the test split, door at {_list(quick.door_speeds)} deg/s). An agent "
-               "with no run shipped for an env is skipped there with a warning.",
+               f"{quick.episodes} seeds of the test split"
+               + "".join(f", {_swept(quick, e)}" for e in quick.envs if _swept(quick, e) != e)
+               + "). An agent with no run shipped for an env is skipped there with a warning.",
     )
     parser.add_argument("--env", action="append", metavar="ENV",
-                        help="door, crossing, crowd or a full id (FootstepDoor-v0); repeatable; default: all three")
+                        help=f"{', '.join(SCENARIOS)} or a full id ({next(iter(SCENARIOS.values())).env_id}); "
+                             "repeatable; default: all")
     parser.add_argument("--policy", action="append", metavar="NAME", help="a policy listed below; repeatable")
     parser.add_argument("--agent", action="append", metavar="PATH", type=Path,
                         help="your own agent: a zoo run folder (.../ppo/FootstepDoor-v0_1) or a model .zip; "
                              "repeatable; evaluated on every env given")
     parser.add_argument("--agents-dir", type=Path, metavar="DIR",
-                        help=f"where the shipped agents are (default {registry.default_agents_dir()})")
+                        help=f"where the shipped agents are (default ${registry.AGENTS_DIR_ENV_VAR}, else "
+                             f"./baselines/agents in the working directory: {registry.default_agents_dir()})")
     parser.add_argument("--profile", choices=sorted(PROFILES), help="defaults of a run (default quick)")
-    parser.add_argument("--paper", action="store_true", help="same as --profile paper: door at "
-                        f"{_list(paper.door_speeds)} deg/s, crossing, crowd, {paper.episodes} seeds, planners only")
+    parser.add_argument("--paper", action="store_true", help="same as --profile paper: "
+                        f"{', '.join(_swept(paper, e) for e in paper.envs)}, {paper.episodes} seeds, planners only")
     parser.add_argument("--ablation", action="store_true",
                         help="same as --profile ablation: period-aware with each addition of configs/planner.yaml "
                              "switched off in turn (period-aware-no-<switch>), and paper-period-aware")
@@ -167,10 +201,12 @@ def build_parser() -> argparse.ArgumentParser:
                             f"{k} {a}-{b - 1}" for k, (a, b) in SPLITS.items()) + " (default test)")
     parser.add_argument("--seed", type=_int_at_least(0), default=0, metavar="K",
                         help="start K seeds into the split (default 0)")
-    parser.add_argument("--door-speed", type=_speed("deg/s"), action="append", metavar="DEG_S",
-                        help="revolving door speed in deg/s; repeatable, one cell per speed")
-    parser.add_argument("--crowd-speed", type=_speed("m/s"), action="append", metavar="M_S",
-                        help="crowd speed in m/s; repeatable, one cell per speed")
+    for key, owners in sweep_axes().items():  # one flag per sweep axis of the scenarios (--door-speed, ...)
+        scene, unit = owners[0]
+        envs = " and ".join(s for s, _ in owners)
+        parser.add_argument(flag_of(key), dest=key, type=_sweep_value(scene, key, unit), action="append",
+                            metavar=re.sub(r"[^A-Z0-9]+", "_", unit.upper()).strip("_") or "VALUE",
+                            help=f"{key.replace('_', ' ')} of the {envs} env in {unit}; repeatable, one cell per value")
     parser.add_argument("--out", type=Path, default=Path("runs/eval"), help="output folder (default runs/eval)")
     parser.add_argument("--workers", type=_int_at_least(1), metavar="N",
                         help="episodes run in parallel (default: all cores); results do not depend on it")
@@ -194,8 +230,9 @@ class Settings:
     episodes: int
     split: str
     offset: int
-    door_speeds: tuple[float, ...]
-    crowd_speeds: tuple[float, ...]
+    #: ``{scene: {key: values}}`` for every scenario with sweep axes (the flags', else the profile's values;
+    #: ``()``: the scenario's default); :func:`make_cells` reads the scenes in ``envs``.
+    sweeps: dict[str, dict[str, tuple[float, ...]]]
     out: Path
     workers: int
     backend: str
@@ -224,7 +261,7 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings:
     profile_name = chosen.pop() if chosen else "quick"
     profile = PROFILES[profile_name]
     try:
-        envs = _unique([resolve_env(e) for e in (args.env or profile.envs)])
+        envs = _unique([scene_of(resolve_env_id(e)) for e in (args.env or profile.envs)])
     except ValueError as exc:
         parser.error(str(exc))
     available = registry.policy_names()
@@ -246,10 +283,14 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings:
     for path in args.agent or ():
         if not path.exists():
             parser.error(f"--agent {path}: no such file or folder")
-    if args.door_speed and "door" not in envs:
-        parser.error("--door-speed applies to the door env only; add --env door")
-    if args.crowd_speed and "crowd" not in envs:
-        parser.error("--crowd-speed applies to the crowd env only; add --env crowd")
+    axes = sweep_axes()
+    for key, owners in axes.items():
+        scenes = [s for s, _ in owners]
+        if getattr(args, key) and not set(scenes) & set(envs):
+            parser.error(f"{flag_of(key)} applies to the {' and '.join(scenes)} env only; "
+                         f"add {' or '.join(f'--env {s}' for s in scenes)}")
+    sweeps = {scene: {key: _unique(getattr(args, key) or profile.sweeps.get(scene, {}).get(key, ()))
+                      for key in cls.sweep_axes} for scene, cls in SCENARIOS.items() if cls.sweep_axes}
     if args.ray_address and args.backend != "ray":
         parser.error("--ray-address needs --backend ray")
     episodes = args.episodes or profile.episodes
@@ -261,8 +302,7 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings:
     return Settings(
         profile=profile_name, envs=envs, policies=policies, agents=tuple(p.resolve() for p in args.agent or ()),
         agents_dir=args.agents_dir, episodes=episodes, split=args.split, offset=args.seed,
-        door_speeds=_unique(args.door_speed or profile.door_speeds),
-        crowd_speeds=_unique(args.crowd_speed or profile.crowd_speeds), out=args.out,
+        sweeps=sweeps, out=args.out,
         workers=args.workers or cores, backend=args.backend, ray_address=args.ray_address,
         figures=not args.no_figures, video=args.video,
     )
@@ -271,18 +311,16 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings:
 def make_cells(settings: Settings) -> list[Cell]:
     """Cells in a fixed order: envs, settings, policies as given; an agent once per training run.
 
+    A scene's settings are the product of its sweep's values (``settings.sweeps[scene]``, keys in
+    its ``sweep_axes`` order; a key without values stays at the default; no sweep: one setting).
     An agent with no run for an env is skipped there, said in one line on stderr.
     """
     cells = []
     missing: dict[str, list[str]] = {}
     for scenario in settings.envs:
         env_id = footstep_gym.ENV_IDS[scenario]
-        if scenario == "door":
-            variants = [(("door_speed", v),) for v in settings.door_speeds]
-        elif scenario == "crowd" and settings.crowd_speeds:
-            variants = [(("crowd_speed", v),) for v in settings.crowd_speeds]
-        else:
-            variants = [()]
+        axes = [(key, values) for key, values in settings.sweeps.get(scenario, {}).items() if values]
+        variants = [tuple(zip([key for key, _ in axes], combo)) for combo in itertools.product(*(v for _, v in axes))]
         runs_of = {}
         for policy in settings.policies:
             if policy in registry.AGENTS:
@@ -299,10 +337,7 @@ def make_cells(settings: Settings) -> list[Cell]:
                 label = path.stem if path.suffix == ".zip" else path.name
                 cells.append(Cell(env_id, scenario, f"{registry.USER_AGENT_PREFIX}{label}", params, run=str(path)))
     if missing:
-        where = settings.agents_dir or registry.default_agents_dir()
-        print("note: no shipped agent (in " + str(where) + ") for " + "; ".join(
-            f"{policy} on {', '.join(envs)}" for policy, envs in missing.items()) + ": those rows are skipped",
-            file=sys.stderr)
+        print(registry.missing_agents_note(missing, settings.agents_dir), file=sys.stderr)
     return cells
 
 
@@ -312,7 +347,7 @@ def check_cells(cells: list[Cell]) -> str | None:
     files are checked (without loading it), here in this process, before anything runs."""
     import gymnasium as gym
 
-    from footstep_gym.evaluation.agents import check_run
+    from footstep_gym.rl.agents import check_run
 
     built: set[tuple] = set()
     checked: set[str] = set()
@@ -424,8 +459,10 @@ def write_outputs(settings: Settings, cells: list[Cell], results: list[EpisodeRe
         "command": "python " + " ".join(shlex.quote(a) for a in ["baselines/eval_planner.py", *argv]),
         "profile": settings.profile, "envs": list(settings.envs), "policies": sorted({c.policy for c in cells}),
         "agent_runs": sorted({c.run for c in cells if c.run}), "episodes": settings.episodes,
-        "split": settings.split, "seeds": settings.seeds, "door_speeds": list(settings.door_speeds),
-        "crowd_speeds": list(settings.crowd_speeds), "workers": settings.workers, "backend": settings.backend,
+        "split": settings.split, "seeds": settings.seeds,
+        # One list per sweep key: door_speeds, crowd_speeds ([]: the scenario's default).
+        **{f"{key}s": list(settings.sweeps.get(owners[0][0], {}).get(key, ())) for key, owners in sweep_axes().items()},
+        "workers": settings.workers, "backend": settings.backend,
         "wall_time_s": round(wall_s, 2), "timing_fields": list(TIMING_FIELDS),
         "warmup_acts": WARMUP_ACTS,  # untimed acts per worker process and cell before the timed ones
         "python": platform.python_version(), "machine": platform.machine(), "cpu_count": os.cpu_count(),

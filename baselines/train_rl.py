@@ -8,6 +8,8 @@ Usage::
     python baselines/train_rl.py --algo ppo sac --env door crowd --seeds 1 2 3 --backend ray   # a grid as Ray tasks
     python baselines/train_rl.py --algo sac --env door --seeds 1 --timesteps 20000 --eval-freq 5000
     python baselines/train_rl.py --ship runs/rl/seed1/ppo/FootstepDoor-v0_1 --wall-time 1500   # ship a finished run
+    python baselines/train_rl.py --ship runs/rl-fixed/seed1/ppo/FootstepDoor-v0_1 --wall-time 267 \\
+        --agent ppo-fixed-period                                         # ... as a registered agent of its own
     python baselines/train_rl.py --curves                                # learning curves of every shipped agent
     python baselines/train_rl.py --throughput                            # PPO env steps/s with 1 and 2 envs
 
@@ -20,9 +22,10 @@ at its end). The runs' learning curves are drawn to ``<log-folder>/learning_curv
 
 Nothing is shipped unless asked: with ``--ship``, each run's small files are copied to
 ``--agents-dir/<algo>/<EnvId>_<seed>/`` (default ``baselines/agents``, the agents the
-evaluation uses) in the zoo's layout with a ``manifest.json`` (wall time, env steps per
-second), and the learning curves of the shipped agents are redrawn to
-``--curves-dir/<algo>_<EnvId>.png`` (default ``baselines/results/learning_curves``) with the
+evaluation uses; with ``--ship RUN --agent NAME``, that registered agent's folder instead of
+``<algo>``) in the zoo's layout with a ``manifest.json`` (wall time, env steps per second),
+and the learning curves of the shipped agents are redrawn to
+``--curves-dir/<folder>_<EnvId>.png`` (default ``baselines/results/learning_curves``) with the
 planners' success on the same env as reference lines. A shipped agent is not replaced by a
 run with fewer timesteps (checked before training) or a lower final evaluation success
 (checked before anything is copied) unless ``--force`` is given: the run then stays in
@@ -39,7 +42,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import footstep_gym
-from footstep_gym import training
+from footstep_gym.rl import AGENTS, training
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT_AGENTS = REPO / "baselines" / "agents"
@@ -49,16 +52,11 @@ REFERENCE_PLANNERS = ("period-aware", "fixed-period")
 
 
 def env_id_of(name: str) -> str:
-    """``door``/``crossing``/``crowd``/``all`` or a registered id -> the env id."""
-    key = name.strip().lower()
-    if key in footstep_gym.ENV_IDS:
-        return footstep_gym.ENV_IDS[key]
-    if key in ("all", "mix"):
-        return footstep_gym.MIX_ENV_ID
-    for env_id in (*footstep_gym.ENV_IDS.values(), footstep_gym.MIX_ENV_ID):
-        if key == env_id.lower():
-            return env_id
-    raise argparse.ArgumentTypeError(f"unknown env {name!r}; choose door, crossing, crowd, all or an env id")
+    """A scene name (``door``), ``all`` (the mix) or an env id -> the env id (``footstep_gym.resolve_env_id``)."""
+    try:
+        return footstep_gym.resolve_env_id(name, mix=True)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def planner_reference(results: Path, env_id: str) -> dict[str, float]:
@@ -77,22 +75,27 @@ def planner_reference(results: Path, env_id: str) -> dict[str, float]:
 
 
 def draw_curves(agents_dir: Path, out_dir: Path, reference: Path, only: tuple[str, str] | None = None) -> list[Path]:
-    """One learning-curve PNG per (algo, env) of the shipped agents."""
+    """One learning-curve PNG per (agent folder, env) of the shipped agents: ``<folder>_<EnvId>.png``
+    (the folder is the algorithm's name unless the agent has its own, e.g. ``ppo-fixed-period``)."""
     groups: dict[tuple[str, str], list[Path]] = {}
+    algos: dict[str, str] = {}
     for manifest in sorted(agents_dir.glob("*/*/manifest.json")):
         m = json.loads(manifest.read_text(encoding="utf-8"))
-        groups.setdefault((m["algorithm"], m["env_id"]), []).append(manifest.parent)
+        folder = manifest.parent.parent.name
+        algos[folder] = m["algorithm"]
+        groups.setdefault((folder, m["env_id"]), []).append(manifest.parent)
     written = []
-    for (algo, env_id), runs in sorted(groups.items()):
-        if only is not None and (algo, env_id) != only:
+    for (folder, env_id), runs in sorted(groups.items()):
+        if only is not None and (folder, env_id) != only:
             continue
         runs = [r for r in runs if training.eval_curve(r)["success"]]
         if not runs:
-            print(f"no evaluation recorded for {algo} on {env_id} (training shorter than --eval-freq): no curve",
+            print(f"no evaluation recorded for {folder} on {env_id} (training shorter than --eval-freq): no curve",
                   file=sys.stderr)
             continue
-        title = f"{algo.upper()} on {env_id}: success of the periodic evaluation ({len(runs)} training seed(s))"
-        written.append(training.learning_curves(runs, out_dir / f"{algo}_{env_id}.png", title,
+        name = algos[folder].upper() + ("" if folder == algos[folder] else f" ({folder})")
+        title = f"{name} on {env_id}: success of the periodic evaluation ({len(runs)} training seed(s))"
+        written.append(training.learning_curves(runs, out_dir / f"{folder}_{env_id}.png", title,
                                                 planner_reference(reference, env_id)))
     return written
 
@@ -150,6 +153,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="an evaluation's results.json for the planners' reference lines")
     parser.add_argument("--wall-time", type=float, metavar="S",
                         help="with --ship RUN: the run's measured wall time [s]")
+    parser.add_argument("--agent", choices=sorted(AGENTS), metavar="NAME",
+                        help="with --ship RUN: the registered agent the run ships as, in its folder under "
+                             "--agents-dir (default: the run's algorithm's folder), e.g. ppo-fixed-period for a "
+                             "run of configs/rl/ppo-fixed-period.yml")
     parser.add_argument("--no-ship", action="store_true", help=argparse.SUPPRESS)  # the default now; kept for scripts
     parser.add_argument("--backend", choices=("local", "ray"), default="local",
                         help="local: the runs one after the other; ray: each run a Ray task (one CPU)")
@@ -169,6 +176,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.force and args.ship is None:
         parser.error("--force applies with --ship only")
+    if args.agent and not isinstance(args.ship, Path):
+        parser.error("--agent applies with --ship RUN only")
     if args.curves:
         for path in draw_curves(args.agents_dir, args.curves_dir, args.reference):
             print(path)
@@ -179,14 +188,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     if isinstance(args.ship, Path):
         if args.wall_time is None or args.wall_time <= 0:
             parser.error("--ship RUN needs --wall-time S (> 0): the run's measured wall time")
+        folder = AGENTS[args.agent].folder if args.agent else None
         try:
-            dest = training.ship(args.ship, args.agents_dir, args.wall_time, force=args.force)
+            dest = training.ship(args.ship, args.agents_dir, args.wall_time, force=args.force, agent=folder)
         except training.ShipRefused as exc:
             return refuse(str(exc))
         print(dest)
         manifest = json.loads((dest / "manifest.json").read_text(encoding="utf-8"))
+        if args.agent and manifest["algorithm"] != AGENTS[args.agent].algo:
+            print(f"train_rl.py: warning: {args.agent} is registered as {AGENTS[args.agent].algo}, the run is "
+                  f"{manifest['algorithm']}", file=sys.stderr)
         for path in draw_curves(args.agents_dir, args.curves_dir, args.reference,
-                                only=(manifest["algorithm"], manifest["env_id"])):
+                                only=(dest.parent.name, manifest["env_id"])):
             print(path)
         return 0
     ship = args.ship is True
@@ -203,7 +216,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for algo in args.algo:
         for env_id in args.env:
             try:
-                training._zoo_entry(algo, env_id)
+                training.zoo_entry(algo, env_id)
             except KeyError as exc:
                 parser.error(str(exc.args[0]))
     jobs = [Job(algo, env_id, seed) for algo in args.algo for env_id in args.env for seed in args.seeds]

@@ -42,7 +42,7 @@ def config_dir() -> Path:
 
 
 def read_yaml(relative: str) -> dict[str, Any]:
-    """Read ``configs/<relative>`` into a dict."""
+    """Read ``configs/<relative>`` into a dict (``relative`` may be an absolute path: that file)."""
     path = config_dir() / relative
     with open(path, encoding="utf-8") as fh:
         data = yaml.safe_load(fh) or {}
@@ -82,7 +82,8 @@ def plain(**kw: Any) -> Any:
     return dataclasses.field(metadata={"check": None, **kw})
 
 
-def _unknown_keys_message(where: str, unknown: list[str], known: list[str]) -> str:
+def unknown_keys_message(where: str, unknown: list[str], known: list[str]) -> str:
+    """One line naming the ``unknown`` keys of ``where`` (with the closest known one, if any) and the known keys."""
     parts = []
     for key in unknown:
         close = difflib.get_close_matches(key, known, n=1)
@@ -95,7 +96,7 @@ def _coerce(where: str, name: str, value: Any, typ: Any, check: str | None) -> A
     if check in ("interval", "pair"):
         if not isinstance(value, (list, tuple)) or len(value) != 2:
             raise ConfigError(f"{label} must be a pair [{'lo, hi' if check == 'interval' else 'x, y'}], got {value!r}")
-        lo, hi = (_number(label, v) for v in value)
+        lo, hi = (number(label, v) for v in value)
         if check == "interval" and lo > hi:
             raise ConfigError(f"{label} must have lo <= hi, got {value!r}")
         return (lo, hi)
@@ -117,7 +118,7 @@ def _coerce(where: str, name: str, value: Any, typ: Any, check: str | None) -> A
             raise ConfigError(f"{label} must be a string, got {value!r}")
         return value
     if typ in ("float",):
-        value = _number(label, value)
+        value = number(label, value)
         if check == "positive" and not value > 0:
             raise ConfigError(f"{label} must be > 0, got {value!r}")
         if check == "nonnegative" and not value >= 0:
@@ -132,7 +133,8 @@ def _coerce(where: str, name: str, value: Any, typ: Any, check: str | None) -> A
     return value
 
 
-def _number(label: str, value: Any) -> float:
+def number(label: str, value: Any) -> float:
+    """``value`` as a finite float, else :class:`ConfigError` naming ``label`` (booleans are not numbers)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(f"{label} must be a number, got {value!r}")
     value = float(value)
@@ -146,7 +148,7 @@ def build(cls: type[T], data: Mapping[str, Any], where: str) -> T:
     fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     unknown = [k for k in data if k not in fields]
     if unknown:
-        raise ConfigError(_unknown_keys_message(where, unknown, list(fields)))
+        raise ConfigError(unknown_keys_message(where, unknown, list(fields)))
     missing = [k for k in fields if k not in data]
     if missing:
         raise ConfigError(f"{where}: missing key(s) {', '.join(missing)}")
@@ -219,7 +221,7 @@ def read_profile(cls: type, name: Any) -> dict[str, Any]:
     fields = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     unknown = [k for k in data if k not in fields]
     if unknown:
-        raise ConfigError(_unknown_keys_message(relative, unknown, list(fields)))
+        raise ConfigError(unknown_keys_message(relative, unknown, list(fields)))
     return data
 
 
@@ -229,8 +231,13 @@ def load(cls: type[T], relative: str, overrides: Mapping[str, Any] | str | None 
     For a class with profiles (``cls.PROFILE_FOLDER``, e.g. :class:`~footstep_gym.robot.Robot`):
     ``overrides`` may be a profile's name, or hold one under ``"profile"``; the profile's keys
     apply on top of the base file and the other overrides on top of the profile.
+
+    The file's top-level sections named in ``cls.SIDE_SECTIONS`` (e.g. a scenario's ``fuzz:``)
+    are no fields: set aside here (read with :func:`read_yaml`), never an override.
     """
     data = read_yaml(relative)
+    for section in getattr(cls, "SIDE_SECTIONS", ()):
+        data.pop(section, None)
     if isinstance(overrides, str):
         overrides = {PROFILE_KEY: overrides}
     if overrides and PROFILE_KEY in overrides:
@@ -240,7 +247,7 @@ def load(cls: type[T], relative: str, overrides: Mapping[str, Any] | str | None 
         fields = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
         unknown = [k for k in overrides if k not in fields]
         if unknown:
-            raise ConfigError(_unknown_keys_message(relative, unknown, list(fields)))
+            raise ConfigError(unknown_keys_message(relative, unknown, list(fields)))
         data.update(overrides)
     return build(cls, data, relative)
 

@@ -130,7 +130,12 @@ def kinematically_feasible(commands: np.ndarray, support_side: Any, robot: Robot
 
 
 def robot_centre(foot_a: Any, foot_b: Any) -> tuple[float, float]:
-    """Midpoint ``(x, y)`` of two foot poses [m]: the robot centre the planner's nodes stand for."""
+    """Midpoint ``(x, y)`` of two foot poses [m]: the robot centre the planner's nodes stand for.
+
+    The definition written out (docs/model.md §2, "Nodes and feet"), the test oracle of :func:`foot_from_node`
+    (``tests/test_footstep.py``); the env and the snapshot compute the same midpoint inline
+    (:attr:`footstep_gym.sensing.Snapshot.centre`).
+    """
     return (0.5 * (foot_a[0] + foot_b[0]), 0.5 * (foot_a[1] + foot_b[1]))
 
 

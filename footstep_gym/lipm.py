@@ -176,8 +176,8 @@ def _kinematically_feasible_scalar(robot: Robot, S: float, L: float, theta: floa
                                    support_side: int) -> bool:
     """Plain-Python twin of :func:`footstep.kinematically_feasible` for one command (same arithmetic).
 
-    On the env's per-step path numpy's per-call overhead made that check cost ~17 us,
-    most of an env step's LIPM time; this is ~1 us. ``tests/test_lipm.py`` checks that
+    On the env's per-step path, one command at a time, numpy's per-call overhead dominated that
+    check; plain Python floats avoid it. ``tests/test_lipm.py`` checks that
     :func:`check_step` and :func:`check_steps` agree (this function vs the numpy one).
     """
     eps = 1e-9
@@ -231,7 +231,7 @@ def check_step(robot: Robot, com: complex, vel: complex, command: tuple[float, .
 def step_feasible(robot: Robot, com: Any, vel: Any, command: Any, support_side: int) -> bool:
     """Whether one command ``[S, L, theta, T_SS, T_DS]`` is feasible from ``com`` [m] / ``vel`` [m/s] ``(2,)``
     (relative to the support foot, in its frame): :func:`check_step`, the env's own verdict, for a caller
-    that holds the state as pairs (one command costs a few microseconds, not numpy's per-call overhead)."""
+    that holds the state as pairs (plain Python on one command: no numpy per-call overhead)."""
     kin_ok, zmp_ok, *_ = check_step(robot, complex(float(com[0]), float(com[1])), complex(float(vel[0]), float(vel[1])),
                                     tuple(float(x) for x in command), int(support_side))
     return bool(kin_ok and zmp_ok)

@@ -1,7 +1,8 @@
-"""``FootstepMix-v0``: one env whose every episode is one of the three scenes, drawn at reset.
+"""``FootstepMix-v0``: one env whose every episode is one of the scenes, drawn at reset.
 
-The door, crossing and crowd envs share their action and observation layout, so one agent
-can be trained across them (the ``ppo-all`` baseline). Each scene keeps its own settings:
+The scenes (every scenario of ``footstep_gym.scenarios.SCENARIOS``: door, crossing, crowd)
+share their action and observation layout, so one agent can be trained across them (the
+``ppo-all`` baseline). Each scene keeps its own settings, given under its name:
 ``gymnasium.make("FootstepMix-v0", door={"randomize": {"door_speed": [5, 20]}}, crowd={...})``.
 """
 
@@ -15,12 +16,11 @@ from gymnasium.envs.registration import EnvSpec
 
 from footstep_gym.env import FootstepEnv, with_step_limit
 from footstep_gym.errors import ConfigError
-
-SCENES = ("door", "crossing", "crowd")
+from footstep_gym.scenarios import SCENARIOS
 
 
 class FootstepMixEnv(gym.Env):
-    r"""The three footstep scenes in one env: each episode draws its scene, then runs it unchanged.
+    r"""The footstep scenes in one env: each episode draws its scene, then runs it unchanged.
 
     ## Description
     At every ``reset`` the scene is drawn from ``scenes`` with probabilities ``weights``
@@ -29,7 +29,7 @@ class FootstepMixEnv(gym.Env):
     the scene and the episode; resets without a seed continue the stream.
 
     ## Action and Observation Spaces
-    Those of :class:`~footstep_gym.env.FootstepEnv` (identical for the three scenes; where the
+    Those of :class:`~footstep_gym.env.FootstepEnv` (identical for all scenes; where the
     scenes' ``sensing_range`` or ``observation_position_scale`` differ, the observation box is
     the smallest holding each scene's).
 
@@ -37,7 +37,7 @@ class FootstepMixEnv(gym.Env):
     Each scene's, at its own ``max_steps``; ``env.spec.max_episode_steps`` is the largest of them.
 
     ## Info
-    The scene env's info plus ``scene`` (``"door"``, ``"crossing"`` or ``"crowd"``).
+    The scene env's info plus ``scene`` (its name: ``"door"``, ``"crossing"``, ``"crowd"``).
 
     ## Errors
     Those of the scene env, named ``"FootstepMix-v0 (scene 'door')"``: a bad action raises
@@ -45,11 +45,12 @@ class FootstepMixEnv(gym.Env):
     ``gymnasium.error.ResetNeeded``.
 
     ## Arguments
-    * ``scenes``: the scenes to draw from (default all three);
+    * ``scenes``: the scenes to draw from (default every scenario of ``SCENARIOS``, in its order);
     * ``weights``: their probabilities (default uniform);
-    * ``door``, ``crossing``, ``crowd``: keyword overrides of that scene's env (any key
-      ``gymnasium.make("FootstepDoor-v0", ...)`` takes, ``randomize`` included);
-    * ``render_mode``: as :class:`~footstep_gym.env.FootstepEnv`.
+    * ``render_mode``: as :class:`~footstep_gym.env.FootstepEnv`;
+    * ``<scene>=...`` (``door``, ``crossing``, ``crowd``, ...): a mapping of keyword overrides of that
+      scene's env (any key ``gymnasium.make("FootstepDoor-v0", ...)`` takes, ``randomize`` included).
+      A name that is no scenario raises ``ConfigError`` naming the known ones.
 
     ## Version History
     * v0: initial release.
@@ -58,13 +59,13 @@ class FootstepMixEnv(gym.Env):
     metadata = FootstepEnv.metadata
     _spec: EnvSpec | None = None
 
-    def __init__(self, scenes: tuple[str, ...] | list[str] = SCENES, weights: list[float] | None = None,
-                 render_mode: str | None = None, door: Mapping[str, Any] | None = None,
-                 crossing: Mapping[str, Any] | None = None, crowd: Mapping[str, Any] | None = None) -> None:
-        scenes = tuple(scenes)
-        unknown = [s for s in scenes if s not in SCENES]
+    def __init__(self, scenes: tuple[str, ...] | list[str] | None = None, weights: list[float] | None = None,
+                 render_mode: str | None = None, **scene_kwargs: Mapping[str, Any] | None) -> None:
+        known = tuple(SCENARIOS)
+        scenes = known if scenes is None else tuple(scenes)
+        unknown = [s for s in scenes if s not in known]
         if not scenes or unknown:
-            raise ConfigError(f"scenes must be a non-empty subset of {SCENES}, got {scenes!r}")
+            raise ConfigError(f"scenes must be a non-empty subset of {known}, got {scenes!r}")
         if len(set(scenes)) != len(scenes):
             raise ConfigError(f"scenes must not repeat, got {scenes!r}")
         if weights is None:
@@ -74,10 +75,15 @@ class FootstepMixEnv(gym.Env):
             if probs.shape != (len(scenes),) or not np.all(np.isfinite(probs)) or np.any(probs < 0) or probs.sum() <= 0:
                 raise ConfigError(f"weights must be {len(scenes)} finite numbers >= 0, not all 0; got {weights!r}")
             probs = probs / probs.sum()
-        overrides = {"door": door, "crossing": crossing, "crowd": crowd}
-        for name, value in overrides.items():
+        unknown = [name for name in scene_kwargs if name not in known]
+        if unknown:
+            raise ConfigError(f"FootstepMixEnv: unknown keyword(s) {', '.join(map(repr, unknown))}; besides scenes, "
+                              f"weights and render_mode it takes a scene's overrides under its name: "
+                              f"{', '.join(known)}")
+        for name, value in scene_kwargs.items():
             if value is not None and not isinstance(value, Mapping):
                 raise ConfigError(f"{name} must be a mapping of that scene's env keywords, got {value!r}")
+        overrides = {name: scene_kwargs.get(name) for name in known}
         self.scenes = scenes
         self.weights = probs
         self.render_mode = render_mode

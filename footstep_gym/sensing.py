@@ -11,7 +11,6 @@ wrong, as it would be on a robot).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
@@ -85,12 +84,6 @@ def _shapes(circles: _Bodies, segments: _Bodies, dt: float) -> Shapes:
         segment_b=segments.world(segments.b, dt),
         segment_radii=segments.radius,
     )
-
-
-def shapes_of(views: Sequence[ObstacleView]) -> Shapes:
-    """The shapes of ``views`` as they stand now, world frame."""
-    return _shapes(_Bodies.of([v for v in views if v.kind == "circle"]),
-                   _Bodies.of([v for v in views if v.kind == "segment"]), 0.0)
 
 
 @dataclass(frozen=True)

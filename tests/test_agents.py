@@ -16,16 +16,20 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from footstep_gym.evaluation import policies as registry
-from footstep_gym.evaluation.agents import ZooAgent
+import footstep_gym
+from footstep_gym import make_policy
 from footstep_gym.evaluation.runner import Cell, Task, run_episode
+from footstep_gym.policy import Policy
+from footstep_gym.rl import AGENTS, ZooAgent, agent_runs
 from footstep_gym.robot import load_robot
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED = REPO / "baselines" / "agents"
 #: The agents the project ships: (policy name, env id) -> at least this many training runs.
 EXPECTED = {("ppo", "FootstepDoor-v0"): 3, ("ppo", "FootstepCrossing-v0"): 3, ("ppo", "FootstepCrowd-v0"): 3,
-            ("ppo-all", "FootstepDoor-v0"): 1, ("sac", "FootstepDoor-v0"): 1}
+            ("ppo-all", "FootstepDoor-v0"): 1, ("sac", "FootstepDoor-v0"): 1,
+            ("ppo-fixed-period", "FootstepDoor-v0"): 3, ("ppo-fixed-period", "FootstepCrossing-v0"): 3,
+            ("ppo-fixed-period", "FootstepCrowd-v0"): 3}
 
 
 @pytest.fixture(scope="module")
@@ -109,27 +113,145 @@ def test_evaluation_of_an_agent_uses_the_planners_seeds(trained, tmp_path):
 
 def test_unknown_agent_policies_are_refused():
     with pytest.raises(ValueError, match="pass run="):
-        registry.make_policy("ppo", load_robot(), seed=0)
+        make_policy("ppo", load_robot(), seed=0)
     with pytest.raises(FileNotFoundError, match="not a zoo run folder"):
         ZooAgent(REPO / "no_such_agent", load_robot())
     with pytest.raises(ValueError, match="unknown policy 'teleport'"):
-        registry.make_policy("teleport")
+        make_policy("teleport")
 
 
-def test_every_shipped_agent_is_registered_and_plays_one_episode():
-    found = {}
-    for (name, env_id), n in EXPECTED.items():
-        runs = registry.agent_runs(name, env_id, SHIPPED)
-        assert len(runs) >= n, f"{name} on {env_id}: {len(runs)} shipped runs, expected >= {n}"
-        found[(name, env_id)] = runs
-    for (name, env_id), runs in found.items():
-        for run in runs:
-            m = json.loads((run / "manifest.json").read_text())
-            assert m["algorithm"] == registry.AGENTS[name].algo
-            assert m["env_id"] == (registry.AGENTS[name].trained_on or env_id)
-            scenario = next(k for k, v in __import__("footstep_gym").ENV_IDS.items() if v == env_id)
-            result = run_episode(Task(0, Cell(env_id, scenario, name, run=str(run)), 12345))
-            assert result.steps >= 1 and result.outcome in ("goal", "collision", "fall", "timeout")
+def shipped_runs() -> list[tuple[str, Path]]:
+    """Every shipped run (a manifest under baselines/agents) with the registered agent it belongs to."""
+    out = []
+    for manifest in sorted(SHIPPED.glob("*/*/manifest.json")):
+        m = json.loads(manifest.read_text())
+        run = manifest.parent
+        names = [name for name, e in AGENTS.items() if e.folder == run.parent.name and e.algo == m["algorithm"]
+                 and (e.trained_on is None or e.trained_on == m["env_id"])
+                 and (e.trained_on is not None or m["env_id"] in footstep_gym.ENV_IDS.values())]
+        assert len(names) == 1, f"{run}: registered as {names or 'no agent'}"
+        out.append((names[0], run))
+    return out
+
+
+def scenes_of(env_id: str) -> list[str]:
+    """The scene env ids an agent trained on ``env_id`` plays: the mix's three, or the env itself."""
+    return sorted(footstep_gym.ENV_IDS.values()) if env_id == footstep_gym.MIX_ENV_ID else [env_id]
+
+
+def test_every_shipped_agent_is_registered_with_its_manifest():
+    found = {(name, env_id): len(agent_runs(name, env_id, SHIPPED)) for name, env_id in EXPECTED}
+    assert all(found[k] >= n for k, n in EXPECTED.items()), found
+    for name, run in shipped_runs():
+        m = json.loads((run / "manifest.json").read_text())
+        entry = AGENTS[name]
+        assert m["algorithm"] == entry.algo and run.parent.name == entry.folder
+        assert run in agent_runs(name, scenes_of(m["env_id"])[0], SHIPPED)
+        assert m["wall_time_s"] > 0 and m["timesteps"] > 0 and m["final_eval_success"] is not None
+        # The env options it trained with: the fixed-period agent's action was [S, L, theta].
+        assert m["env_kwargs"].get("fixed_period", False) is (name == "ppo-fixed-period"), run
+
+
+@pytest.mark.parametrize("name, run", shipped_runs(), ids=lambda v: v if isinstance(v, str) else
+                         f"{v.parent.name}/{v.name}")
+def test_every_shipped_agent_loads_and_plays_each_scene_it_was_trained_for(name, run):
+    m = json.loads((run / "manifest.json").read_text())
+    robot = load_robot()
+    agent = make_policy(name, robot, seed=0, run=run)
+    assert isinstance(agent, Policy) and isinstance(agent, ZooAgent) and agent.name == name
+    assert agent.fixed_period is (name == "ppo-fixed-period")
+    nominal = tuple(robot.nominal_command[3:].tolist())
+    for env_id in scenes_of(m["env_id"]):
+        scenario = next(k for k, v in footstep_gym.ENV_IDS.items() if v == env_id)
+        result = run_episode(Task(0, Cell(env_id, scenario, name, run=str(run)), 12345))
+        assert result.steps >= 1 and result.outcome in ("goal", "collision", "fall", "timeout")
+        if agent.fixed_period:  # the ordinary five-field env, the period always nominal
+            env = gym.make(env_id)
+            obs, _ = env.reset(seed=12345)
+            while True:
+                obs, _, terminated, truncated, info = env.step(agent.act(obs, None))
+                assert info["command"][3:] == nominal
+                if terminated or truncated:
+                    break
+            assert info["steps"] == result.steps
+
+
+@pytest.mark.parametrize("name, run", shipped_runs(), ids=lambda v: v if isinstance(v, str) else
+                         f"{v.parent.name}/{v.name}")
+def test_every_shipped_model_loads_with_the_env_it_trains_on(name, run):
+    """Resuming training: ``<Algo>.load(zip, env=...)`` checks the spaces against the env's (finite observation
+    bounds since the env got them; the models were re-saved with them), directly and through the zoo's
+    ``VecNormalize`` (which keeps its own copy of the space)."""
+    import stable_baselines3
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from footstep_gym.rl.agents import ALGORITHMS, training_env
+
+    m = json.loads((run / "manifest.json").read_text())
+    cls = getattr(stable_baselines3, ALGORITHMS[m["algorithm"]])
+    zip_path = run / f"{m['env_id']}.zip"
+    env = training_env(run)
+    if m["env_id"] != footstep_gym.MIX_ENV_ID:
+        assert env.unwrapped.spec.id == m["env_id"]
+    assert env.action_space.shape == ((3,) if m["env_kwargs"].get("fixed_period") else (5,))
+    model = cls.load(zip_path, env=env, device="cpu")
+    assert model.observation_space == gym.make(m["env_id"]).observation_space
+    venv = VecNormalize.load(str(run / m["env_id"] / "vecnormalize.pkl"), DummyVecEnv([lambda: training_env(run)]))
+    cls.load(zip_path, env=venv, device="cpu")
+
+
+def test_the_fixed_period_agent_in_the_full_env_replays_the_fixed_period_env_exactly():
+    """The design choice: a fixed-period agent is evaluated in the ordinary env like every other policy; its
+    command there (float64, nominal period appended, rounded limits pinned) is the command the fixed-period env
+    applies to the agent's float32 action, bit for bit: same commands, observations, rewards and ends."""
+    robot = load_robot()
+    for env_id in footstep_gym.ENV_IDS.values():
+        run = agent_runs("ppo-fixed-period", env_id, SHIPPED)[0]
+        agent = ZooAgent(run, robot)
+        full, fixed = gym.make(env_id), gym.make(env_id, fixed_period=True)
+        for seed in (0, 1):
+            o1, _ = full.reset(seed=seed)
+            o2, _ = fixed.reset(seed=seed)
+            while True:
+                command = agent.act(o1)
+                assert command.dtype == np.float64 and command.shape == (5,)
+                x = np.asarray(o2, dtype=np.float32).reshape(1, -1)
+                action, _ = agent.model.predict(agent.normalizer.normalize_obs(x), deterministic=True)
+                r1 = full.step(command)
+                r2 = fixed.step(agent._to_command(np.asarray(action, dtype=np.float32).reshape(-1)))
+                assert r1[4]["command"] == r2[4]["command"] and r1[4]["clipped"] == r2[4]["clipped"]
+                assert r1[4]["command"][3:] == (robot.nominal_t_ss, robot.nominal_t_ds)
+                np.testing.assert_array_equal(r1[0], r2[0])
+                assert r1[1:4] == r2[1:4]
+                o1, o2 = r1[0], r2[0]
+                if r1[2] or r1[3]:
+                    break
+
+
+def test_the_fixed_period_agent_pins_float32_limits_as_the_env_does():
+    """At the corners of its [-1, 1] box the agent's S, L, theta are the robot's limits (float64; exactly where the
+    rescaled float32 value is the float32-rounded limit, else the float32 value RescaleAction's rounding gave), as
+    the fixed-period env reads the float32 values SB3 sends; T_SS, T_DS are the nominal ones."""
+    robot = load_robot()
+    agent = ZooAgent(agent_runs("ppo-fixed-period", "FootstepDoor-v0", SHIPPED)[0], robot)
+    fixed = gym.make("FootstepDoor-v0", fixed_period=True)
+    pinned = 0
+    for corner in (-1.0, 1.0):
+        agent.model.predict = lambda x, deterministic=True, c=corner: (np.full((1, 3), c, np.float32), None)
+        command = agent.act(np.zeros(42, np.float32))
+        limit = robot.command_high if corner > 0 else robot.command_low
+        rescaled = agent._to_command(np.full(3, corner, np.float32))
+        for i in range(3):
+            if rescaled[i] == np.float32(limit[i]):
+                assert command[i] == limit[i]  # exactly the robot's limit, not its float32 rounding
+                pinned += 1
+            else:
+                assert command[i] == float(rescaled[i]) and abs(command[i] - limit[i]) < 2e-7
+        assert command[3:].tolist() == [robot.nominal_t_ss, robot.nominal_t_ds]
+        fixed.reset(seed=0)
+        _, _, _, _, info = fixed.step(rescaled)
+        assert list(info["command"]) == command.tolist()
+    assert pinned >= 3  # most corners land on the rounded limit
 
 
 def test_a_training_grid_runs_as_ray_tasks_and_ships_every_run(tmp_path):
@@ -147,7 +269,7 @@ def test_a_training_grid_runs_as_ray_tasks_and_ships_every_run(tmp_path):
 
 
 def test_ppo_throughput_is_measured_inside_learn():
-    from footstep_gym.training import ppo_throughput
+    from footstep_gym.rl.training import ppo_throughput
 
     rate = ppo_throughput("FootstepCrossing-v0", 1, timesteps=512)
     assert 10 < rate < 100_000
@@ -180,7 +302,7 @@ def snapshot(folder: Path) -> dict[str, bytes]:
 
 
 def test_ship_does_not_replace_a_longer_or_better_agent_without_force(tmp_path):
-    from footstep_gym import training
+    from footstep_gym.rl import training
 
     agents = tmp_path / "agents"
     dest = training.ship(fake_run(tmp_path / "long", 600_000, 1.0), agents, 100.0)
@@ -204,8 +326,53 @@ def test_ship_does_not_replace_a_longer_or_better_agent_without_force(tmp_path):
         training.ship(fake_run(tmp_path / "other", 8192, 1.0, seed=2), agents, 10.0)
 
 
+def test_an_agent_ships_into_its_registered_folder_with_its_env_options(tmp_path, capsys):
+    """ppo-fixed-period is a PPO (the zoo's algorithm) with a folder of its own; the manifest keeps fixed_period."""
+    from footstep_gym.rl import training
+
+    agents = tmp_path / "agents"
+    run = fake_run(tmp_path / "runs", 8192, 1.0, seed=2)
+    (run / "FootstepDoor-v0" / "config.yml").write_text(
+        "n_envs: 4\nn_timesteps: 8192\nenv_kwargs:\n  fixed_period: true\n  randomize: {door_speed: [5.0, 20.0]}\n")
+    main = _train_rl().main
+    assert main(["--ship", str(run), "--wall-time", "12", "--agent", "ppo-fixed-period", "--agents-dir", str(agents),
+                 "--curves-dir", str(tmp_path / "curves"), "--reference", str(tmp_path / "none.json")]) == 0
+    dest = agents / "ppo-fixed-period" / "FootstepDoor-v0_2"
+    m = json.loads((dest / "manifest.json").read_text())
+    assert (m["agent"], m["algorithm"], m["seed"], m["wall_time_s"]) == ("ppo-fixed-period", "ppo", 2, 12.0)
+    assert m["env_kwargs"] == {"fixed_period": True, "randomize": {"door_speed": [5.0, 20.0]}}
+    assert agent_runs("ppo-fixed-period", "FootstepDoor-v0", agents) == [dest]
+    assert agent_runs("ppo", "FootstepDoor-v0", agents) == []  # not mixed with the PPO of the full action
+    assert (tmp_path / "curves" / "ppo-fixed-period_FootstepDoor-v0.png").is_file()
+    with pytest.raises(SystemExit):
+        main(["--agent", "ppo-fixed-period", "--algo", "ppo", "--env", "door"])  # --agent is for --ship RUN
+    assert "--agent applies with --ship RUN only" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="one plain folder name"):
+        training.ship(run, agents, 1.0, agent="../elsewhere")
+
+
+def test_the_agents_folder_is_an_argument_a_variable_or_the_working_directory(tmp_path, monkeypatch):
+    """Not found through the package's own location: a non-editable install has no agents unless pointed at some."""
+    from footstep_gym.rl.agents import AGENTS_DIR_ENV_VAR, default_agents_dir, missing_agents_note
+
+    monkeypatch.delenv(AGENTS_DIR_ENV_VAR, raising=False)
+    monkeypatch.chdir(REPO)
+    assert default_agents_dir() == SHIPPED and len(agent_runs("ppo", "FootstepDoor-v0")) == 3
+    monkeypatch.chdir(tmp_path)
+    assert default_agents_dir() == tmp_path / "baselines" / "agents"
+    assert agent_runs("ppo", "FootstepDoor-v0") == []
+    note = missing_agents_note({"ppo": ["FootstepDoor-v0"]})
+    assert len(note.splitlines()) == 1 and AGENTS_DIR_ENV_VAR in note and "ppo on FootstepDoor-v0" in note
+    assert len(agent_runs("ppo", "FootstepDoor-v0", SHIPPED)) == 3  # the argument
+    monkeypatch.setenv(AGENTS_DIR_ENV_VAR, str(SHIPPED))  # the variable
+    assert default_agents_dir() == SHIPPED and len(agent_runs("ppo", "FootstepDoor-v0")) == 3
+    assert agent_runs("ppo", "FootstepDoor-v0", tmp_path) == []  # the argument wins
+    with pytest.raises(ValueError, match="unknown agent 'teleport'; registered: ppo, "):
+        agent_runs("teleport", "FootstepDoor-v0")
+
+
 def test_ship_cli_refuses_with_one_line_and_exit_status_2(tmp_path):
-    from footstep_gym import training
+    from footstep_gym.rl import training
 
     agents = tmp_path / "agents"
     training.ship(fake_run(tmp_path / "long", 600_000, 1.0), agents, 100.0)
@@ -235,7 +402,7 @@ def _train_rl():
 @pytest.fixture
 def fake_training(tmp_path, monkeypatch):
     """train_rl.py's main with rl_zoo3 replaced by a fake run of the asked length (success 0.5)."""
-    from footstep_gym import training
+    from footstep_gym.rl import training
 
     calls = []
 
@@ -261,7 +428,7 @@ def test_training_writes_under_runs_and_ships_nothing_by_default(tmp_path, fake_
 
 
 def test_training_with_ship_refuses_a_shorter_run_before_training(tmp_path, fake_training, capsys):
-    from footstep_gym import training
+    from footstep_gym.rl import training
 
     main, common, calls = fake_training
     training.ship(fake_run(tmp_path / "long", 600_000, 1.0), tmp_path / "agents", 100.0)
@@ -286,7 +453,7 @@ def test_training_with_ship_refuses_a_shorter_run_before_training(tmp_path, fake
 
 def test_a_run_shorter_than_eval_freq_is_evaluated_at_its_end():
     """The zoo evaluates every eval_freq // n_envs callback calls; a shorter run used to evaluate never."""
-    from footstep_gym.training import run_eval_freq
+    from footstep_gym.rl.training import run_eval_freq
 
     # PPO on the door: 4 envs x 512 steps a rollout; whole rollouts.
     assert run_eval_freq("ppo", "FootstepDoor-v0", 25_000, 600) == 2048

@@ -50,6 +50,7 @@ def test_yaml_values_reach_the_env(env_id, name):
     for obj, data in ((env.robot, read_yaml("robot.yaml")), (env.config, read_yaml("env.yaml")),
                       (env.scenario_config, read_yaml(f"scenarios/{name}.yaml"))):
         fields = {f.name for f in dataclasses.fields(obj)}
+        data = {k: v for k, v in data.items() if k not in getattr(obj, "SIDE_SECTIONS", ())}  # fuzz: no field
         assert fields == set(data), (type(obj).__name__, fields ^ set(data))  # no key unused, none missing
         for key, value in data.items():
             assert as_plain(getattr(obj, key)) == value, key
@@ -371,7 +372,7 @@ def test_overrides_apply_on_top_of_a_profile():
 
 
 def test_make_policy_takes_a_robot_profile():
-    from footstep_gym.planners import make_policy
+    from footstep_gym import make_policy
 
     for robot in ("darwin-op", {"profile": "darwin-op"}, load_robot("darwin-op")):
         assert make_policy("paper-period-aware", robot, seed=0).robot == load_robot("darwin-op")
@@ -405,3 +406,53 @@ def test_a_profile_is_validated_like_the_base_file(tmp_path, monkeypatch):
 def test_only_a_class_with_profiles_takes_one():
     with pytest.raises(ConfigError, match="DoorConfig has no profiles"):
         config.load(DoorConfig, "scenarios/door.yaml", {"profile": "darwin-op"})
+
+
+# ------------------------------------------------------------------ the robot (robot.py) against its YAML file
+def test_robot_matches_yaml(robot):
+    with open(config_dir() / "robot.yaml", encoding="utf-8") as fh:
+        raw = yaml.safe_load(fh)
+    assert robot.omega == pytest.approx(math.sqrt(raw["gravity"] / raw["com_height"]))
+    s = 0.5 * raw["zmp_region_scale"]
+    assert robot.zmp_half_extent == pytest.approx((s * raw["foot_length"], s * raw["foot_width"]))
+    t_lim = max(raw["turn_inner"], raw["turn_outer"])
+    np.testing.assert_allclose(robot.command_low, [raw["stride_front"][0], raw["stride_side"][0], -t_lim,
+                                                   raw["t_ss"][0], raw["t_ds"][0]])
+    np.testing.assert_allclose(robot.command_high, [raw["stride_front"][1], raw["stride_side"][1], t_lim,
+                                                    raw["t_ss"][1], raw["t_ds"][1]])
+    np.testing.assert_allclose(robot.nominal_command, [0.0, raw["nominal_side_stride"], 0.0,
+                                                       raw["nominal_t_ss"], raw["nominal_t_ds"]])
+    assert robot.nominal_period == pytest.approx(raw["nominal_t_ss"] + raw["nominal_t_ds"])
+    assert load_robot({"com_height": 0.25}).omega == pytest.approx(math.sqrt(raw["gravity"] / 0.25))
+
+
+def test_config_unknown_key_names_it_and_suggests():
+    with pytest.raises(ConfigError) as exc:
+        load_robot({"com_hieght": 0.2})
+    msg = str(exc.value)
+    assert "com_hieght" in msg and "com_height" in msg
+    assert isinstance(exc.value, ValueError)
+
+
+@pytest.mark.parametrize("key, value", [
+    ("body_radius", -0.1), ("body_radius", 0.0), ("com_height", -0.23), ("turn_inner", -0.1),
+    ("zmp_region_scale", 1.5), ("zmp_region_scale", 0.0), ("foot_length", "long"), ("foot_width", True),
+    ("t_ss", [0.6, 0.1]), ("t_ss", [0.1]), ("stride_side", [0.0, 0.1]), ("nominal_t_ss", 0.9),
+    ("nominal_side_stride", 0.05), ("com_height", 1e-6),  # the LIPM's e^(2 omega T) would overflow
+])
+def test_config_bad_values_name_the_key(key, value):
+    with pytest.raises(ConfigError) as exc:
+        load_robot({key: value})
+    assert key in str(exc.value)
+
+
+@pytest.mark.parametrize("key, value", [
+    ("com_height", float("nan")), ("body_radius", float("nan")), ("turn_inner", float("nan")),
+    ("zmp_region_scale", float("nan")), ("generator_weight_position", float("nan")),
+    ("stride_front", [float("nan"), 0.1]), ("t_ds", [0.1, float("nan")]),
+    ("com_height", float("inf")), ("body_radius", float("-inf")),
+])
+def test_config_rejects_non_finite(key, value):
+    with pytest.raises(ConfigError) as exc:
+        load_robot({key: value})
+    assert key in str(exc.value)

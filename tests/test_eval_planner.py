@@ -344,6 +344,10 @@ def test_crowd_speed_cells_and_a_clean_output_folder(tmp_path):
     assert [r["params"] for r in records] == [{"crowd_speed": 0.2}, {"crowd_speed": 0.12}]
     assert not (out / "figures" / "stale.png").exists()  # an earlier run's figures are not left behind
     assert (out / "figures" / "crowd_0.2.png").is_file()
+    assert sorted(p.name for p in (out / "tables").iterdir())[0] == "crowd_0.12_fixed-period_seed20000.md"
+    run = json.loads((out / "run.json").read_text())  # a list per sweep axis, named as ever
+    assert run["crowd_speeds"] == [0.2, 0.12] and run["door_speeds"] == [17.0]  # the quick profile's door
+    assert list(run)[list(run).index("seeds") + 1:][:2] == ["door_speeds", "crowd_speeds"]
     for r in records:
         assert r["min_zmp_margin_median"] is not None
     (tmp_path / "mine").mkdir()
@@ -428,7 +432,7 @@ def test_an_agent_folder_without_a_model_is_refused_up_front(tmp_path):
 
 def test_a_run_that_fails_midway_leaves_out_as_it_was(tmp_path, monkeypatch, capsys):
     """The second episode's policy fails: the earlier run's files are all still there, nothing half-written."""
-    from footstep_gym.evaluation import policies
+    from footstep_gym import policies
 
     script = _load_script()
     real = policies.make_policy

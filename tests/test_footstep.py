@@ -1,7 +1,8 @@
-"""The footstep convention (footstep_gym/footstep.py) and the robot config (robot.py, config.py).
+"""The footstep convention (footstep_gym/footstep.py).
 
-References are independent of the code: hand-worked poses, an exact convex-polygon
-clipping for the foot overlap, and the YAML file read directly.
+References are independent of the code: hand-worked poses and an exact convex-polygon
+clipping for the foot overlap. (The robot config, robot.py read against the YAML file, is
+tested in test_config.py; the ``robot`` fixture is conftest.py's.)
 """
 
 from __future__ import annotations
@@ -10,21 +11,13 @@ import math
 
 import numpy as np
 import pytest
-import yaml
 
 from footstep_gym import footstep
-from footstep_gym.config import config_dir
-from footstep_gym.errors import ConfigError
 from footstep_gym.footstep import (
     LEFT, RIGHT, command_between, feet_overlap, foot_from_node, kinematically_feasible,
     place_foot, robot_centre, turn_bounds, wrap_angle,
 )
 from footstep_gym.robot import load_robot
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot()
 
 
 def angle_diff(a, b):
@@ -316,56 +309,7 @@ def test_foot_from_node_sides():
     np.testing.assert_allclose(foot_from_node((0.0, 0.0), 0.0, LEFT, 0.04), (0.0, 0.04, 0.0), atol=1e-15)
 
 
-# ------------------------------------------------------------------ 6. config
-def test_robot_matches_yaml(robot):
-    with open(config_dir() / "robot.yaml", encoding="utf-8") as fh:
-        raw = yaml.safe_load(fh)
-    assert robot.omega == pytest.approx(math.sqrt(raw["gravity"] / raw["com_height"]))
-    s = 0.5 * raw["zmp_region_scale"]
-    assert robot.zmp_half_extent == pytest.approx((s * raw["foot_length"], s * raw["foot_width"]))
-    t_lim = max(raw["turn_inner"], raw["turn_outer"])
-    np.testing.assert_allclose(robot.command_low, [raw["stride_front"][0], raw["stride_side"][0], -t_lim,
-                                                   raw["t_ss"][0], raw["t_ds"][0]])
-    np.testing.assert_allclose(robot.command_high, [raw["stride_front"][1], raw["stride_side"][1], t_lim,
-                                                    raw["t_ss"][1], raw["t_ds"][1]])
-    np.testing.assert_allclose(robot.nominal_command, [0.0, raw["nominal_side_stride"], 0.0,
-                                                       raw["nominal_t_ss"], raw["nominal_t_ds"]])
-    assert robot.nominal_period == pytest.approx(raw["nominal_t_ss"] + raw["nominal_t_ds"])
-    assert load_robot({"com_height": 0.25}).omega == pytest.approx(math.sqrt(raw["gravity"] / 0.25))
-
-
-def test_config_unknown_key_names_it_and_suggests():
-    with pytest.raises(ConfigError) as exc:
-        load_robot({"com_hieght": 0.2})
-    msg = str(exc.value)
-    assert "com_hieght" in msg and "com_height" in msg
-    assert isinstance(exc.value, ValueError)
-
-
-@pytest.mark.parametrize("key, value", [
-    ("body_radius", -0.1), ("body_radius", 0.0), ("com_height", -0.23), ("turn_inner", -0.1),
-    ("zmp_region_scale", 1.5), ("zmp_region_scale", 0.0), ("foot_length", "long"), ("foot_width", True),
-    ("t_ss", [0.6, 0.1]), ("t_ss", [0.1]), ("stride_side", [0.0, 0.1]), ("nominal_t_ss", 0.9),
-    ("nominal_side_stride", 0.05), ("com_height", 1e-6),  # the LIPM's e^(2 omega T) would overflow
-])
-def test_config_bad_values_name_the_key(key, value):
-    with pytest.raises(ConfigError) as exc:
-        load_robot({key: value})
-    assert key in str(exc.value)
-
-
-@pytest.mark.parametrize("key, value", [
-    ("com_height", float("nan")), ("body_radius", float("nan")), ("turn_inner", float("nan")),
-    ("zmp_region_scale", float("nan")), ("generator_weight_position", float("nan")),
-    ("stride_front", [float("nan"), 0.1]), ("t_ds", [0.1, float("nan")]),
-    ("com_height", float("inf")), ("body_radius", float("-inf")),
-])
-def test_config_rejects_non_finite(key, value):
-    with pytest.raises(ConfigError) as exc:
-        load_robot({key: value})
-    assert key in str(exc.value)
-
-
+# ------------------------------------------------------------------ 6. limits read from the config
 def test_footstep_module_reads_no_literals():
     """Changing the robot config changes the limits (nothing hard-coded in footstep.py)."""
     r = load_robot({"turn_inner": 0.1, "turn_outer": 0.3, "foot_width": 0.05})

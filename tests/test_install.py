@@ -18,7 +18,7 @@ CHECK = textwrap.dedent("""
     import gymnasium as gym, numpy as np, footstep_gym, sys
     from pathlib import Path
     from footstep_gym.config import config_dir
-    from footstep_gym.planners import make_policy
+    from footstep_gym import make_policy
     repo = Path(sys.argv[1]).resolve()
     assert repo not in Path(footstep_gym.__file__).resolve().parents, footstep_gym.__file__
     assert (config_dir() / "robot.yaml").is_file() and repo not in config_dir().resolve().parents, config_dir()
@@ -33,6 +33,8 @@ CHECK = textwrap.dedent("""
     policy = make_policy("period-aware", env.unwrapped.robot, seed=1)
     command = policy.act(obs, env.unwrapped.sensing())
     assert env.action_space.contains(np.asarray(command, dtype=np.float32))
+    from footstep_gym.rl import agent_runs, default_agents_dir  # installed; the agents are not (run outside the repo)
+    assert default_agents_dir() == Path.cwd() / "baselines" / "agents" and agent_runs("ppo", "FootstepDoor-v0") == []
     for missing in ("torch", "pygame", "matplotlib", "scipy"):
         assert missing not in sys.modules, missing
     e = gym.make("FootstepDoor-v0", render_mode="rgb_array")
@@ -50,7 +52,8 @@ def test_plain_pip_install_in_a_fresh_venv(tmp_path):
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
     py = str(venv / "bin" / "python")
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "FOOTSTEP_GYM_CONFIG_DIR", "VIRTUAL_ENV")}
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("PYTHONPATH", "FOOTSTEP_GYM_CONFIG_DIR", "FOOTSTEP_GYM_AGENTS_DIR", "VIRTUAL_ENV")}
     install = subprocess.run([py, "-m", "pip", "install", "-q", str(REPO)], cwd=tmp_path, env=env,
                              capture_output=True, text=True, timeout=900)
     assert install.returncode == 0, install.stderr[-3000:]

@@ -1,8 +1,10 @@
-"""The compiled kernels (:mod:`footstep_gym.planners.kernels`) against the numpy code they replace.
+"""The compiled kernels (:mod:`footstep_gym.planners.kernels`) against their numpy references.
 
-On real snapshots of the three scenes (with per-shape horizons), random points and times, and random
-walks: the same booleans and times as the numpy expressions, and the same lane pursuit as a numpy version
-written here.
+Each twin is chosen explicitly, as ``configs/planner.yaml``'s ``kernels.compiled`` chooses it for the
+planners (``compiled=True`` / ``False``, never the type of the body check). On real snapshots of the three
+scenes (with per-shape horizons), random points and times, and random walks: the same booleans and times as
+the numpy references, the same lane pursuit and the same RRT; and whole planner episodes on both routes: the
+same outcomes, the commands to a few ulps. The numpy route never imports numba.
 
 **What is exact, and where.** A kernel and its numpy twin do the same arithmetic, but not always through
 the same library: numpy picks SIMD kernels per CPU at run time (with AVX-512, ``np.arctan2``, ``np.exp`` and
@@ -28,11 +30,11 @@ import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym import footstep
+from footstep_gym.planners import kernels
 from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor
-from footstep_gym.planners.rollouts import GoalRollouts
-from footstep_gym.planners.walks import (WalkStart, walks_free, walks_free_numpy, walks_survival,
-                                         walks_survival_numpy)
-from planner_helpers import LEFT, RIGHT, robot  # noqa: F401
+from footstep_gym.planners.rollouts import GoalRollouts, pursue_lanes_numpy
+from footstep_gym.planners.walks import WalkStart, on_route, walks_free, walks_survival
+from planner_helpers import LEFT, RIGHT, empty_predictor_body, robot  # noqa: F401
 
 SCENES = [("FootstepDoor-v0", dict(door_speed=17.0), 6), ("FootstepCrossing-v0", {}, 8), ("FootstepCrowd-v0", {}, 5)]
 
@@ -69,11 +71,11 @@ def goal_gaps(bodies, goal, goal_radius):
 
 
 class RecordingBody:
-    """A :class:`BodyModel`'s check that remembers every point it was asked about (and, not being a
-    ``BodyModel``, sends the walks and the RRT down their numpy routes, the references)."""
+    """A :class:`BodyModel`'s check, on the numpy route, that remembers every point it was asked about (for the
+    walks' and the RRT's numpy routes, the references: not being a ``BodyModel``, the compiled ones refuse it)."""
 
     def __init__(self, body: BodyModel) -> None:
-        self.body, self.asked = body, []
+        self.body, self.asked = body.routed(False), []
 
     def free(self, points, times, normals, period):
         self.asked.append((np.array(points, dtype=float), np.array(times, dtype=float), np.array(normals), period))
@@ -119,6 +121,7 @@ def test_points_free_matches_numpy(env_id, kwargs, steps):
     pts = centre + rng.uniform(-1.0, 2.5, (20000, 2))
     times = rng.uniform(0.0, 5.0, 20000)
     for pred in predictors(snap):
+        assert pred.kernel_shapes.shape == (pred.n_shapes, kernels.SHAPE_COLUMNS)  # the table the kernels read
         for safe in (0.0, 0.11, 0.2):
             got = pred.free(pts, times, safe)
             want = pred.free_numpy(pts, times, safe)
@@ -148,71 +151,36 @@ def test_walks_free_matches_numpy(robot, env_id, kwargs, steps, period):
     blocked = 0
     for pred in predictors(snap):
         body = BodyModel(pred, robot, 0.02)
-        got = walks_free(body, start, nodes, headings, period, 3, goal, 0.1)
+        got = walks_free(body, start, nodes, headings, period, 3, goal, 0.1, compiled=True)
         asked = RecordingBody(body)
-        want = walks_free_numpy(asked, start, nodes, headings, period, 3, goal, 0.1)
+        want = walks_free(asked, start, nodes, headings, period, 3, goal, 0.1, compiled=False)
         assert asked.smallest_gap() > TIE_MARGIN
         blocked += int(want.size - want.sum())
         np.testing.assert_array_equal(got, want)
         # the time of each walk's first blocked point: the same instant, inf exactly for the free walks
-        survival = walks_survival(body, start, nodes, headings, period, 3, goal, 0.1)
-        want_survival = walks_survival_numpy(body, start, nodes, headings, period, 3, goal, 0.1)
+        survival = walks_survival(body, start, nodes, headings, period, 3, goal, 0.1, compiled=True)
+        want_survival = walks_survival(body, start, nodes, headings, period, 3, goal, 0.1, compiled=False)
         np.testing.assert_array_equal(survival, want_survival)
         np.testing.assert_array_equal(np.isinf(survival), want)
     assert blocked > 0 or env_id == "FootstepCrossing-v0"  # the crossing's car may still be far at this time
-
-
-def pursue_numpy(rollouts, window, depth):
-    """The lane pursuit of :class:`GoalRollouts` in numpy, as it was before it was compiled."""
-    n_roll = rollouts._offsets.size
-    node0 = complex(*rollouts.start.node)
-    axis = complex(*rollouts._dir)
-    goal = complex(*rollouts.goal)
-    lane = rollouts._offsets * (1j * axis)
-    limits = {side: footstep.turn_bounds(side, rollouts.robot) for side in (LEFT, RIGHT)}
-    pos = np.full(n_roll, node0)
-    heading = np.full(n_roll, float(rollouts.start.heading))
-    out = np.empty((n_roll, depth + 1), dtype=complex)
-    headings = np.empty((n_roll, depth + 1))
-    out[:, 0], headings[:, 0] = pos, heading
-    side = rollouts.start.side
-    arrived = np.zeros(n_roll, dtype=bool)
-    for d in range(1, depth + 1):
-        ahead = ((pos - node0) * axis.conjugate()).real + rollouts.lookahead
-        taper = np.clip((rollouts._length - ahead) / rollouts.lookahead, 0.0, 1.0)
-        aim = node0 + np.minimum(ahead, rollouts._length) * axis + taper * lane
-        lo, hi = limits[side]
-        heading = np.where(arrived, heading, heading + np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi))
-        stride = np.where(d <= rollouts._waits, 0.0, rollouts._strides)
-        if d == 1 and window is not None:
-            stride = np.clip(stride, *window)
-        dist = np.abs(goal - pos)
-        stride = np.where(arrived, 0.0, np.minimum(stride, dist))
-        new = pos + stride * np.exp(1j * heading)
-        arrived |= np.abs(0.5 * (pos + new) - goal) <= rollouts.goal_radius  # the body is in: it stands still
-        pos = new
-        out[:, d], headings[:, d] = pos, heading
-        side = -side
-    return np.stack([out.real, out.imag], axis=-1), headings
-
-
-class Free:
-    def free(self, points, times, normals, period):
-        return np.ones(len(points), dtype=bool)
 
 
 @pytest.mark.parametrize("side,heading,goal", [(RIGHT, 0.0, (1.9, 0.0)), (LEFT, 2.5, (0.3, 0.6)),
                                                (RIGHT, -1.0, (-1.0, -1.2))])
 @pytest.mark.parametrize("window", [None, (0.03, 0.06)])
 def test_pursue_lanes_matches_numpy(robot, side, heading, goal, window):
+    """:func:`kernels.pursue_lanes` (``compiled=True``) against :func:`pursue_lanes_numpy` (``compiled=False``)."""
     start = WalkStart(node=np.array([0.01, -0.02]), heading=heading, side=side, body=np.zeros(2),
                       previous_node=np.zeros(2))
-    rollouts = GoalRollouts(Free(), robot, start, goal, 0.1, horizon=30.0, step_size=0.1,
-                            lane_offsets=(-0.13, -0.065, 0.0, 0.065, 0.13), stride_fractions=(0.7, 1.0),
-                            lookahead=0.3, edge_samples=3, wait_steps=(0, 3, 6))
+    routes = [GoalRollouts(empty_predictor_body(robot), robot, start, goal, 0.1, horizon=30.0, step_size=0.1,
+                           lane_offsets=(-0.13, -0.065, 0.0, 0.065, 0.13), stride_fractions=(0.7, 1.0),
+                           lookahead=0.3, edge_samples=3, wait_steps=(0, 3, 6), compiled=compiled)
+              for compiled in (True, False)]
     depth = 40
-    got_nodes, got_headings = rollouts._pursue(window, depth)
-    want_nodes, want_headings = pursue_numpy(rollouts, window, depth)
+    got_nodes, got_headings = routes[0]._pursue(window, depth)
+    want_nodes, want_headings = routes[1]._pursue(window, depth)
+    np.testing.assert_array_equal(want_nodes, pursue_lanes_numpy(routes[0], window, depth)[0])  # the numpy route
+    rollouts = routes[1]
     # within a few ulps (np.angle, np.abs and complex products against libm's atan2 and hypot and plain products);
     # where a rollout stops (its body in the goal region) is discrete: a flip would move its nodes by a stride
     np.testing.assert_allclose(got_nodes, want_nodes, **LENGTH_TOL)
@@ -236,9 +204,10 @@ def test_survivals_of_many_periods_in_one_call_match_one_period_at_a_time(robot,
     periods = np.linspace(0.3, 0.8, 17)
     rollouts = GoalRollouts(body, robot, start, snap.goal, snap.goal_tolerance, horizon=30.0, step_size=0.1,
                             lane_offsets=(-0.13, 0.0, 0.13), stride_fractions=(0.7, 1.0), lookahead=0.3,
-                            edge_samples=3, wait_steps=(0, 3))
+                            edge_samples=3, wait_steps=(0, 3), compiled=True)
     got = rollouts.survivals(periods)
-    want = [walks_survival(body, start, *rollouts.nodes(T), T, 3, rollouts.goal, rollouts.goal_radius).max()
+    want = [walks_survival(body, start, *rollouts.nodes(T), T, 3, rollouts.goal, rollouts.goal_radius,
+                           compiled=True).max()
             for T in periods]
     np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(np.isinf(got), [not rollouts(T) for T in periods])
@@ -371,7 +340,7 @@ def test_free_walks_from_the_scan_table_are_the_walks_checked_again(robot, env_i
     goal = start.node + [ahead, 0.0]  # a few steps away: some walks free, some blocked
     rollouts = GoalRollouts(body, robot, start, goal, 0.1, horizon=30.0, step_size=0.1,
                             lane_offsets=(-0.13, -0.065, 0.0, 0.065, 0.13), stride_fractions=(0.7, 1.0),
-                            lookahead=0.3, edge_samples=3, wait_steps=(0, 3))
+                            lookahead=0.3, edge_samples=3, wait_steps=(0, 3), compiled=True)
     periods = np.linspace(0.3, 0.8, 9)
     found = 0
     for T, blocked_at in zip(periods, rollouts.survival_table(periods)):
@@ -382,3 +351,92 @@ def test_free_walks_from_the_scan_table_are_the_walks_checked_again(robot, env_i
             np.testing.assert_array_equal(g, w)
         found += len(want)
     assert 0 < found < 9 * len(rollouts._offsets)  # free walks compared, and some periods or walks blocked
+
+
+# ====================================================================== the setting: kernels.compiled
+def test_the_compiled_route_refuses_a_body_check_that_is_not_a_body_model(robot):
+    """``compiled=True`` reads a :class:`BodyModel`'s shape table: any other body check is an error, not a silent
+    fall back to numpy; ``compiled=False`` takes it, and puts a ``BodyModel``'s own point checks on numpy."""
+    from footstep_gym.planners.rrt import ModifiedRRT
+
+    class Free:
+        def free(self, points, times, normals, period):
+            return np.ones(len(points), dtype=bool)
+
+    start = WalkStart(node=np.zeros(2), heading=0.0, side=RIGHT, body=np.zeros(2), previous_node=np.zeros(2))
+    nodes, headings = np.zeros((1, 3, 2)), np.zeros((1, 3))
+    rrt = ModifiedRRT(robot, iterations=20, batch_size=10, step_size=0.1, goal_sample_rate=0.2, n_paths=1,
+                      sample_margin=0.5, edge_samples=3, compiled=True)
+    with pytest.raises(TypeError, match="need a prediction.BodyModel.*got Free"):
+        rrt.plan(start, (1.0, 0.0), 0.1, Free(), 0.5, np.random.default_rng(0))
+    with pytest.raises(TypeError, match="need a prediction.BodyModel"):
+        walks_free(Free(), start, nodes, headings, 0.5, 3, np.ones(2), 0.1, compiled=True)
+    with pytest.raises(TypeError, match="need a prediction.BodyModel"):
+        GoalRollouts(Free(), robot, start, (1.0, 0.0), 0.1, horizon=3.0, step_size=0.1, lane_offsets=(0.0,),
+                     stride_fractions=(1.0,), lookahead=0.3, edge_samples=3, compiled=True)
+    assert walks_free(Free(), start, nodes, headings, 0.5, 3, np.ones(2), 0.1, compiled=False).all()
+    body = empty_predictor_body(robot)
+    assert on_route(body, True) is body and body.compiled
+    assert not on_route(body, False).compiled and on_route(body, False).predictor is body.predictor
+
+
+#: Episodes planned on both routes: each stage of each planner (the rollouts and the one-step fan, the scan and the
+#: bisection, batches of 10 and of 1, the path and the node check), goals and collisions. Crossing, fixed-period,
+#: seed 4 once parted: two goal paths of as many full strides, equally long but for rounding (rrt.COST_TIE_M).
+EPISODES = [("FootstepDoor-v0", dict(door_speed=17.0), "period-aware", 0),
+            ("FootstepDoor-v0", dict(door_speed=17.0), "paper-period-aware", 1),
+            ("FootstepCrossing-v0", {}, "fixed-period", 4),
+            ("FootstepCrossing-v0", {}, "paper-period-aware", 0),
+            ("FootstepCrowd-v0", {}, "period-aware", 0),
+            ("FootstepCrowd-v0", {}, "period-aware-no-centred-period", 1)]
+
+
+def _episode(env_id, kwargs, name, seed, compiled):
+    """One episode of planner ``name`` with ``kernels.compiled`` set: its end and every command."""
+    from footstep_gym import make_policy
+
+    env = gym.make(env_id, **kwargs)
+    policy = make_policy(name, env.unwrapped.robot, seed=seed, kernels_compiled=compiled)
+    assert policy.config.kernels.compiled is compiled
+    obs, _ = env.reset(seed=seed)
+    policy.reset(seed=seed)
+    commands = []
+    while True:
+        commands.append(np.array(policy.act(obs, env.unwrapped.sensing()), dtype=float))
+        obs, _, terminated, truncated, info = env.step(commands[-1])
+        if terminated or truncated:
+            env.close()
+            return (len(commands), info["termination"], info["is_success"]), np.array(commands)
+
+
+@pytest.mark.parametrize("env_id,kwargs,name,seed", EPISODES)
+def test_planner_episodes_are_the_same_on_both_routes(env_id, kwargs, name, seed):
+    """``kernels.compiled: false`` (numpy everywhere) plans the episodes of ``true``: the same end (steps,
+    goal / collision / fall) and every command to a few ulps (strides and times :data:`LENGTH_TOL`, turns
+    :data:`HEADING_ATOL`). Measured over 339 episodes (the three scenes, every planner and ablation variant):
+    strides and turns at most 4 ulps of pi apart, periods equal. An end could differ on another CPU only through
+    a decision within a few ulps of a tie."""
+    want_end, want = _episode(env_id, kwargs, name, seed, compiled=False)
+    got_end, got = _episode(env_id, kwargs, name, seed, compiled=True)
+    assert got_end == want_end
+    np.testing.assert_allclose(got[:, [0, 1, 3, 4]], want[:, [0, 1, 3, 4]], **LENGTH_TOL)
+    assert_headings_close(got[:, 2], want[:, 2])
+
+
+def test_the_numpy_route_never_imports_numba():
+    """With ``kernels.compiled: false`` and the env's ``compiled_sweep: false``, an episode runs without numba."""
+    import subprocess
+    import sys
+
+    code = ("import sys, gymnasium as gym, footstep_gym\n"
+            "from footstep_gym import make_policy\n"
+            "env = gym.make('FootstepDoor-v0', door_speed=17.0, compiled_sweep=False)\n"
+            "policy = make_policy('period-aware', env.unwrapped.robot, seed=0, kernels_compiled=False)\n"
+            "obs, _ = env.reset(seed=0)\n"
+            "while True:\n"
+            "    obs, _, terminated, truncated, info = env.step(policy.act(obs, env.unwrapped.sensing()))\n"
+            "    if terminated or truncated:\n"
+            "        break\n"
+            "print(info['termination'], 'numba' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split()[-1] == "False", out.stdout + out.stderr  # (the episode's end printed before)

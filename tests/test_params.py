@@ -20,8 +20,9 @@ import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym import config as fs_config
+from footstep_gym import make_policy
 from footstep_gym.errors import ConfigError
-from footstep_gym.planners import POLICIES, load_planner_config, make_policy
+from footstep_gym.planners import POLICIES, load_planner_config
 from footstep_gym.planners.params import AdditionsParams, PlannerConfig
 
 
@@ -161,6 +162,18 @@ def test_reading_switches_are_validated_at_load(override, match):
         load_planner_config(override)
 
 
+def test_kernels_compiled_is_a_boolean_on_by_default_and_reaches_both_searches():
+    """``kernels.compiled``: the compiled twins (default) or the numpy references, for the period search's walks and
+    the RRT alike (``tests/test_kernels.py`` plans the same episodes both ways)."""
+    assert load_planner_config().kernels.compiled is True
+    for compiled in (True, False):
+        policy = make_policy("period-aware", seed=0, kernels_compiled=compiled)
+        assert policy.period_search.compiled is compiled and policy.path_search.rrt.compiled is compiled
+    assert make_policy("paper-period-aware", kernels={"compiled": False}).path_search.rrt.compiled is False
+    with pytest.raises(ConfigError, match="kernels.compiled must be true or false"):
+        load_planner_config({"kernels_compiled": "no"})
+
+
 def _door_start(steps=0):
     env = gym.make("FootstepDoor-v0", door_speed=17.0)
     env.reset(seed=0)
@@ -191,7 +204,8 @@ def test_reachable_t0_is_the_shortest_period_one_step_can_reach(reachable):
     from footstep_gym.planners.walks import walk_start
 
     robot, snap = _door_start()
-    cfg = load_planner_config({"period_search_t0_reachable": reachable}, defaults={"additions": PAPER})
+    cfg = load_planner_config({"period_search_t0_reachable": reachable, "kernels_compiled": False},  # a toy body
+                              defaults={"additions": PAPER})
     start = walk_start(snap, 0.5 * robot.nominal_side_stride)
     choice = PeriodSearch(robot, cfg)(snap, start, _Blocked())
     ps = cfg.period_search
@@ -212,7 +226,8 @@ def test_one_step_check_asks_about_the_node_now_and_after_t_or_the_body_path(che
     from footstep_gym.planners.walks import walk_start
 
     robot, snap = _door_start()
-    cfg = load_planner_config({"prediction_check": check}, defaults={"additions": PAPER})
+    cfg = load_planner_config({"prediction_check": check, "kernels_compiled": False},  # a toy body: numpy
+                              defaults={"additions": PAPER})
     walks = PeriodSearch(robot, cfg).walks(snap, walk_start(snap, 0.5 * robot.nominal_side_stride), _Blocked(),
                                            (0,), (1.0,))
     body = walks.body
@@ -246,7 +261,8 @@ def test_rrt_node_check_refuses_a_node_blocked_now():
     reached = {}
     for check_node in (False, True):
         rrt = ModifiedRRT(robot, iterations=200, batch_size=1, step_size=0.1, goal_sample_rate=0.2, n_paths=3,
-                          sample_margin=0.5, edge_samples=3, time_aware=False, check_node=check_node)
+                          sample_margin=0.5, edge_samples=3, time_aware=False, check_node=check_node,
+                          compiled=False)
         rrt.plan(start, start.node + [0.6, 0.0], 0.05, gate, 0.8, np.random.default_rng(0))
         reached[check_node] = float(rrt.tree.xy[: rrt.tree.n, 0].max())
     assert reached[True] < gate.x0 <= reached[False]

@@ -1,6 +1,9 @@
 """Stage 1 (:mod:`footstep_gym.planners.period_search`): :func:`longest_free_period` (Algorithm 1 as its text
 describes it) on hand-made monotone predicates ``collides(T) = T > T*`` whose answer ``T*`` is known; the
 centred scan (:func:`centred_free_period`) on hand-made windows of free periods; the stage's record.
+
+The stage's body checks written here are not :class:`~footstep_gym.planners.prediction.BodyModel` s: the stage
+runs on the numpy route (:data:`NUMPY`, ``kernels.compiled: false``), which takes any body check.
 """
 
 from __future__ import annotations
@@ -17,6 +20,9 @@ from footstep_gym.planners.period_search import PeriodSearch, centred_free_perio
 from footstep_gym.planners.reference import PAPER
 from footstep_gym.planners.walks import walk_start
 from planner_helpers import EPS, ZMP_TIE_MARGIN, zmp_edge_gaps
+
+#: The planner config override of the numpy route (the compiled one needs a BodyModel's shape table).
+NUMPY = {"kernels_compiled": False}
 
 T0, TN = 0.3, 0.8
 
@@ -124,7 +130,7 @@ def crossing_start():
 
 
 def paper_search(robot, vary_period=True):
-    return PeriodSearch(robot, load_planner_config(defaults={"additions": PAPER}), vary_period=vary_period)
+    return PeriodSearch(robot, load_planner_config(NUMPY, defaults={"additions": PAPER}), vary_period=vary_period)
 
 
 @pytest.mark.parametrize("t_star", [0.42, 0.55, 0.7])
@@ -164,14 +170,29 @@ def test_second_tier_finds_a_waiting_walk_when_no_period_clears_the_way(crossing
     nominal steps (4.8 s) lets it clear. With the switch off the search gives up at the shortest period."""
     robot, snap, start = crossing_start
     zone = Zone(0.1, 0.6, 4.0)
-    on = PeriodSearch(robot, load_planner_config())
+    on = PeriodSearch(robot, load_planner_config(NUMPY))
     choice = on(snap, start, zone)
     assert choice.any_free and choice.waiting_walks
     steps = np.linalg.norm(np.diff(choice.free_walks[0], axis=0), axis=1)
     assert np.all(steps[:3] == 0.0)  # the best free walk first steps in place
-    off = PeriodSearch(robot, load_planner_config({"additions_waiting_walks": False}))
+    off = PeriodSearch(robot, load_planner_config({"additions_waiting_walks": False, **NUMPY}))
     blocked = off(snap, start, zone)
     assert not blocked.any_free and not blocked.waiting_walks and blocked.period == blocked.floor
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_the_stage_checks_its_walks_on_the_route_kernels_compiled_names(crossing_start, compiled):
+    """``kernels.compiled`` reaches the walks (rollouts and the paper's fan); the compiled route refuses a body check
+    that is not a BodyModel instead of falling back to numpy."""
+    robot, snap, start = crossing_start
+    for defaults in ({}, {"additions": PAPER}):
+        search = PeriodSearch(robot, load_planner_config({"kernels_compiled": compiled}, defaults=defaults))
+        if compiled:
+            with pytest.raises(TypeError, match="need a prediction.BodyModel"):
+                search(snap, start, Closes(np.inf))
+        else:
+            assert search.walks(snap, start, Closes(np.inf), (0,), (1.0,)).compiled is False
+            assert search(snap, start, Closes(np.inf)).nominal_free
 
 
 def window(lo, hi, blocked_at=1.0):
@@ -245,7 +266,7 @@ def test_centred_scan_rejects_a_grid_that_is_not_ascending():
 def test_the_stage_scans_the_configured_periods_from_the_reachable_floor(crossing_start):
     """``scan_periods`` periods from the LIPM's floor to T_n, every one asked once."""
     robot, snap, start = crossing_start
-    config = load_planner_config()
+    config = load_planner_config(NUMPY)
     choice = PeriodSearch(robot, config)(snap, start, Closes(np.inf))
     assert choice.evaluations == config.period_search.scan_periods
     assert choice.any_free and choice.nominal_free

@@ -17,7 +17,7 @@ import footstep_gym  # noqa: F401  (registers the envs)
 # ====================================================================== the policies end to end
 def run_policy(name: str, env_id: str, seed: int, **env_kwargs) -> dict:
     """One episode of policy ``name`` on ``env_id``; the final step's info."""
-    from footstep_gym.planners import make_policy
+    from footstep_gym import make_policy
 
     env = gym.make(env_id, **env_kwargs)
     policy = make_policy(name, env.unwrapped.robot, seed=seed)
@@ -58,7 +58,8 @@ def test_registry_has_the_paper_planners_beside_ours():
 def test_variant_names_switch_one_addition_off():
     import dataclasses
 
-    from footstep_gym.planners import ablation_variants, make_policy
+    from footstep_gym import make_policy
+    from footstep_gym.planners import ablation_variants
     from footstep_gym.planners.params import AdditionsParams
 
     switches = [f.name for f in dataclasses.fields(AdditionsParams)]
@@ -77,7 +78,7 @@ def test_variant_names_switch_one_addition_off():
 @pytest.mark.parametrize("name", ["period-aware-no-such-thing", "pso-only-no-fallback", "nonsense",
                                   "paper-period-aware-no"])
 def test_unknown_names_are_rejected_with_the_known_ones(name):
-    from footstep_gym.planners import make_policy
+    from footstep_gym import make_policy
 
     with pytest.raises(ValueError, match="known: .*period-aware-no-waiting-walks"):
         make_policy(name)
@@ -87,7 +88,7 @@ def test_unknown_names_are_rejected_with_the_known_ones(name):
 def test_paper_planners_walk_to_the_goal_when_nothing_is_in_the_way(name):
     """The crossing with its car crossing 5 m away (beyond the goal): both paper planners walk the 1.9 m straight
     to the goal at the nominal period, in full 10 cm strides (19-20 steps)."""
-    from footstep_gym.planners import make_policy
+    from footstep_gym import make_policy
 
     env = gym.make("FootstepCrossing-v0", crossing_x=5.0)
     policy = make_policy(name, env.unwrapped.robot, seed=0)
@@ -107,7 +108,8 @@ def test_paper_planners_walk_to_the_goal_when_nothing_is_in_the_way(name):
 
 def test_every_ablation_variant_plans_an_episode_start():
     """Each variant of the ablation plans a few steps of the crowd with the same interface and reports its stages."""
-    from footstep_gym.planners import ablation_variants, make_policy
+    from footstep_gym import make_policy
+    from footstep_gym.planners import ablation_variants
 
     env = gym.make("FootstepCrowd-v0")
     for name in ablation_variants():

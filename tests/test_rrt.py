@@ -2,6 +2,10 @@
 that shuts at a known time, with body checks written here. Every edge is re-derived from the node
 coordinates and checked against the hardware angle limits written out from docs/model.md §1 / paper
 Fig. 4 (and cross-checked with ``footstep.turn_bounds``); the fallback branch when no path reaches the goal.
+
+The body checks written here are not :class:`~footstep_gym.planners.prediction.BodyModel` s, so these trees
+grow on the numpy route (``compiled=False``, :data:`NUMPY_RRT`); the compiled one is held equal to it in
+``tests/test_kernels.py``.
 """
 
 from __future__ import annotations
@@ -18,13 +22,18 @@ from planner_helpers import (  # noqa: F401  (robot is a fixture)
     empty_predictor_body, make_start, robot, wrap,
 )
 
-@pytest.mark.parametrize("body_kind", ["always_free", "empty_snapshot"])
+#: The RRT settings of the tests on the numpy route (``kernels.compiled: false``), which takes any body check.
+NUMPY_RRT = {**RRT_SETTINGS, "compiled": False}
+
+
+@pytest.mark.parametrize("body_kind,compiled", [("always_free", False), ("empty_snapshot", False),
+                                                ("empty_snapshot", True)])
 @pytest.mark.parametrize("side,heading", [(RIGHT, 0.0), (LEFT, 0.0), (RIGHT, 0.6), (LEFT, -1.0)])
-def test_rrt_free_space_reaches_goal_within_hardware_limits(robot, body_kind, side, heading):
+def test_rrt_free_space_reaches_goal_within_hardware_limits(robot, body_kind, compiled, side, heading):
     body = AlwaysFree() if body_kind == "always_free" else empty_predictor_body(robot)
     start = make_start(side, heading, node=(0.2, -0.1))
     goal, radius = np.array([1.6, 0.4]), 0.1  # ~1.5 m away
-    rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 800})
+    rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 800, "compiled": compiled})
     path = rrt.plan(start, goal, radius, body, period=0.8, rng=np.random.default_rng(1))
     assert path is not None and path.reached_goal
     check_path(path, start, goal, radius, robot, RRT_SETTINGS["step_size"])
@@ -60,7 +69,7 @@ def test_rrt_checks_the_body_path_at_its_own_times(robot):
     start = WalkStart(node=np.array([0.0, 0.0]), heading=0.3, side=LEFT, body=np.array([0.01, 0.03]),
                       previous_node=np.array([-0.1, 0.0]))
     body = Recorder()
-    rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "edge_samples": samples, "iterations": 200})
+    rrt = ModifiedRRT(robot, **{**NUMPY_RRT, "edge_samples": samples, "iterations": 200})
     rrt.plan(start, (1.0, 0.5), 0.1, body, period=period, rng=np.random.default_rng(5))
     tree = rrt.tree
     xy, parent = tree.xy[: tree.n], tree.parent[: tree.n]
@@ -89,7 +98,7 @@ def test_rrt_angle_limits_bind(robot):
     """Goal 1 m straight behind: the path must turn around, no faster than the limits allow."""
     start = make_start(RIGHT, 0.0)
     goal, radius = np.array([-1.0, 0.0]), 0.1
-    rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 3000})
+    rrt = ModifiedRRT(robot, **{**NUMPY_RRT, "iterations": 3000})
     path = rrt.plan(start, goal, radius, AlwaysFree(), period=0.8, rng=np.random.default_rng(3))
     assert path is not None
     check_path(path, start, goal, radius, robot, RRT_SETTINGS["step_size"])
@@ -112,7 +121,7 @@ def test_rrt_angle_limits_bind(robot):
 
 def test_rrt_first_stride_window(robot):
     start = make_start(RIGHT, 0.0)
-    rrt = ModifiedRRT(robot, **RRT_SETTINGS)
+    rrt = ModifiedRRT(robot, **NUMPY_RRT)
     rrt.plan(start, (1.5, 0.0), 0.1, AlwaysFree(), period=0.5, rng=np.random.default_rng(0),
              first_stride=(0.04, 0.06))
     tree = rrt.tree
@@ -128,7 +137,7 @@ def test_rrt_seeded_replay_and_seed_dependence(robot):
     goal = (1.5, 0.0)
 
     def run(seed):
-        rrt = ModifiedRRT(robot, **RRT_SETTINGS)
+        rrt = ModifiedRRT(robot, **NUMPY_RRT)
         path = rrt.plan(start, goal, 0.1, AlwaysFree(), period=0.8, rng=np.random.default_rng(seed))
         return path, rrt.tree.xy[: rrt.tree.n].copy()
 
@@ -147,7 +156,7 @@ def test_rrt_goes_around_a_wall(robot, seed):
     wall = Wall(0.6, 0.8, half_width=0.25)
     start = make_start(RIGHT, 0.0)
     goal, radius = np.array([1.5, 0.0]), 0.1
-    settings = {**RRT_SETTINGS, "iterations": 1500}
+    settings = {**NUMPY_RRT, "iterations": 1500}
     rrt = ModifiedRRT(robot, **settings)
     path = rrt.plan(start, goal, radius, wall, period=0.8, rng=np.random.default_rng(seed))
     assert path is not None
@@ -169,7 +178,7 @@ def test_rrt_blocked_wall_gives_none_and_partial_on_start_side(robot):
     wall = Wall(0.6, 0.8)  # spans every y
     start = make_start(RIGHT, 0.0)
     goal = np.array([1.5, 0.0])
-    rrt = ModifiedRRT(robot, **RRT_SETTINGS)
+    rrt = ModifiedRRT(robot, **NUMPY_RRT)
     assert rrt.plan(start, goal, 0.1, wall, period=0.8, rng=np.random.default_rng(0)) is None
     partial = rrt.best_partial_path()
     assert not partial.reached_goal
@@ -216,7 +225,7 @@ def test_rrt_is_time_aware_races_a_closing_gate(robot, seed):
     gate = ClosingWall(0.3, 0.5, closes)
     start = make_start(RIGHT, 0.0)
     goal, radius = np.array([1.0, 0.0]), 0.1
-    settings = {**RRT_SETTINGS, "edge_samples": 6}
+    settings = {**NUMPY_RRT, "edge_samples": 6}
     rrt = ModifiedRRT(robot, **settings)
     path = rrt.plan(start, goal, radius, gate, period=period, rng=np.random.default_rng(seed))
     assert path is not None
@@ -244,7 +253,7 @@ def test_rrt_blocking_gate_that_shut_before_any_crossing(robot):
     """The same gate shut from the start (closes at 0): no path, partial path before it."""
     gate = ClosingWall(0.3, 0.5, 0.0)
     start = make_start(RIGHT, 0.0)
-    rrt = ModifiedRRT(robot, **RRT_SETTINGS)
+    rrt = ModifiedRRT(robot, **NUMPY_RRT)
     assert rrt.plan(start, (1.0, 0.0), 0.1, gate, period=0.4, rng=np.random.default_rng(0)) is None
     assert np.all(rrt.best_partial_path().nodes[:, 0] < 0.3 + 0.5 * RRT_SETTINGS["step_size"])
 
@@ -254,11 +263,34 @@ def test_rrt_goal_nodes_are_distinct_paths(robot):
     start = make_start(RIGHT, 0.6, node=(0.2, -0.1))
     goal = np.array([1.6, 0.4])
     for seed in range(20):
-        rrt = ModifiedRRT(robot, **RRT_SETTINGS)
+        rrt = ModifiedRRT(robot, **NUMPY_RRT)
         rrt.plan(start, goal, 0.1, AlwaysFree(), period=0.8, rng=np.random.default_rng(seed))
         tree = rrt.tree
         edge = np.linalg.norm(tree.xy[1:tree.n] - tree.xy[tree.parent[1:tree.n]], axis=1)
         assert np.all(edge > 0), (seed, np.flatnonzero(edge == 0) + 1)
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_rrt_takes_the_first_of_equally_long_goal_paths(robot, compiled):
+    """Two seed walks of ten full strides reach the goal: equally long, but for rounding (the one 0.02 rad off
+    the axis sums to 0.9999999999999998 m in numpy, the straight one to 1.0). The first found is taken either
+    way round, on both routes: rounding, which differs between the routes, does not choose the path."""
+    from footstep_gym.planners.rrt import COST_TIE_M
+
+    start = make_start(RIGHT, 0.0)
+    k = np.arange(11)[:, None] * 0.1
+    straight = start.node + k * [1.0, 0.0]
+    tilted = start.node + k * [math.cos(0.02), math.sin(0.02)]
+    goal = start.node + 0.95 * 0.5 * (np.array([1.0, 0.0]) + [math.cos(0.02), math.sin(0.02)])  # by both last bodies
+    for seeds in ([straight, tilted], [tilted, straight]):
+        rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 1, "n_paths": 2, "compiled": compiled})
+        path = rrt.plan(start, goal, 0.03, empty_predictor_body(robot), period=0.8, rng=np.random.default_rng(0),
+                        seeds=seeds)
+        costs = rrt.tree.cost[rrt.goal_nodes[:2]]
+        assert rrt.goal_nodes[:2] == [10, 20] and abs(costs[0] - costs[1]) < COST_TIE_M
+        np.testing.assert_array_equal(path.nodes, seeds[0])
+    if not compiled:
+        assert costs[0] != costs[1]  # the numpy route's costs do differ by rounding (as measured above)
 
 
 # ====================================================================== stage 3: PSO
@@ -289,7 +321,7 @@ def test_best_partial_path_waits_where_it_stays_free(robot):
     period, goal = 0.1, np.array([1.5, 0.0])
     zone = LateZone(0.5, 1.0)
     start = make_start(RIGHT, 0.0)
-    rrt = ModifiedRRT(robot, **RRT_SETTINGS)
+    rrt = ModifiedRRT(robot, **NUMPY_RRT)
     assert rrt.plan(start, goal, 0.1, zone, period=period, rng=np.random.default_rng(0)) is None
     tree = rrt.tree
     xy, body = tree.xy[: tree.n], tree.body[: tree.n]
@@ -313,7 +345,7 @@ def test_best_partial_path_takes_the_spot_hit_last(robot):
     period, goal = 0.1, np.array([1.5, 0.0])
     zone = LateZone(0.3, 1.0, closes=2.5)
     start = make_start(RIGHT, 0.0)
-    rrt = ModifiedRRT(robot, **RRT_SETTINGS)
+    rrt = ModifiedRRT(robot, **NUMPY_RRT)
     assert rrt.plan(start, goal, 0.1, zone, period=period, rng=np.random.default_rng(1)) is None
     xy = rrt.tree.xy[: rrt.tree.n]
     assert xy[:, 0].max() > 0.4
@@ -331,8 +363,8 @@ def test_rrt_not_time_aware_checks_every_node_against_the_obstacles_after_one_pe
     period = 0.55
     start = make_start(RIGHT, 0.0)
     timed, frozen = Recorder(), Recorder()
-    a = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 200})
-    b = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 200}, time_aware=False)
+    a = ModifiedRRT(robot, **{**NUMPY_RRT, "iterations": 200})
+    b = ModifiedRRT(robot, **{**NUMPY_RRT, "iterations": 200}, time_aware=False)
     a.plan(start, (1.0, 0.5), 0.1, timed, period=period, rng=np.random.default_rng(5))
     b.plan(start, (1.0, 0.5), 0.1, frozen, period=period, rng=np.random.default_rng(5))
     rows_a, rows_b = np.concatenate(timed.rows), np.concatenate(frozen.rows)
@@ -346,8 +378,8 @@ def test_rrt_not_time_aware_is_blocked_by_a_gate_that_opens_later(robot):
     there come later than 2 s at 0.8 s per step), the paper's tree sees the wall as it stands at T and does not."""
     start = make_start(RIGHT, 0.0)
     gate = Wall(0.3, 0.4, until=2.0)
-    timed = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 2000})
-    frozen = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 2000}, time_aware=False)
+    timed = ModifiedRRT(robot, **{**NUMPY_RRT, "iterations": 2000})
+    frozen = ModifiedRRT(robot, **{**NUMPY_RRT, "iterations": 2000}, time_aware=False)
     assert timed.plan(start, (1.0, 0.0), 0.1, gate, period=0.8, rng=np.random.default_rng(0)) is not None
     assert frozen.plan(start, (1.0, 0.0), 0.1, gate, period=0.8, rng=np.random.default_rng(0)) is None
 
@@ -369,7 +401,7 @@ def test_path_search_without_fallback_takes_the_branch_nearest_the_goal(robot):
     zone = LateZone(0.5, 1.0)
     out = {}
     for fallback in (False, True):
-        stage = PathSearch(robot, load_planner_config({"additions_fallback": fallback}))
+        stage = PathSearch(robot, load_planner_config({"additions_fallback": fallback, "kernels_compiled": False}))
         out[fallback] = stage(snap, start, zone, 0.1, (), None, np.random.default_rng(0))
         assert not out[fallback].reached_goal and out[fallback].path.n_steps > 0
     assert out[False].path.nodes[-1, 0] > 0.5  # the greedy branch enters the zone that closes after 1 s

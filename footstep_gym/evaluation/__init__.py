@@ -4,19 +4,19 @@
   :func:`run_tasks` on local worker processes or Ray;
 * :mod:`.stats`: per-cell records (success with a Wilson interval, collisions, falls,
   clearance, ZMP margin, planning time) and summaries over training seeds (rliable IQM);
-* :mod:`.policies`: one registry of planners and agents; :mod:`.agents`: rl_zoo3 runs as policies;
+* the policies come from the one factory :func:`footstep_gym.make_policy` (names in
+  :mod:`footstep_gym.policies`; trained agents in :mod:`footstep_gym.rl`);
 * :mod:`.splits`: the seed ranges for training, validation and the reported test;
 * :mod:`.report`: tables and files; :mod:`.figures`: trajectory pictures and command tables.
 
 Nothing here imports torch until an agent is loaded, nor matplotlib until a figure is drawn.
 """
 
-from footstep_gym.evaluation.policies import AGENTS, agent_runs, make_policy, policy_names
 from footstep_gym.evaluation.runner import Cell, Task, Trace, run_episode, run_tasks
 from footstep_gym.evaluation.splits import SPLITS, split_seeds
 from footstep_gym.evaluation.stats import EpisodeResult, cell_record, over_runs, wilson_interval
 
 __all__ = [
-    "AGENTS", "SPLITS", "Cell", "EpisodeResult", "Task", "Trace", "agent_runs", "cell_record", "make_policy",
-    "over_runs", "policy_names", "run_episode", "run_tasks", "split_seeds", "wilson_interval",
+    "SPLITS", "Cell", "EpisodeResult", "Task", "Trace", "cell_record", "over_runs", "run_episode", "run_tasks",
+    "split_seeds", "wilson_interval",
 ]

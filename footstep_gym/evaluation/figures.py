@@ -45,9 +45,12 @@ def outcome_text(trace: Trace) -> str:
     return f"timeout after {steps} steps, {t:.1f} s"
 
 
-def params_text(params: dict[str, float]) -> str:
-    units = {"door_speed": "deg/s", "crowd_speed": "m/s", "obstacle_speed": "m/s"}
-    return ", ".join(f"{k} = {v:g} {units.get(k, '')}".strip() for k, v in params.items())
+def params_text(params: dict[str, float], scenario: str | None = None) -> str:
+    """``door_speed = 17 deg/s``: each key with its unit (the scenario's ``sweep_axes`` and field metadata)."""
+    from footstep_gym.scenarios import SCENARIOS, units
+
+    unit = {**units(), **(units(scenario) if scenario in SCENARIOS else {})}
+    return ", ".join(f"{k} = {v:g} {unit.get(k, '')}".strip() for k, v in params.items())
 
 
 # ---------------------------------------------------------------- geometry helpers
@@ -244,7 +247,7 @@ def command_table(trace: Trace) -> str:
     """
     head = ["Steps"] + [c[0] for c in TABLE_COLUMNS]
     lines = [
-        f"# Footstep commands: {trace.env_id} ({params_text(trace.params) or 'defaults'}), "
+        f"# Footstep commands: {trace.env_id} ({params_text(trace.params, trace.scenario) or 'defaults'}), "
         f"{trace.policy}, seed {trace.seed}",
         "",
         f"Outcome: {outcome_text(trace)}. Rows where PSO changed the command are in **bold**, with the "

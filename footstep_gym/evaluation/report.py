@@ -136,13 +136,19 @@ def showcase_seed(cells: list[Cell], results: list[EpisodeResult], indices: list
 
 
 def write_pictures(out: Path, cells: list[Cell], results: list[EpisodeResult], showcase: str,
-                   figure_scenarios: tuple[str, ...] = ("door", "crossing", "crowd"),
-                   table_scenarios: tuple[str, ...] = ("door", "crowd")) -> list[Path]:
+                   figure_scenarios: tuple[str, ...] | None = None,
+                   table_scenarios: tuple[str, ...] | None = None) -> list[Path]:
     """One figure per env setting (policies side by side on the showcase seed) and its command tables.
 
-    An agent with several training runs is shown by its first run.
+    Figures for the scenes ``figure_scenarios`` (default: all), command tables for ``table_scenarios``
+    (default: the scenarios whose class sets ``command_tables``, door and crowd as the paper's Tables 2
+    and 4). An agent with several training runs is shown by its first run.
     """
     from footstep_gym.evaluation.figures import episode_figure, params_text, write_command_table
+    from footstep_gym.scenarios import SCENARIOS
+
+    if table_scenarios is None:
+        table_scenarios = tuple(name for name, cls in SCENARIOS.items() if cls.command_tables)
 
     written = []
     groups: dict[tuple[str, tuple], list[int]] = {}
@@ -154,7 +160,7 @@ def write_pictures(out: Path, cells: list[Cell], results: list[EpisodeResult], s
         groups.setdefault((c.env_id, c.params), []).append(i)
     for (env_id, _), indices in groups.items():
         scenario = cells[indices[0]].scenario
-        if scenario not in figure_scenarios:
+        if figure_scenarios is not None and scenario not in figure_scenarios:
             continue
         seed = showcase_seed(cells, results, indices, showcase)
         traces = [r.trace for i in indices for r in results if r.cell_index == i and r.seed == seed]
@@ -162,7 +168,8 @@ def write_pictures(out: Path, cells: list[Cell], results: list[EpisodeResult], s
         if not traces:
             continue
         setting = cells[indices[0]].setting
-        title = f"{env_id}" + (f" ({params_text(traces[0].params)})" if traces[0].params else "") + f", seed {seed}"
+        shown_params = f" ({params_text(traces[0].params, scenario)})" if traces[0].params else ""
+        title = f"{env_id}{shown_params}, seed {seed}"
         written.append(episode_figure(traces, out / "figures" / f"{safe_name(setting)}.png", title))
         if scenario in table_scenarios:
             for tr in traces:

@@ -61,9 +61,9 @@ class Cell:
     for a trained agent, the training run evaluated (a folder in the zoo's layout)."""
 
     env_id: str
-    scenario: str  # door / crossing / crowd
+    scenario: str  # a key of footstep_gym.scenarios.SCENARIOS (door / crossing / crowd)
     policy: str
-    params: tuple[tuple[str, float], ...] = ()  # sorted (key, value) pairs: hashable and ordered
+    params: tuple[tuple[str, float], ...] = ()  # (key, value) pairs of the scenario's sweep_axes, in their order
     run: str | None = None  # agents: path of the training run; planners: None
 
     @property
@@ -162,7 +162,7 @@ def planner_notes(policy: Any) -> tuple[np.ndarray | None, bool | None]:
 # ---------------------------------------------------------------- running
 def default_factory(cell: Cell, robot: Any, seed: int) -> Any:
     """The policy registry (imported here so workers resolve it themselves)."""
-    from footstep_gym.evaluation.policies import make_policy
+    from footstep_gym.policies import make_policy
 
     return make_policy(cell.policy, robot, seed=seed, run=cell.run)
 

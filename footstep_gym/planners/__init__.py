@@ -4,12 +4,13 @@ The maths here never imports pygame or torch. One module per stage, each with a 
 that returns a small record: :class:`PeriodSearch` -> :class:`PeriodChoice` (stage 1,
 :mod:`.period_search` over the walks of :mod:`.rollouts`), :class:`PathSearch` ->
 :class:`PathChoice` (stage 2, :mod:`.rrt`), :class:`CommandRepair` ->
-:class:`RepairChoice` (stage 3, :mod:`.pso`). :mod:`.reference` holds the policy
-interface and the registry (``period-aware``, ``fixed-period``, ``pso-only``,
+:class:`RepairChoice` (stage 3, :mod:`.pso`). :mod:`.reference` holds the planners and
+their registry :data:`POLICIES` (``period-aware``, ``fixed-period``, ``pso-only``,
 ``paper-period-aware``, ``paper-fixed-period``, and ``paper-period-aware-t0-<s>`` with T0
 fixed; the paper's planners follow :data:`PAPER_READINGS` where the paper differs from our
 defaults, docs/model.md §5.3); :mod:`.ablation` names the variants with one of our
-additions switched off.
+additions switched off. A planner is made by name with :func:`footstep_gym.make_policy`
+(the one factory, planners and agents alike; the interface is :class:`footstep_gym.policy.Policy`).
 """
 
 from footstep_gym.planners.ablation import ablation_variants
@@ -49,10 +50,8 @@ from footstep_gym.planners.reference import (
     POLICIES,
     FixedPeriodPlanner,
     PeriodAwarePlanner,
-    Policy,
     PolicySpec,
     PSOOnlyPlanner,
-    make_policy,
     policy_spec,
     variant_name,
 )
@@ -64,9 +63,9 @@ __all__ = [
     "PAPER", "PAPER_READINGS", "POLICIES", "AdditionsParams", "BodyModel", "CommandRepair", "FixedPeriodPlanner",
     "GoalRollouts", "ModifiedRRT", "NextNodeFan", "ObstaclePredictor", "PSOOnlyParams", "PSOOnlyPlanner",
     "PSOParams", "PSOResult", "PathChoice", "PathSearch", "PeriodAwarePlanner", "PeriodChoice", "PeriodSearch",
-    "PeriodSearchParams", "PeriodSearchResult", "PlannerConfig", "Policy", "PolicySpec", "PredictionParams",
+    "PeriodSearchParams", "PeriodSearchResult", "PlannerConfig", "PolicySpec", "PredictionParams",
     "RRTParams", "RRTPath", "RepairChoice", "RepairResult", "WalkStart", "ablation_variants", "body_path_points",
     "clip_command", "feasibility_objective", "increment_bounds", "load_planner_config", "longest_free_period",
-    "make_policy", "minimise", "node_of_foot", "policy_spec", "repair_command", "shortest_feasible_period",
+    "minimise", "node_of_foot", "policy_spec", "repair_command", "shortest_feasible_period",
     "stride_window", "variant_name", "walk_start",
 ]

@@ -4,7 +4,7 @@ Every switch of ``configs/planner.yaml``'s ``additions`` section (read from
 :class:`~.params.AdditionsParams`, so a new switch joins the ablation by itself) gives
 one variant, named ``period-aware-no-<switch>`` with the switch's underscores as
 hyphens (``period-aware-no-waiting-walks``, ``period-aware-no-centred-period``, ...).
-:func:`~.reference.make_policy` builds any of them::
+:func:`footstep_gym.make_policy` builds any of them::
 
     for name in ablation_variants():
         policy = make_policy(name, robot, seed=s)
@@ -32,7 +32,7 @@ def switches() -> tuple[str, ...]:
 
 
 def ablation_variants(base: str = BASE, *, with_base: bool = True, with_paper: bool = True) -> tuple[str, ...]:
-    """Policy names for :func:`~.reference.make_policy`: ``base``, then ``base`` with each switch off,
+    """Policy names for :func:`footstep_gym.make_policy`: ``base``, then ``base`` with each switch off,
     then the paper's planner (``paper-period-aware``; only for the default ``base``)."""
     names = [variant_name(base, s) for s in switches()]
     if with_base:

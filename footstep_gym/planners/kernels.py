@@ -1,30 +1,36 @@
-"""Compiled inner loops of the planners (numba): the same arithmetic as the numpy code they replace.
+"""Compiled inner loops of the planners (numba): the same arithmetic as their numpy references.
 
 The planners ask tens of thousands of small questions per footstep ("is this body point,
 at this time, clear of every predicted shape?"); in numpy each question costs a dozen
 array temporaries and Python-level calls. These kernels loop over points and shapes
 once, stopping at the first shape that blocks a point:
 
-* :func:`points_free` — :meth:`.prediction.ObstaclePredictor.free`: points against thick
-  segments moving at constant velocity and angular velocity (docs/model.md §5);
-* :func:`walks_survival` — :func:`.walks.walks_survival` with a :class:`.prediction.BodyModel`:
-  the body points of whole walks (each at its own period) generated and checked in one loop,
-  each walk stopping at its first blocked point;
-* :func:`pursue_lanes` — the pure pursuit of :class:`.rollouts.GoalRollouts`;
+* :func:`points_free` — :meth:`.prediction.ObstaclePredictor.free` (numpy reference:
+  :meth:`~.prediction.ObstaclePredictor.free_numpy`): points against thick segments moving at
+  constant velocity and angular velocity (docs/model.md §5);
+* :func:`walks_survival` — :func:`.walks.walks_survival_at` (numpy reference:
+  ``walks._walks_survival_numpy``): the body points of whole walks (each at its own period)
+  generated and checked in one loop, each walk stopping at its first blocked point;
+* :func:`pursue_lanes` — the pure pursuit of :class:`.rollouts.GoalRollouts` (numpy reference:
+  :func:`.rollouts.pursue_lanes_numpy`);
 * :func:`extend_tree` and :func:`insert_walks` — a batch of the modified RRT
-  (:class:`.rrt.ModifiedRRT`) and its seed walks, on the tree's arrays.
+  (:class:`.rrt.ModifiedRRT`) and its seed walks, on the tree's arrays (numpy reference: the RRT's
+  own methods).
 
-The shapes are one table ``(S, 13)`` (:attr:`.prediction.ObstaclePredictor.kernel_shapes`), one row
-per shape, its columns named by the constants below. Every kernel is held equal to the numpy code
-it replaces by ``tests/test_kernels.py``: the same booleans, instants and tree shapes exactly, the
-floats to a few ulps. The kernels call libm (``math.cos``, ``math.atan2``, ...) and never fuse a
-multiply-add; numpy picks SIMD kernels per CPU at run time, which round some results an ulp otherwise
-(``arctan2``, ``exp`` with AVX-512; complex products fused with AVX2), so the two agree bit for bit on
-some CPUs and not on others.
+Which twin runs is the setting ``kernels.compiled`` of ``configs/planner.yaml``, passed down by the
+stages as ``compiled`` (never the type of the body check, :func:`.walks.on_route`); with it off,
+this module (and numba) is never imported. The kernels read the shapes from one table ``(S, 13)``
+(:attr:`.prediction.ObstaclePredictor.kernel_shapes`), one row per shape, its columns named by the
+constants below: so the compiled route needs a :class:`.prediction.BodyModel`. Every kernel is held
+equal to its numpy reference by ``tests/test_kernels.py``: the same booleans, instants and tree
+shapes exactly, the floats to a few ulps, and whole planner episodes the same on both routes. The
+kernels call libm (``math.cos``, ``math.atan2``, ...) and never fuse a multiply-add; numpy picks SIMD
+kernels per CPU at run time, which round some results an ulp otherwise (``arctan2``, ``exp`` with
+AVX-512; complex products fused with AVX2), so the two agree bit for bit on some CPUs and not on
+others.
 
-Compiled on first use and cached on disk (``cache=True``): the first call of a fresh
-install costs the compilation (several seconds for all of them), later processes load them
-in milliseconds.
+Compiled on first use and cached on disk (``cache=True``): the first call of a fresh install
+pays the compilation, later processes load them from the cache.
 """
 
 from __future__ import annotations
@@ -157,7 +163,7 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
                    headings: np.ndarray, n_nodes: np.ndarray, side0: int, period: np.ndarray, samples: np.ndarray,
                    goal_x: float, goal_y: float, goal_radius: float, shift: np.ndarray, needed: np.ndarray,
                    shapes: np.ndarray, radius: np.ndarray, horizon: np.ndarray, blocked_at: np.ndarray) -> None:
-    """:func:`.walks.walks_survival` for a :class:`.prediction.BodyModel`, one walk after the other: into
+    """:func:`.walks.walks_survival_at` for a :class:`.prediction.BodyModel`, one walk after the other: into
     ``blocked_at[r]`` [s] the time of walk ``r``'s first blocked point (``inf`` if it stays free).
 
     Walk ``r`` has its own period ``T = period[r]`` [s] and its first ``n_nodes[r]`` nodes (so that

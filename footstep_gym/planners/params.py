@@ -3,7 +3,7 @@
 The YAML has one section per stage; each section is built with
 :func:`footstep_gym.config.build`, so unknown or missing keys and bad values raise
 :class:`~footstep_gym.errors.ConfigError` naming them. Overrides (keyword arguments of
-:func:`~footstep_gym.planners.make_policy`) are given per section, either as a mapping
+:func:`footstep_gym.make_policy`) are given per section, either as a mapping
 (``rrt={"iterations": 200}``) or flat as ``<section>_<key>`` (``rrt_iterations=200``).
 """
 
@@ -177,6 +177,13 @@ class PSOOnlyParams:
 
 
 @dataclass(frozen=True)
+class KernelsParams:
+    """Which of the planners' twin implementations runs: the same answers either way, at another cost."""
+
+    compiled: bool = plain()  # the walks' and the RRT's loops in numba (.kernels); false: the numpy reference, no numba
+
+
+@dataclass(frozen=True)
 class PlannerConfig:
     """All sections of ``configs/planner.yaml``."""
 
@@ -186,6 +193,7 @@ class PlannerConfig:
     rrt: RRTParams
     pso: PSOParams
     pso_only: PSOOnlyParams
+    kernels: KernelsParams
 
 
 _SECTION_TYPES = {
@@ -195,6 +203,7 @@ _SECTION_TYPES = {
     "rrt": RRTParams,
     "pso": PSOParams,
     "pso_only": PSOOnlyParams,
+    "kernels": KernelsParams,
 }
 
 
@@ -214,7 +223,7 @@ def _nest_overrides(overrides: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
                 break
         else:
             known = [f"{n}_{f.name}" for n, cls in _SECTION_TYPES.items() for f in dataclasses.fields(cls)]
-            raise ConfigError(config._unknown_keys_message("planner overrides", [key], known + list(_SECTION_TYPES)))
+            raise ConfigError(config.unknown_keys_message("planner overrides", [key], known + list(_SECTION_TYPES)))
     return nested
 
 
@@ -225,7 +234,7 @@ def load_planner_config(overrides: Mapping[str, Any] | None = None,
     data = config.read_yaml("planner.yaml")
     unknown = [k for k in data if k not in _SECTION_TYPES]
     if unknown:
-        raise ConfigError(config._unknown_keys_message("planner.yaml", unknown, list(_SECTION_TYPES)))
+        raise ConfigError(config.unknown_keys_message("planner.yaml", unknown, list(_SECTION_TYPES)))
     missing = [k for k in _SECTION_TYPES if k not in data]
     if missing:
         raise ConfigError(f"planner.yaml: missing section(s) {', '.join(missing)}")

@@ -222,7 +222,8 @@ class PeriodChoice:
 
 
 class PeriodSearch:
-    """Stage 1 with the parameters of ``configs/planner.yaml`` (sections ``period_search``, ``additions``).
+    """Stage 1 with the parameters of ``configs/planner.yaml`` (sections ``period_search``, ``additions``;
+    ``kernels``: the walks pursued and checked in compiled loops or by their numpy references).
 
     ``vary_period=False`` is the fixed-period planner: ``T = T_n``, only checked.
     """
@@ -254,6 +255,7 @@ class PeriodSearch:
         self.t0_reachable = ps.t0_reachable or add.lipm_windows
         self.check_node = config.prediction.check == "node"
         self.centred_period = add.centred_period
+        self.compiled = config.kernels.compiled
         waits = tuple(int(w) for w in ps.rollout_wait_steps if w > 0)
         fractions = tuple(ps.rollout_stride_fractions)
         if not self.long_lookahead:
@@ -317,7 +319,7 @@ class PeriodSearch:
               fractions: Sequence[float]) -> GoalRollouts | NextNodeFan:
         """``ObstacleCollision``: the rollouts (``long_lookahead``) or the paper's one-step fan."""
         window = (lambda T: self.stride_window(snapshot, T)) if self.lipm_windows else None
-        common = dict(edge_samples=self.edge_samples, first_stride=window)
+        common = dict(edge_samples=self.edge_samples, first_stride=window, compiled=self.compiled)
         if not self.long_lookahead:
             return NextNodeFan(search_body, self.robot, start, snapshot.goal, snapshot.goal_tolerance,
                                step_size=self.step_size, stride_fractions=fractions,

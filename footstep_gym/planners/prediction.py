@@ -25,7 +25,6 @@ import functools
 import numpy as np
 
 from footstep_gym import footstep, lipm
-from footstep_gym.planners import kernels
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import ObstacleView, Snapshot
 
@@ -92,13 +91,14 @@ class ObstaclePredictor:
         self._ab = cplx([v.b if v.kind == "segment" else v.a for v in views]) - self._a  # 0 for a circle
         self._ab2 = np.abs(self._ab) ** 2
         self._radius = col([v.radius for v in views])
-        # The shapes as the compiled kernels read them: one row per shape, columns named in kernels.py.
+        # The shapes as the compiled kernels read them: one row per shape, its 13 columns named in kernels.py
+        # (kernels.SHAPE_COLUMNS; built here without importing kernels, which imports numba).
         self.kernel_radius = np.ascontiguousarray(self._radius)
         self.kernel_horizon = np.ascontiguousarray(self._horizon)
         self.kernel_shapes = np.ascontiguousarray(np.stack([
             self._position.real, self._position.imag, self._velocity.real, self._velocity.imag, self._angle,
             self._omega, np.cos(self._angle), np.sin(self._angle), self._a.real, self._a.imag, self._ab.real,
-            self._ab.imag, self._ab2], axis=1).reshape(n, kernels.SHAPE_COLUMNS))
+            self._ab.imag, self._ab2], axis=1).reshape(n, 13))
 
     @property
     def n_shapes(self) -> int:
@@ -137,9 +137,11 @@ class ObstaclePredictor:
     def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
         """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots).
 
-        One compiled loop (:func:`.kernels.points_free`) over points and shapes; the numpy
-        expression it replaces is :meth:`free_numpy` (the tests hold the two equal).
+        One compiled loop (:func:`.kernels.points_free`) over points and shapes; its numpy twin is
+        :meth:`free_numpy` (the tests hold the two equal).
         """
+        from footstep_gym.planners import kernels  # imports numba: only on the compiled route
+
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         times = np.broadcast_to(np.asarray(times, dtype=float), pts.shape[:1])
         out = np.empty(len(pts), dtype=bool)
@@ -149,7 +151,8 @@ class ObstaclePredictor:
         return out
 
     def free_numpy(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
-        """:meth:`free` in plain numpy (the reference the compiled kernel is tested against)."""
+        """:meth:`free` in plain numpy: the reference implementation, the test oracle of :meth:`free`
+        (``tests/test_kernels.py``), and the route of ``kernels.compiled: false``."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         return (self._distance2(pts, times) >= (self._radius + safe_distance) ** 2).all(axis=1)
 
@@ -205,13 +208,25 @@ class BodyModel:
     ``margin`` [m] for everything else (prediction error, turning). ``sway=False`` (switch
     ``additions.com_sway`` off; the paper's "robot radius"): one circle on the centre line at
     every period, grown by the larger sway of the nominal gait so that it holds the body there.
+
+    ``compiled``: :meth:`free` asks :meth:`ObstaclePredictor.free` (the compiled kernel) or its numpy
+    twin :meth:`ObstaclePredictor.free_numpy`. The planners' stages put every body check on the route
+    of ``configs/planner.yaml``'s ``kernels.compiled`` (:func:`.walks.on_route`, :meth:`routed`).
     """
 
-    def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float, sway: bool = True) -> None:
+    def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float, sway: bool = True,
+                 compiled: bool = True) -> None:
         self.predictor = predictor
         self.robot = robot
         self.margin = margin
         self.with_sway = sway
+        self.compiled = compiled
+
+    def routed(self, compiled: bool) -> BodyModel:
+        """This body check with its points checked by the compiled kernel (``compiled``) or in numpy."""
+        if compiled == self.compiled:
+            return self
+        return BodyModel(self.predictor, self.robot, self.margin, sway=self.with_sway, compiled=compiled)
 
     def sway(self, period: float) -> tuple[float, float]:
         """``(shift towards the support foot, radius growth)`` [m] at ``period`` (cached per 0.1 ms of period)."""
@@ -238,7 +253,9 @@ class BodyModel:
         foot of the step each point belongs to (zero vectors: no sway shift).
         """
         pts, needed = self._body(points, support_normals, period)
-        return self.predictor.free(pts, times, needed)
+        if self.compiled:
+            return self.predictor.free(pts, times, needed)
+        return self.predictor.free_numpy(pts, times, needed)
 
     def slack(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray, period: float) -> np.ndarray:
         """Clearance [m] beyond what :meth:`free` requires at each point, ``(N,)`` (negative: not free)."""

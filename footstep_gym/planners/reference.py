@@ -1,14 +1,10 @@
-"""Reference policies: the paper's planner and its two comparisons, behind one interface.
+"""Reference policies: the paper's planner and its two comparisons, and their registry.
 
-Every policy, scripted or learned, is driven the same way by the evaluation::
-
-    policy = make_policy("period-aware", robot, seed=0)
-    policy.reset(seed=0)
-    obs, info = env.reset(seed=0)
-    while True:
-        action = policy.act(obs, env.unwrapped.sensing())   # [S, L, θ, T_SS, T_DS], SI units
-        obs, reward, terminated, truncated, info = env.step(action)
-        ...  policy.last_info  # what the policy did this step (planning time, pre-PSO command, ...)
+Every policy, scripted or learned, is a :class:`footstep_gym.policy.Policy` and is made by
+name with the one factory :func:`footstep_gym.make_policy` (``reset(seed)``, then
+``act(obs, snapshot)`` per footstep; see :mod:`footstep_gym.policy`). This module holds the
+planners and :data:`POLICIES`, their registry: a :class:`PolicySpec` per name (class, config
+overrides, one-line description), which the factory builds with :meth:`PolicySpec.build`.
 
 The three planners here read only the :class:`~footstep_gym.sensing.Snapshot` (what a
 robot could sense now; the future only through its constant-velocity prediction) and
@@ -60,7 +56,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from abc import ABC, abstractmethod
+from abc import abstractmethod
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
@@ -79,29 +75,9 @@ from footstep_gym.planners.prediction import (
 from footstep_gym.planners.pso import CommandRepair
 from footstep_gym.planners.rrt import PathChoice, PathSearch
 from footstep_gym.planners.walks import WalkStart, walk_start
-from footstep_gym.robot import Robot, load_robot
+from footstep_gym.policy import Policy
+from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot
-
-
-class Policy(ABC):
-    """What the evaluation drives: ``reset`` per episode, ``act`` per footstep.
-
-    ``act`` returns the footstep command ``[S, L, θ, T_SS, T_DS]`` (float, SI units, shape
-    ``(5,)``) and leaves a dict ``last_info`` describing the step.
-    """
-
-    name: str = ""
-
-    def __init__(self) -> None:
-        self.last_info: dict[str, Any] = {}
-
-    @abstractmethod
-    def reset(self, seed: int | None = None) -> None:
-        """Start an episode; ``seed`` re-seeds the policy's own generator (``None``: keep it)."""
-
-    @abstractmethod
-    def act(self, observation: Any, snapshot: Snapshot | None) -> np.ndarray:
-        """The next footstep command ``(5,)`` from the env's observation and/or sensing snapshot."""
 
 
 class _Planner(Policy):
@@ -266,16 +242,17 @@ class PSOOnlyPlanner(_Planner):
 
 @dataclass(frozen=True)
 class PolicySpec:
-    """A registered policy: its class and the ``configs/planner.yaml`` overrides that make it.
+    """A registered planner: its class, the ``configs/planner.yaml`` overrides that make it, what it is.
 
     ``additions``: switches of the ``additions`` section set on top of the YAML (e.g. all
     off for the paper's planners); ``readings``: other keys, ``{section: {key: value}}``
-    (e.g. :data:`PAPER_READINGS`).
+    (e.g. :data:`PAPER_READINGS`); ``description``: one line (``eval_planner.py --help``).
     """
 
     planner: type[_Planner]
     additions: Mapping[str, bool] = field(default_factory=dict)
     readings: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    description: str = ""
 
     def defaults(self) -> dict[str, dict[str, Any]]:
         """The policy's own config values, ``{section: {key: value}}``, for :func:`load_planner_config`."""
@@ -283,6 +260,19 @@ class PolicySpec:
         if self.additions:
             out["additions"] = {**out.get("additions", {}), **self.additions}
         return out
+
+    def build(self, name: str, robot: Robot, seed: int | None = None, config: PlannerConfig | None = None,
+              **overrides: Any) -> Policy:
+        """The planner named ``name`` (this spec's registry name) for ``robot``: ``configs/planner.yaml`` with
+        this spec's values and ``overrides`` on top, or ``config`` as given (exclusive with ``overrides``).
+
+        What :func:`footstep_gym.make_policy` calls; use that (it takes any policy name and a robot profile).
+        """
+        if config is None or overrides:
+            if config is not None:
+                raise ValueError("pass either config or overrides, not both")
+            config = load_planner_config(overrides, defaults=self.defaults())
+        return self.planner(robot, config, seed, name)
 
 
 #: Every switch of ``additions`` off: the paper's planner, nothing else (docs/model.md §5).
@@ -305,11 +295,17 @@ PAPER_READINGS: dict[str, dict[str, Any]] = {
 
 #: The registry of scripted policies, by name.
 POLICIES: dict[str, PolicySpec] = {
-    "period-aware": PolicySpec(PeriodAwarePlanner),
-    "fixed-period": PolicySpec(FixedPeriodPlanner),
-    "pso-only": PolicySpec(PSOOnlyPlanner),
-    "paper-period-aware": PolicySpec(PeriodAwarePlanner, PAPER, PAPER_READINGS),
-    "paper-fixed-period": PolicySpec(FixedPeriodPlanner, PAPER, PAPER_READINGS),
+    "period-aware": PolicySpec(
+        PeriodAwarePlanner,
+        description="the paper's planner: binary search for the period, modified RRT, PSO (with our additions)"),
+    "fixed-period": PolicySpec(FixedPeriodPlanner, description="the same planner with the period held at the "
+                                                               "nominal T_n"),
+    "pso-only": PolicySpec(PSOOnlyPlanner, description="PSO alone over the whole command box"),
+    "paper-period-aware": PolicySpec(PeriodAwarePlanner, PAPER, PAPER_READINGS,
+                                     description="the paper's planner as written: Algorithms 1-2, PSO when "
+                                                 "infeasible, none of our additions"),
+    "paper-fixed-period": PolicySpec(FixedPeriodPlanner, PAPER, PAPER_READINGS,
+                                     description="the paper's planner as written, the period held at T_n"),
 }
 
 #: ``<policy>-no-<switch>``: a staged policy of :data:`POLICIES` with one switch of ``additions`` off.
@@ -348,7 +344,7 @@ def _fixed_t0_spec(name: str) -> PolicySpec | None:
         return None
     readings = {section: dict(values) for section, values in spec.readings.items()}
     readings["period_search"] = {**readings.get("period_search", {}), "t0_reachable": False, "t0_s": t0}
-    return PolicySpec(spec.planner, spec.additions, readings)
+    return PolicySpec(spec.planner, spec.additions, readings, f"{base} with T0 fixed at {t0:g} s")
 
 
 def policy_spec(name: str) -> PolicySpec:
@@ -361,7 +357,8 @@ def policy_spec(name: str) -> PolicySpec:
     if sep and base in POLICIES and switch_of(label) in switches:
         spec = POLICIES[base]
         if issubclass(spec.planner, PeriodAwarePlanner):
-            return PolicySpec(spec.planner, {**spec.additions, switch_of(label): False}, spec.readings)
+            return PolicySpec(spec.planner, {**spec.additions, switch_of(label): False}, spec.readings,
+                              f"{base} with the addition {switch_of(label)} off")
     fixed = _fixed_t0_spec(name)
     if fixed is not None:
         return fixed
@@ -369,27 +366,3 @@ def policy_spec(name: str) -> PolicySpec:
     raise ValueError(f"unknown policy {name!r}; known: {', '.join(sorted(POLICIES))}, <staged policy>-no-<switch> "
                      f"such as {variants}, and {fixed_t0_name('paper-period-aware', 0.3)} (the paper's planner "
                      f"with T0 fixed at 0.3 s)")
-
-
-def make_policy(name: str, robot: Robot | str | Mapping[str, Any] | None = None, seed: int | None = None,
-                config: PlannerConfig | None = None, **overrides: Any) -> Policy:
-    """A policy by name with ``configs/planner.yaml`` (plus ``overrides``) and ``robot``.
-
-    ``name``: a key of :data:`POLICIES`, a variant ``<policy>-no-<switch>`` (that policy
-    with one switch of the ``additions`` section off, see :mod:`.ablation`) or
-    ``<paper policy>-t0-<seconds>`` (T0 fixed). ``robot``: a :class:`Robot`, or what
-    ``gym.make(..., robot=...)`` takes: a profile name (``"darwin-op"``), a mapping of
-    ``configs/robot.yaml`` overrides, or both (``{"profile": "darwin-op", ...}``); ``None``:
-    ``configs/robot.yaml``.
-    ``overrides`` are planner config keys, per section (``rrt={"iterations": 200}``) or flat
-    (``rrt_iterations=200``), applied on top of the YAML and of the policy's own switches;
-    ``config`` (a ready :class:`PlannerConfig`, used as given) and ``overrides`` are exclusive.
-    """
-    spec = policy_spec(name)
-    if config is None or overrides:
-        if config is not None:
-            raise ValueError("pass either config or overrides, not both")
-        config = load_planner_config(overrides, defaults=spec.defaults())
-    if not isinstance(robot, Robot):
-        robot = load_robot(robot)
-    return spec.planner(robot, config, seed, name)

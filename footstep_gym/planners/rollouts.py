@@ -16,6 +16,11 @@ that scans rather than bisects):
 
 Both evaluate from scratch at every call (the walk geometry is memoised, the verdicts
 are not): the period search (:mod:`.period_search`) keeps what it needs in its record.
+
+``compiled`` (``configs/planner.yaml``'s ``kernels.compiled``): the walks are pursued and checked in
+compiled loops (:func:`.kernels.pursue_lanes`, :func:`.kernels.walks_survival`), which need a
+:class:`~.prediction.BodyModel`, or by their numpy references (:func:`pursue_lanes_numpy`,
+:mod:`.walks`), with any body check.
 """
 
 from __future__ import annotations
@@ -29,9 +34,8 @@ import numpy as np
 
 from footstep_gym import footstep
 from footstep_gym.footstep import LEFT, RIGHT
-from footstep_gym.planners import kernels
 from footstep_gym.planners.prediction import support_normal
-from footstep_gym.planners.walks import BodyCheck, WalkStart, steps_to_goal, walks_free, walks_survival_at
+from footstep_gym.planners.walks import BodyCheck, WalkStart, on_route, steps_to_goal, walks_free, walks_survival_at
 from footstep_gym.robot import Robot
 
 #: ``(lo, hi)`` [m] of the first step's front stride the LIPM accepts at period ``T``, or ``None`` (no limit).
@@ -39,11 +43,13 @@ StrideWindow = Callable[[float], "tuple[float, float] | None"]
 
 
 class _Walks(ABC):
-    """What both predicates share: the body check and the ordering of free walks."""
+    """What both predicates share: the body check, its route and the ordering of free walks."""
 
     def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
-                 goal_radius: float, *, edge_samples: int, first_stride: StrideWindow | None = None) -> None:
-        self.body = body
+                 goal_radius: float, *, edge_samples: int, compiled: bool,
+                 first_stride: StrideWindow | None = None) -> None:
+        self.compiled = compiled
+        self.body = on_route(body, compiled)
         self.robot = robot
         self.start = start
         self.goal = np.asarray(goal, dtype=float)
@@ -57,7 +63,7 @@ class _Walks(ABC):
 
     def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float) -> np.ndarray:
         return walks_free(self.body, self.start, nodes, headings, period, self.edge_samples, self.goal,
-                          self.goal_radius)
+                          self.goal_radius, compiled=self.compiled)
 
     def free_walks(self, period: float, limit: int | None = None,
                    blocked_at: np.ndarray | None = None) -> list[np.ndarray]:
@@ -82,11 +88,11 @@ class _Walks(ABC):
 
     def survival_table(self, periods: Sequence[float]) -> list[np.ndarray]:
         """For each of ``periods`` [s], the time [s] each walk at that period is first blocked (``inf``: free).
-        All walks of all periods are checked in one compiled call."""
+        All walks of all periods are checked in one call (compiled: one loop)."""
         periods = [float(T) for T in periods]
         groups = [self.nodes(T) for T in periods]
         return walks_survival_at(self.body, self.start, groups, periods, self.edge_samples, self.goal,
-                                 self.goal_radius)
+                                 self.goal_radius, compiled=self.compiled)
 
     def survivals(self, periods: Sequence[float]) -> np.ndarray:
         """``(P,)`` [s]: for each of ``periods`` [s], how long the walk at that period that stays free
@@ -111,10 +117,11 @@ class GoalRollouts(_Walks):
 
     def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
                  goal_radius: float, *, horizon: float, step_size: float, lane_offsets: Sequence[float],
-                 stride_fractions: Sequence[float], lookahead: float, edge_samples: int,
+                 stride_fractions: Sequence[float], lookahead: float, edge_samples: int, compiled: bool,
                  wait_steps: Sequence[int] = (0,), depth_slack: float = 1.2, extra_steps: int = 2,
                  first_stride: StrideWindow | None = None) -> None:
-        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, first_stride=first_stride)
+        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, compiled=compiled,
+                         first_stride=first_stride)
         self.horizon = horizon
         self.lookahead = lookahead
         self._offsets, self._strides, self._waits = _library(tuple(map(float, lane_offsets)),
@@ -137,7 +144,12 @@ class GoalRollouts(_Walks):
         return nodes[:, : depth + 1], headings[:, : depth + 1]
 
     def _pursue(self, window: tuple[float, float] | None, depth: int) -> tuple[np.ndarray, np.ndarray]:
-        """Pure pursuit of every rollout's lane for ``depth`` steps (compiled: :func:`.kernels.pursue_lanes`)."""
+        """Pure pursuit of every rollout's lane for ``depth`` steps (compiled: :func:`.kernels.pursue_lanes`;
+        else :func:`pursue_lanes_numpy`)."""
+        if not self.compiled:
+            return pursue_lanes_numpy(self, window, depth)
+        from footstep_gym.planners import kernels  # imports numba: only on the compiled route
+
         (l_lo, l_hi), (r_lo, r_hi) = (footstep.turn_bounds(side, self.robot) for side in (LEFT, RIGHT))
         w_lo, w_hi = window if window is not None else (0.0, 0.0)
         return kernels.pursue_lanes(
@@ -146,6 +158,43 @@ class GoalRollouts(_Walks):
             float(self.start.heading), int(self.start.side), self._offsets, self._strides,
             self._waits, float(l_lo), float(l_hi), float(r_lo), float(r_hi), window is not None,
             float(w_lo), float(w_hi), int(depth))
+
+
+def pursue_lanes_numpy(rollouts: GoalRollouts, window: tuple[float, float] | None,
+                       depth: int) -> tuple[np.ndarray, np.ndarray]:
+    """The lane pursuit of ``rollouts`` (:class:`GoalRollouts`) for ``depth`` steps in numpy, all rollouts at once:
+    the reference implementation, the test oracle of :func:`.kernels.pursue_lanes` (``tests/test_kernels.py``),
+    and the route of ``kernels.compiled: false``. Nodes ``(R, depth + 1, 2)`` [m], headings ``(R, depth + 1)``
+    [rad]; ``window``: ``(lo, hi)`` [m] of the first stride, or ``None``. 2D points are complex numbers."""
+    n_roll = rollouts._offsets.size
+    node0 = complex(*rollouts.start.node)
+    axis = complex(*rollouts._dir)
+    goal = complex(*rollouts.goal)
+    lane = rollouts._offsets * (1j * axis)
+    limits = {side: footstep.turn_bounds(side, rollouts.robot) for side in (LEFT, RIGHT)}
+    pos = np.full(n_roll, node0)
+    heading = np.full(n_roll, float(rollouts.start.heading))
+    out = np.empty((n_roll, depth + 1), dtype=complex)
+    headings = np.empty((n_roll, depth + 1))
+    out[:, 0], headings[:, 0] = pos, heading
+    side = rollouts.start.side
+    arrived = np.zeros(n_roll, dtype=bool)
+    for d in range(1, depth + 1):
+        ahead = ((pos - node0) * axis.conjugate()).real + rollouts.lookahead  # along the axis, plus the lookahead
+        taper = np.clip((rollouts._length - ahead) / rollouts.lookahead, 0.0, 1.0)  # the lane closes onto the goal
+        aim = node0 + np.minimum(ahead, rollouts._length) * axis + taper * lane
+        lo, hi = limits[side]
+        heading = np.where(arrived, heading, heading + np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi))
+        stride = np.where(d <= rollouts._waits, 0.0, rollouts._strides)
+        if d == 1 and window is not None:
+            stride = np.clip(stride, *window)
+        stride = np.where(arrived, 0.0, np.minimum(stride, np.abs(goal - pos)))  # never past the goal
+        new = pos + stride * np.exp(1j * heading)
+        arrived |= np.abs(0.5 * (pos + new) - goal) <= rollouts.goal_radius  # the body is in: it stands still
+        pos = new
+        out[:, d], headings[:, d] = pos, heading
+        side = -side
+    return np.stack([out.real, out.imag], axis=-1), headings
 
 
 @functools.lru_cache(maxsize=16)
@@ -176,8 +225,10 @@ class NextNodeFan(_Walks):
 
     def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
                  goal_radius: float, *, step_size: float, stride_fractions: Sequence[float], directions: int,
-                 edge_samples: int, first_stride: StrideWindow | None = None, check_node: bool = False) -> None:
-        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, first_stride=first_stride)
+                 edge_samples: int, compiled: bool, first_stride: StrideWindow | None = None,
+                 check_node: bool = False) -> None:
+        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, compiled=compiled,
+                         first_stride=first_stride)
         self.check_node = check_node
         lo, hi = footstep.turn_bounds(start.side, robot)
         turn, frac = np.meshgrid(np.linspace(lo, hi, directions), np.asarray(stride_fractions, float), indexing="ij")

@@ -54,10 +54,12 @@ short edges (small steps) let it wait for an obstacle to pass.
 **Batched and compiled.** Samples are drawn ``batch_size`` at a time, each extended from its
 nearest node in the tree as it was at the start of the batch (``batch_size=1`` is Algorithm 2
 verbatim). Each batch extends the tree by at most one level, so ``iterations / batch_size``
-bounds the depth of the tree. With a :class:`~footstep_gym.planners.prediction.BodyModel`, a
+bounds the depth of the tree. With ``compiled`` (``configs/planner.yaml``'s ``kernels.compiled``), a
 batch (steps 5-16) and the seed walks are one compiled call each (:func:`.kernels.extend_tree`,
-:func:`.kernels.insert_walks`) on the tree's arrays; the numpy methods are the reference they are
-held equal to, node for node, and serve any other body check. The random numbers are drawn in
+:func:`.kernels.insert_walks`) on the tree's arrays and the predictor's shape table, so the body
+check must be a :class:`~footstep_gym.planners.prediction.BodyModel`; without, the numpy methods
+run: the reference implementation the compiled calls are held equal to, node for node, which takes
+any body check and never imports numba. The random numbers are drawn in
 numpy in the same order either way, so a seed grows the same tree: the same nodes, parents and goal
 nodes, with coordinates and headings equal to a few ulps (bit for bit unless numpy's ``arctan2``
 takes its AVX-512 kernel, which rounds an ulp otherwise than libm's now and then).
@@ -71,11 +73,10 @@ from typing import Callable, Sequence
 import numpy as np
 
 from footstep_gym import footstep
-from footstep_gym.planners import kernels
 from footstep_gym.planners.params import PlannerConfig
 from footstep_gym.planners.prediction import BodyModel, body_path_points, step_fractions, support_normal
 from footstep_gym.planners.pso import clip_command
-from footstep_gym.planners.walks import BodyCheck, WalkStart
+from footstep_gym.planners.walks import BodyCheck, WalkStart, on_route
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot
 
@@ -134,6 +135,11 @@ class Tree:
                        float(self.cost[idx[-1]]), reached_goal)
 
 
+#: [m] Goal paths whose costs differ by less than this are equally long (the first found is taken): the
+#: costs of two paths of as many full strides are equal but for rounding.
+COST_TIE_M = 1e-9
+
+
 class ModifiedRRT:
     """Algorithm 2 with the parameters of ``configs/planner.yaml`` (section ``rrt``).
 
@@ -147,15 +153,16 @@ class ModifiedRRT:
     every point at ``T``); ``check_node`` (``prediction.check: node``, Algorithm 2 step 11): the new
     node itself is checked, at the start and the end of its step (``0`` and ``T`` if not
     ``time_aware``: the obstacles now and predicted after ``T``, §2.2), instead of the body's path;
-    ``compiled``: with a :class:`~footstep_gym.planners.prediction.BodyModel`,
-    each batch is one compiled call (:func:`.kernels.extend_tree`; ``False``: the numpy methods, the
-    reference it is tested against; both grow the same tree, its floats to a few ulps).
+    ``compiled`` (``kernels.compiled``): each batch is one compiled call (:func:`.kernels.extend_tree`),
+    which needs a :class:`~footstep_gym.planners.prediction.BodyModel` (:func:`.walks.on_route` raises
+    otherwise); ``False``: the numpy methods, the reference it is tested against, with any body check.
+    Both grow the same tree, its floats to a few ulps.
     """
 
     def __init__(self, robot: Robot, *, iterations: int, batch_size: int, step_size: float,
-                 goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int,
+                 goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int, compiled: bool,
                  clearance_weight: float = 0.0, clearance_cap: float = 0.0,
-                 time_aware: bool = True, check_node: bool = False, compiled: bool = True) -> None:
+                 time_aware: bool = True, check_node: bool = False) -> None:
         self.robot = robot
         self.iterations = iterations
         self.batch_size = batch_size
@@ -188,10 +195,10 @@ class ModifiedRRT:
         self.tree = tree = Tree(start, self.iterations + 1 + n_seeded)
         self.goal_nodes = []
         self._goal, self._goal_radius, self._period = goal, goal_radius, period
-        self._body = body
+        compiled = self.compiled
+        self._body = body = on_route(body, compiled)
         self._first_stride = first_stride
         self._box = self._sampling_box(start.node, goal)
-        compiled = self.compiled and isinstance(body, BodyModel)
         seeds = [np.asarray(seed, dtype=float) for seed in seeds]
         (self._insert_seeds_compiled if compiled else self._insert_seeds)(seeds)
         extend = None
@@ -205,12 +212,16 @@ class ModifiedRRT:
             extend(samples, rng.random(batch))
         if not self.goal_nodes:
             return None
-        best = min(self.goal_nodes, key=lambda i: tree.cost[i])
+        # The least cost; among costs equal to within COST_TIE_M (common: paths of as many full strides), the goal node
+        # found first, so that rounding, which differs between the two routes, does not pick the path.
+        costs = tree.cost[self.goal_nodes]
+        best = self.goal_nodes[int(np.argmax(costs <= costs.min() + COST_TIE_M))]
         return tree.path_to(best, reached_goal=True)
 
     def _numpy_batch(self, samples: np.ndarray, redraw: np.ndarray) -> None:
         """Steps 5-16 for one batch of ``samples`` [m]; ``redraw`` (uniform in [0, 1)) re-draws the turns
-        outside the limits."""
+        outside the limits. In numpy: the reference implementation, the test oracle of :func:`.kernels.extend_tree`
+        (``tests/test_kernels.py``), and the route of ``kernels.compiled: false``."""
         tree = self.tree
         parents = self._nearest_nodes(samples)
         delta = self._restrict_to_angle_limits(parents, samples, redraw)
@@ -224,6 +235,8 @@ class ModifiedRRT:
     def _compiled_batch(self, body: BodyModel) -> Callable[[np.ndarray, np.ndarray], None]:
         """:meth:`_numpy_batch` as one compiled call per batch (:func:`.kernels.extend_tree`), for a
         :class:`BodyModel`: the same tree (its floats to a few ulps)."""
+        from footstep_gym.planners import kernels  # imports numba: only on the compiled route
+
         tree, pred = self.tree, body.predictor
         shift, needed = body.shift_and_clearance(self._period)
         need2 = (pred.kernel_radius + needed) ** 2
@@ -358,7 +371,8 @@ class ModifiedRRT:
     def _insert_seeds(self, seeds: Sequence[np.ndarray]) -> None:
         """Insert known-free walks (row 0 of each = the root) as chains of nodes from the root, all in one batch.
 
-        A step of zero length is a step in place: the new node keeps its parent's heading.
+        A step of zero length is a step in place: the new node keeps its parent's heading. In numpy: the
+        reference implementation, the test oracle of :func:`.kernels.insert_walks`.
         """
         tree = self.tree
         chains = [nodes for nodes in seeds if len(nodes) >= 2]
@@ -386,6 +400,8 @@ class ModifiedRRT:
         """:meth:`_insert_seeds` in one compiled call (:func:`.kernels.insert_walks`)."""
         if not seeds:
             return
+        from footstep_gym.planners import kernels  # imports numba: only on the compiled route
+
         tree = self.tree
         walk_nodes = np.concatenate(seeds).reshape(-1, 2)
         walk_first = np.cumsum([0, *(len(nodes) for nodes in seeds)])
@@ -435,7 +451,8 @@ class PathChoice:
 
 
 class PathSearch:
-    """Stage 2 with the parameters of ``configs/planner.yaml`` (sections ``rrt``, ``additions``)."""
+    """Stage 2 with the parameters of ``configs/planner.yaml`` (sections ``rrt``, ``additions``; ``kernels``: the
+    compiled RRT or its numpy reference)."""
 
     def __init__(self, robot: Robot, config: PlannerConfig) -> None:
         c, add = config, config.additions
@@ -445,7 +462,7 @@ class PathSearch:
             goal_sample_rate=c.rrt.goal_sample_rate, n_paths=c.rrt.n_paths,
             sample_margin=c.rrt.sample_margin_m, edge_samples=c.prediction.edge_samples,
             clearance_weight=c.rrt.fallback_clearance_weight, clearance_cap=c.rrt.fallback_clearance_cap_m,
-            time_aware=add.time_aware_rrt, check_node=c.prediction.check == "node")
+            time_aware=add.time_aware_rrt, check_node=c.prediction.check == "node", compiled=c.kernels.compiled)
         self.seed_paths = c.rrt.seed_paths if add.rrt_seeds else 0
         self.stay_until = c.prediction.horizon_s if add.fallback else None
         self.half_width = 0.5 * robot.nominal_side_stride

@@ -6,6 +6,13 @@ starting at the support foot's node, one step per period. Stage 1 checks whole w
 :class:`WalkStart` and move the body (the robot centre between its feet) along the
 midpoints of consecutive nodes: step ``d`` moves it from ``(n[d-2] + n[d-1]) / 2`` to
 ``(n[d-1] + n[d]) / 2`` during ``[(d - 1) T, d T]`` (docs/model.md §5).
+
+**Two routes.** The checks of whole walks (:func:`walks_survival_at`), like the RRT's batches
+and the rollouts' lane pursuit, exist twice: a compiled loop (:mod:`.kernels`) and its numpy
+reference, which the tests hold it equal to. Which one runs is the argument ``compiled``, the
+setting ``kernels.compiled`` of ``configs/planner.yaml`` passed down by the stages, never the type
+of the body check (:func:`on_route`). ``compiled=False`` runs numpy everywhere and never imports
+numba.
 """
 
 from __future__ import annotations
@@ -15,7 +22,6 @@ from typing import Protocol, Sequence
 
 import numpy as np
 
-from footstep_gym.planners import kernels
 from footstep_gym.planners.prediction import BodyModel, body_path_points, step_fractions, support_normal
 
 
@@ -66,8 +72,25 @@ def walk_start(snapshot, half_width: float) -> WalkStart:
     )
 
 
+def on_route(body: BodyCheck, compiled: bool) -> BodyCheck:
+    """``body`` on the route ``compiled`` names (``configs/planner.yaml``'s ``kernels.compiled``).
+
+    Compiled: the walks' and the RRT's compiled loops read the shape table of a
+    :class:`~.prediction.BodyModel`'s predictor, so any other body check raises :class:`TypeError`;
+    the model returned also checks single points in the compiled kernel. Numpy (the reference): a
+    ``BodyModel`` checks its points in numpy too, any other body check (a test's) is used as it is.
+    """
+    if isinstance(body, BodyModel):
+        return body.routed(compiled)
+    if compiled:
+        raise TypeError(f"the compiled walks and RRT (kernels.compiled: true) need a prediction.BodyModel, whose "
+                        f"shape table they read; got {type(body).__name__}: plan with kernels.compiled false "
+                        f"(compiled=False) to check walks with any BodyCheck")
+    return body
+
+
 def walks_free(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
-               edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+               edge_samples: int, goal: np.ndarray, goal_radius: float, *, compiled: bool) -> np.ndarray:
     """``(R,)`` bool: walk ``r`` (nodes ``(R, D + 1, 2)`` [m], row 0 the start; step ``d`` during
     ``[(d-1) T, d T]`` with ``T = period`` [s]) keeps its body free of every obstacle.
 
@@ -75,25 +98,31 @@ def walks_free(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: n
     support foot's normal of its step (the CoM sway). Once a walk's body (the midpoint of its
     last two nodes, where the env measures the robot centre) has reached the goal region
     (``goal (2,)``, ``goal_radius`` [m]) the episode is over: later steps are not checked.
+    ``compiled``: the route (:func:`walks_survival_at`).
     """
-    return np.isinf(walks_survival(body, start, nodes, headings, period, edge_samples, goal, goal_radius))
+    return np.isinf(walks_survival(body, start, nodes, headings, period, edge_samples, goal, goal_radius,
+                                   compiled=compiled))
 
 
 def walks_survival(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
-                   edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+                   edge_samples: int, goal: np.ndarray, goal_radius: float, *, compiled: bool) -> np.ndarray:
     """``(R,)`` [s]: the time of each walk's first blocked body point, ``inf`` for a free walk
     (the checks of :func:`walks_free`, which is ``isinf`` of this)."""
-    return walks_survival_at(body, start, [(nodes, headings)], [period], edge_samples, goal, goal_radius)[0]
+    return walks_survival_at(body, start, [(nodes, headings)], [period], edge_samples, goal, goal_radius,
+                             compiled=compiled)[0]
 
 
 def walks_survival_at(body: BodyCheck, start: WalkStart, walks: Sequence[tuple[np.ndarray, np.ndarray]],
-                      periods: Sequence[float], edge_samples: int, goal: np.ndarray,
-                      goal_radius: float) -> list[np.ndarray]:
+                      periods: Sequence[float], edge_samples: int, goal: np.ndarray, goal_radius: float, *,
+                      compiled: bool) -> list[np.ndarray]:
     """:func:`walks_survival` of several groups of walks, group ``i`` (``(nodes, headings)``) at ``periods[i]``
-    [s]: with a :class:`BodyModel`, all in one compiled call (a period search asks about many periods)."""
-    if isinstance(body, BodyModel):
+    [s]. ``compiled``: all in one compiled call (:func:`.kernels.walks_survival`; a period search asks about
+    many periods), which needs a :class:`BodyModel`; else group by group in numpy (:func:`_walks_survival_numpy`,
+    the reference), with any :class:`BodyCheck` (:func:`on_route`)."""
+    body = on_route(body, compiled)
+    if compiled:
         return _walks_survival_compiled(body, start, walks, periods, edge_samples, goal, goal_radius)
-    return [walks_survival_numpy(body, start, n, h, T, edge_samples, goal, goal_radius)
+    return [_walks_survival_numpy(body, start, n, h, T, edge_samples, goal, goal_radius)
             for (n, h), T in zip(walks, periods)]
 
 
@@ -101,6 +130,8 @@ def _walks_survival_compiled(body: BodyModel, start: WalkStart, walks: Sequence[
                              periods: Sequence[float], edge_samples: int, goal: np.ndarray,
                              goal_radius: float) -> list[np.ndarray]:
     """:func:`walks_survival_at` in one compiled loop (:func:`.kernels.walks_survival`)."""
+    from footstep_gym.planners import kernels  # imports numba: only on the compiled route
+
     pred = body.predictor
     counts = [len(n) for n, _ in walks]
     widths = [n.shape[1] for n, _ in walks]
@@ -125,9 +156,10 @@ def _walks_survival_compiled(body: BodyModel, start: WalkStart, walks: Sequence[
     return [blocked_at[a:b] for a, b in zip(first[:-1], first[1:])]
 
 
-def walks_survival_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray,
-                         period: float, edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
-    """:func:`walks_survival` in numpy, for any :class:`BodyCheck` (the reference of the compiled loop)."""
+def _walks_survival_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray,
+                          period: float, edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
+    """:func:`walks_survival` in numpy, for any :class:`BodyCheck`: the reference implementation, the test
+    oracle of the compiled loop (``tests/test_kernels.py``), and the route of ``kernels.compiled: false``."""
     n_roll, n_nodes, _ = nodes.shape
     prev = np.concatenate([np.tile(start.previous_node, (n_roll, 1, 1)), nodes[:, :-1]], axis=1)
     bodies = 0.5 * (prev + nodes)  # body at the end of step d = midpoint(n[d-1], n[d])
@@ -145,12 +177,6 @@ def walks_survival_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, h
     blocked = ~(free | np.repeat(done_before, edge_samples, axis=1))
     first = np.argmax(blocked, axis=1)
     return np.where(blocked.any(axis=1), times.reshape(n_roll, -1)[np.arange(n_roll), first], np.inf)
-
-
-def walks_free_numpy(body: BodyCheck, start: WalkStart, nodes: np.ndarray, headings: np.ndarray, period: float,
-                     edge_samples: int, goal: np.ndarray, goal_radius: float) -> np.ndarray:
-    """:func:`walks_free` in numpy, for any :class:`BodyCheck` (the reference of the compiled loop)."""
-    return np.isinf(walks_survival_numpy(body, start, nodes, headings, period, edge_samples, goal, goal_radius))
 
 
 def trim_at_goal(nodes: np.ndarray, goal: np.ndarray, goal_radius: float) -> np.ndarray:

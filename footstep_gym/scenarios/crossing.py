@@ -31,6 +31,9 @@ class Crossing(Scenario):
     config_file = "scenarios/crossing.yaml"
     static_keys = ()  # no walls
     Config = CrossingConfig
+    env_id = "FootstepCrossing-v0"
+    sweep_axes = {}  # one setting, the YAML's (the paper's §3.2)
+    command_tables = False  # the paper gives no command table for it (its Table 3 compares totals)
 
     def build(self, world: World) -> None:
         c = self.cfg

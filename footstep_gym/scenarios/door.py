@@ -64,6 +64,8 @@ class DoorConfig(ScenarioConfig):
 class Door(Scenario):
     config_file = "scenarios/door.yaml"
     Config = DoorConfig
+    env_id = "FootstepDoor-v0"
+    sweep_axes = {"door_speed": "deg/s"}
     static_keys = ("door_centre", "corridor_x", "corridor_y", "wall_thickness", "drum_segments",
                    "door_radius", "door_thickness", "wall_gap")  # drum_radius reads the last three
 

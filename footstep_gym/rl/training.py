@@ -5,12 +5,14 @@ The training itself is rl_zoo3's (``python -m rl_zoo3.train``, hyperparameters i
 several training seeds in a row with one torch thread each, the run's progress on the
 console while it trains (its full output goes to a log file), an evaluation at the end of
 a run shorter than the evaluation period, the wall time and throughput of each run,
-shipping: a copy of the run's small files under ``baselines/agents/<algo>/<EnvId>_<seed>/``
-(model ``.zip``, ``<EnvId>/{config.yml,args.yml,command.txt,vecnormalize.pkl}``,
-``evaluations.npz``) with a ``manifest.json``, which does not replace a longer or better
-shipped agent unless forced, and learning curves.
+shipping: a copy of the run's small files under ``<agents>/<agent>/<EnvId>_<seed>/``
+(``<agent>``: the registry's folder of the agent, :class:`~footstep_gym.rl.agents.AgentEntry`;
+the algorithm's name by default; model ``.zip``,
+``<EnvId>/{config.yml,args.yml,command.txt,vecnormalize.pkl}``, ``evaluations.npz``) with a
+``manifest.json``, which does not replace a longer or better shipped agent unless forced,
+and learning curves.
 
-Nothing here imports torch: training runs in a subprocess.
+Nothing here imports torch: training runs in a subprocess (:func:`ppo_throughput` excepted).
 """
 
 from __future__ import annotations
@@ -79,7 +81,7 @@ def planned_timesteps(algo: str, env_id: str, timesteps: int | None = None,
     """The env steps a run will be asked for: ``timesteps``, else the config's ``n_timesteps``."""
     if timesteps is not None:
         return int(timesteps)
-    return int(float(_zoo_entry(algo, env_id, conf_file)["n_timesteps"]))
+    return int(float(zoo_entry(algo, env_id, conf_file)["n_timesteps"]))
 
 
 def callback_calls(algo: str, entry: dict[str, Any], timesteps: int) -> int:
@@ -108,7 +110,7 @@ def run_eval_freq(algo: str, env_id: str, eval_freq: int, timesteps: int | None 
     Then the period becomes the run's own length, so the one evaluation is at its end.
     Otherwise ``eval_freq`` is kept.
     """
-    entry = _zoo_entry(algo, env_id, conf_file)
+    entry = zoo_entry(algo, env_id, conf_file)
     n_envs = int(entry.get("n_envs", 1))
     calls = callback_calls(algo, entry, planned_timesteps(algo, env_id, timesteps, conf_file))
     if max(eval_freq // n_envs, 1) <= calls:
@@ -240,10 +242,14 @@ def replace_problem(dest: str | Path, timesteps: int, success: float | None = No
 
 
 def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int | None = None,
-         force: bool = False) -> Path:
-    """Copy a finished zoo run's small files to ``<agents_dir>/<algo>/<EnvId>_<seed>/`` and write its manifest.
+         force: bool = False, agent: str | None = None) -> Path:
+    """Copy a finished zoo run's small files to ``<agents_dir>/<agent>/<EnvId>_<seed>/`` and write its manifest.
 
-    The manifest records the algorithm, env id and kwargs, timesteps, seed, ``n_envs``,
+    ``agent``: the shipped folder, the agent's :attr:`AgentEntry.folder
+    <footstep_gym.rl.agents.AgentEntry.folder>` (e.g. ``ppo-fixed-period`` for a PPO run of
+    ``configs/rl/ppo-fixed-period.yml``); default the run's algorithm (``ppo``, ``sac``).
+    The manifest records the agent's folder, the algorithm, env id and kwargs (the env
+    options the agent was trained with, e.g. ``fixed_period``), timesteps, seed, ``n_envs``,
     the wall time and the training throughput (env steps per second of wall time, start-up
     and periodic evaluations included), the final evaluation's success rate and the versions.
     An agent already there is replaced only by a run at least as long and as good
@@ -260,7 +266,10 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
     config = zoo_yaml(folder / "config.yml")
     algo = args["algo"]
     seed = int(args["seed"] if seed is None else seed)
-    dest = Path(agents_dir) / algo / f"{env_id}_{seed}"
+    agent = agent or algo
+    if not agent or Path(agent).name != agent or agent.startswith("."):
+        raise ValueError(f"agent folder {agent!r}: one plain folder name expected (e.g. {algo!r})")
+    dest = Path(agents_dir) / agent / f"{env_id}_{seed}"
     timesteps = int(args.get("n_timesteps") or -1)
     if timesteps <= 0:
         timesteps = int(float(config["n_timesteps"]))
@@ -277,6 +286,7 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
             return None
 
     manifest = {
+        "agent": agent,
         "algorithm": algo,
         "env_id": env_id,
         "env_kwargs": _plain(config.get("env_kwargs", {})),
@@ -358,7 +368,7 @@ def learning_curves(runs: Sequence[str | Path], out: str | Path, title: str,
     return out
 
 
-def _zoo_entry(algo: str, env_id: str, conf_file: str | Path | None = None) -> dict[str, Any]:
+def zoo_entry(algo: str, env_id: str, conf_file: str | Path | None = None) -> dict[str, Any]:
     """The hyperparameter entry of ``env_id`` in ``configs/rl/<algo>.yml`` (or ``conf_file``), anchors resolved."""
     path = conf_path(algo, conf_file)
     data = yaml.safe_load(path.read_text(encoding="utf-8"))
@@ -383,7 +393,7 @@ def ppo_throughput(env_id: str, n_envs: int, timesteps: int = 8192, hyperparams_
     from stable_baselines3.common.vec_env import VecNormalize
 
     torch.set_num_threads(1)
-    entry = _zoo_entry("ppo", hyperparams_of or env_id)
+    entry = zoo_entry("ppo", hyperparams_of or env_id)
     env_kwargs = entry.get("env_kwargs", {}) if hyperparams_of is None else {}
     discrete = isinstance(gym.make(env_id).action_space, gym.spaces.Discrete)
 

@@ -19,6 +19,7 @@ from footstep_gym.errors import ActionError, ConfigError
 from footstep_gym.footstep import LEFT, RIGHT, SIDE_NAMES
 from footstep_gym.robot import COMMAND_FIELDS, Robot
 from footstep_gym.scenarios import SCENARIOS, Scenario
+from footstep_gym.scenarios.base import RobotMotion
 from footstep_gym.sensing import Snapshot
 from footstep_gym.world import World
 
@@ -230,7 +231,7 @@ class FootstepEnv(gym.Env):
         if leftover:
             known = [f for _, cls in (("s", self._scenario_cls.Config), ("e", EnvConfig))
                      for f in cls.__dataclass_fields__] + ["robot"]
-            raise ConfigError(config._unknown_keys_message(f"FootstepEnv({scenario})", list(leftover), known))
+            raise ConfigError(config.unknown_keys_message(f"FootstepEnv({scenario})", list(leftover), known))
         self.robot: Robot = config.load(Robot, "robot.yaml", groups["robot"])
         self.scenario_config = self._scenario_cls.load_config(groups["scenario"])
         self.config: EnvConfig = config.load(EnvConfig, "env.yaml", groups["env"])
@@ -465,10 +466,11 @@ class FootstepEnv(gym.Env):
             rewards["fall"] = env_cfg.reward_fall
             elapsed = 0.0
         else:
-            self.scenario.before_step(self.world, self.time, period)
             swing = -self.support_side
             q = complex(S, swing * L)
             traj = lipm.StepTrajectory(robot.omega, com_local, vel_local, p, q, t_ss, t_ds)
+            chord = (origin + traj.state(period)[0] * rot - self.com) / period  # the CoM's mean velocity over the step
+            self.scenario.before_step(self.world, self.time, period, RobotMotion(_pair(self.com), _pair(chord)))
             result = self.world.sweep(traj.world_path(origin, rot), period, traj.speed_bound())
             elapsed, clearance = result.time, result.clearance
             if self.render_mode == "rgb_array_list":

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
@@ -27,16 +27,25 @@ class ScenarioConfig:
     max_steps: int = positive()  # footsteps, then truncated
     randomize: dict = plain()  # {key: [lo, hi]}: drawn uniformly per episode from reset(seed=...)
 
+    #: Top-level sections of the YAML that are no fields (so no ``gymnasium.make`` keywords): ``config.load``
+    #: sets them aside; ``fuzz`` is read by :meth:`Scenario.fuzz_ranges`.
+    SIDE_SECTIONS: ClassVar[tuple[str, ...]] = ("fuzz",)
+
+    @classmethod
+    def numeric_keys(cls) -> list[str]:
+        """The float keys ``randomize`` (and a scenario's ``fuzz`` and ``sweep_axes``) may name: no ``max_*`` bound."""
+        bound_keys = set(cls.upper_bounds().values())
+        return [f.name for f in dataclasses.fields(cls) if str(f.type) == "float" and f.name not in bound_keys]
+
     def validate(self) -> None:
-        fields = {f.name: str(f.type) for f in dataclasses.fields(self)}
-        bound_keys = set(self.upper_bounds().values())
+        numeric = self.numeric_keys()
         for key, bounds in self.randomize.items():
-            if key not in fields or fields[key] != "float" or key in bound_keys:
-                numeric = sorted(k for k, t in fields.items() if t == "float" and k not in bound_keys)
-                raise ConfigError(f"randomize: {key!r} is not a numeric key of this scenario; use one of {numeric}")
+            if key not in numeric:
+                raise ConfigError(f"randomize: {key!r} is not a numeric key of this scenario; "
+                                  f"use one of {sorted(numeric)}")
             if not (isinstance(bounds, (list, tuple)) and len(bounds) == 2):
                 raise ConfigError(f"randomize.{key} must be [lo, hi], got {bounds!r}")
-            lo, hi = (config._number(f"randomize.{key}", b) for b in bounds)
+            lo, hi = (config.number(f"randomize.{key}", b) for b in bounds)
             if lo > hi:
                 raise ConfigError(f"randomize.{key} must have lo <= hi, got {bounds!r}")
         self._check_upper_bounds()
@@ -77,6 +86,13 @@ class ScenarioConfig:
         return config.replace(self, **{k: float(rng.uniform(*v)) for k, v in self.randomize.items()})
 
 
+class RobotMotion(NamedTuple):
+    """The robot over one footstep, as :meth:`Scenario.before_step` gets it (world frame, SI units)."""
+
+    position: tuple[float, float]  # [m] CoM (the body circle's centre) at the footstep's start
+    velocity: tuple[float, float]  # [m/s] chord: (CoM at the footstep's end - at its start) / its duration
+
+
 class Scenario:
     """A scene: builds its obstacles into a :class:`World` and moves them each footstep.
 
@@ -86,8 +102,16 @@ class Scenario:
     episode; it may keep per-episode random draws from ``rng``.
     """
 
+    #: The YAML: a path relative to ``configs/`` (``"scenarios/door.yaml"``) or an absolute path.
     config_file: ClassVar[str]
     Config: ClassVar[type[ScenarioConfig]]
+    #: The id ``gymnasium.make`` knows it by (registered by ``footstep_gym.scenarios.register_scenario``).
+    env_id: ClassVar[str]
+    #: ``{key: unit}``: the numeric config keys an evaluation sweeps for this scene (``eval_planner.py``
+    #: gives each a flag, ``door_speed`` -> ``--door-speed``; the unit labels flags and figures).
+    sweep_axes: ClassVar[dict[str, str]] = {}
+    #: Whether an evaluation writes this scene's command tables (as the paper's Tables 2 and 4) beside its figures.
+    command_tables: ClassVar[bool] = True
     #: The config keys :meth:`build_static` reads (properties count by the keys they read); ``None``: any
     #: key may matter. The env keeps its walls across resets while these keys are unchanged.
     static_keys: ClassVar[tuple[str, ...] | None] = None
@@ -99,6 +123,54 @@ class Scenario:
     @classmethod
     def load_config(cls, overrides: dict[str, Any] | None = None) -> Any:
         return config.load(cls.Config, cls.config_file, overrides)
+
+    @classmethod
+    def fuzz_ranges(cls) -> dict[str, tuple[float, float]]:
+        """``{key: (lo, hi)}``: the ``randomize=`` ranges a soak test draws from, in the YAML's order.
+
+        Read from the YAML's top-level ``fuzz:`` section (no field, so no ``gymnasium.make``
+        keyword; ``{}`` without one). Each key must be a numeric key ``randomize`` accepts, with
+        ``lo <= hi`` allowed by the field at both ends; a ``hi`` of ``.inf`` means up to the key's
+        ``max_*`` bound (read from the base config), a finite one must not pass that bound.
+        Raises :class:`ConfigError` naming the file and the key.
+        """
+        where = f"{cls.config_file}: fuzz"
+        section = config.read_yaml(cls.config_file).get("fuzz")
+        if section is None:
+            return {}
+        if not isinstance(section, dict):
+            raise ConfigError(f"{where} must be a mapping {{key: [lo, hi]}}, got {section!r}")
+        base = cls.load_config()
+        fields = {f.name: f for f in dataclasses.fields(cls.Config)}
+        numeric = cls.Config.numeric_keys()
+        bounds = cls.Config.upper_bounds()
+        out: dict[str, tuple[float, float]] = {}
+        for key, value in section.items():
+            if key not in numeric:
+                raise ConfigError(f"{where}: {key!r} is not a numeric key of {cls.Config.__name__}; "
+                                  f"use one of {sorted(numeric)}")
+            if not (isinstance(value, (list, tuple)) and len(value) == 2):
+                raise ConfigError(f"{where}.{key} must be [lo, hi], got {value!r}")
+            lo = config.number(f"{where}.{key}", value[0])
+            if key in bounds and isinstance(value[1], float) and value[1] == float("inf"):
+                hi = float(getattr(base, bounds[key]))  # .inf: up to the bound
+            else:
+                hi = config.number(f"{where}.{key}", value[1])
+            if lo > hi:
+                raise ConfigError(f"{where}.{key} must have lo <= hi, got {value!r}")
+            if key in bounds and hi > getattr(base, bounds[key]):
+                raise ConfigError(f"{where}.{key} reaches {hi:g}, above {bounds[key]}={getattr(base, bounds[key]):g} "
+                                  "(write .inf for up to the bound)")
+            check = fields[key].metadata.get("check")
+            inside = {"positive": lo > 0, "nonnegative": lo >= 0, "fraction": lo > 0 and hi <= 1}.get(check, True)
+            if not inside:
+                raise ConfigError(f"{where}.{key} = {value!r} leaves the field's range ({check})")
+            out[key] = (lo, hi)
+        try:  # every range at once, as randomize= (the scenario's own checks, e.g. on sizes)
+            cls.load_config({"randomize": {k: list(v) for k, v in out.items()}})
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: as randomize=, {exc}") from None
+        return out
 
     @classmethod
     def static_key(cls, cfg: Any) -> Any:
@@ -115,5 +187,8 @@ class Scenario:
         """Add the moving obstacles at time 0 (drawing from ``rng`` as needed)."""
         raise NotImplementedError
 
-    def before_step(self, world: World, t: float, duration: float) -> None:
-        """Set the obstacles' velocities for the footstep from ``t`` to ``t + duration`` [s]."""
+    def before_step(self, world: World, t: float, duration: float, robot: RobotMotion | None = None) -> None:
+        """Set the obstacles' velocities for the footstep from ``t`` to ``t + duration`` [s].
+
+        ``robot``: the robot over that footstep (its CoM at ``t`` and chord velocity), for obstacles that
+        react to it (the ORCA crowd with ``robot_visible``); ``None`` when unknown. Others ignore it."""

@@ -1,12 +1,17 @@
 """Soak: millions of fuzzed steps per env, checking that nothing unexpected ever happens.
 
-    python baselines/soak.py                      # 10^6 steps per env (long: about an hour per env here)
+    python baselines/soak.py                      # 10^6 steps per env (1-5 minutes per env here)
     python baselines/soak.py --steps 100000       # 10^5 per env
     python baselines/soak.py --envs FootstepDoor-v0 --steps 20000 --out runs/soak-door
+    python baselines/soak.py --remake-every 300   # a fresh env every 300 episodes (the old mode)
 
 Each env runs in its own subprocess (so its memory figures are its own), with a tqdm
-progress bar on stderr. Every ``env.step`` call counts as a step. The fuzz, drawn from one
-seeded generator:
+progress bar on stderr, and keeps **one env instance** for its whole run (made with random
+``randomize=`` settings, reset at every episode's end), as a training run does: a leak
+tied to the env instance (issue 17: pymunk kept every shape removed at reset) shows only
+there. ``--remake-every N`` makes a fresh env every N episodes instead, the mode this
+script used to run in, which hid that leak. Every ``env.step`` call counts as a step. The
+fuzz, drawn from one seeded generator:
 
 * three episodes in four are "fuzz" episodes: commands uniform **inside** the box, **at its
   bounds** (each field at its low or high end, or inside), **outside** it (finite; the env
@@ -16,22 +21,28 @@ seeded generator:
 * **bad** commands (NaN / inf fields, wrong shapes, strings): each must raise
   ``ActionError`` and leave the episode as it was;
 * ``step`` after the episode ended, without ``reset``: must raise ``ResetNeeded``;
-* resets with random seeds (or none), and every few hundred episodes a fresh env made
-  with random ``randomize=`` settings within the allowed ranges (speeds up to the
-  scenario's ``max_*`` bounds).
+* resets with random seeds (or none); the env is made with random ``randomize=``
+  settings within the allowed ranges (speeds up to the scenario's ``max_*`` bounds), so its
+  episodes draw their speeds and sizes from those ranges (with ``--remake-every``, each
+  fresh env draws new ranges).
 
 Checked after every step: the observation has the space's shape and dtype and is finite,
 the reward is a finite float, the flags are bools, ``info``'s time, CoM and ZMP are finite
 and ``info["clipped"]`` is what the command asks. Any other exception is counted by type
-(and the env is made afresh). Memory: the RSS (``/proc/self/statm``) after warm-up (10 %
-of the steps), at the middle and at the end, sampled in between, and the peak since the
-warm-up (``VmHWM``); "flat" means the end and the peak stay within ``--rss-tolerance-mib``
-of the warm-up figure.
+(and the env is made afresh: ``instances`` counts the envs made). Memory: the current RSS
+(``/proc/self/statm``) after the warm-up (10 % of the steps: "start"), at the middle and at
+the end, sampled ``RSS_SAMPLES`` times in between (``rss.samples``: ``[step, bytes]``, and their
+least-squares slope in bytes per step), and the peak since the warm-up (``VmHWM``). "Flat"
+means the end RSS, and the peak, exceed the start by at most ``--rss-tolerance-mib``
+(default 8 MiB: over 10^6 steps a leak of ~10 B per step fails it; a leak-free env's RSS
+rises 1-2 MiB after the warm-up, in one-off steps of the allocators, then stays put; the
+leak of issue 17 grew it by 0.4-3.4 KB per step); an env whose RSS is not flat FAILs. If
+the env cannot be made ``MAX_MAKE_FAILURES`` times in a row, the run ends there and fails.
 
 Writes ``<out>/soak.json`` and ``<out>/soak.md`` (steps/s, outcomes, exceptions by type,
-RSS figures); exits with status 1 if any env failed a check. While it runs, each env's
-figures so far are in ``<out>/partial/<env id>.json`` (updated 20 times per env), so a run
-stopped early still says how far it got and what it saw.
+RSS figures); exits with status 1 if any env failed a check, saying which and why on stderr.
+While it runs, each env's figures so far are in ``<out>/partial/<env id>.json`` (updated 20
+times per env), so a run stopped early still says how far it got and what it saw.
 """
 
 from __future__ import annotations
@@ -64,11 +75,13 @@ from footstep_gym.errors import ActionError  # noqa: E402
 ENV_IDS = (*footstep_gym.ENV_IDS.values(), footstep_gym.MIX_ENV_ID)
 SCENE_OF = {v: k for k, v in footstep_gym.ENV_IDS.items()}
 DEFAULT_STEPS = 1_000_000
-DEFAULT_RSS_TOLERANCE_MIB = 16.0
+DEFAULT_RSS_TOLERANCE_MIB = 8.0  # largest growth of the RSS after the warm-up still called flat (--rss-tolerance-mib)
 WARMUP_FRACTION = 0.1  # RSS "start" is taken after this fraction of the steps
-RSS_SAMPLES = 20  # RSS samples over the run (after the warm-up)
-REMAKE_EVERY_EPISODES = 300  # a fresh env with new random randomize= settings this often
+RSS_SAMPLES = 20  # current-RSS samples over the run (after the warm-up)
+#: Episodes per env instance (--remake-every); 0: one instance for the whole run (unless an unexpected error).
+DEFAULT_REMAKE_EVERY = 0
 EXAMPLES_KEPT = 5  # tracebacks kept per unexpected exception type
+MAX_MAKE_FAILURES = 20  # env makes failing in a row end the run (a broken config would otherwise loop for ever)
 PROGRESS_EVERY = 500  # steps between progress-bar updates
 
 #: Episode styles: "fuzz" draws every action's kind from FUZZ_KINDS (such episodes end in a fall within a few
@@ -207,15 +220,53 @@ def _pick(cumulative: list[float], rng: np.random.Generator) -> int:
     return min(bisect.bisect_right(cumulative, rng.random()), len(cumulative) - 1)
 
 
+class LeakyEnv(gym.Wrapper):
+    """An env that keeps ``kib`` KiB more at every ``reset``: what ``--_inject-leak-kib`` soaks, to check that
+    the RSS verdict catches a leak tied to the env instance."""
+
+    def __init__(self, env: gym.Env, kib: float) -> None:
+        super().__init__(env)
+        self.kept: list[bytes] = []
+        self.size = int(kib * 1024)
+
+    def reset(self, **kwargs: Any) -> Any:
+        self.kept.append(b"\x01" * self.size)  # written, so resident
+        return self.env.reset(**kwargs)
+
+
+class SoakAborted(RuntimeError):
+    """The soak cannot go on (the env cannot be made); the run ends there and fails."""
+
+
+def rss_slope(samples: list) -> float | None:
+    """Least-squares slope [bytes per step] of ``[step, rss]`` samples (``None`` with fewer than 3)."""
+    pts = [(n, r) for n, r in samples if r is not None]
+    if len(pts) < 3 or len({n for n, _ in pts}) < 2:
+        return None
+    x, y = np.array(pts, dtype=float).T
+    return float(np.polyfit(x, y, 1)[0])
+
+
 # ------------------------------------------------------------------ one env
 def soak_env(env_id: str, steps: int, seed: int, make: Callable[[np.random.Generator], tuple[gym.Env, dict]] | None = None,
-             progress: bool = True, checkpoint: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+             progress: bool = True, checkpoint: Callable[[dict[str, Any]], None] | None = None,
+             remake_every: int = DEFAULT_REMAKE_EVERY, leak_kib: float = 0.0) -> dict[str, Any]:
     """Fuzz ``env_id`` for ``steps`` step calls; counts, failures and RSS figures as a dict.
 
-    ``checkpoint``, if given, receives the figures so far (``"partial": True``) at every RSS sample.
+    One env instance serves the whole run (a fresh one only after an unexpected exception), or a
+    fresh one every ``remake_every`` episodes if that is > 0. ``checkpoint``, if given, receives
+    the figures so far (``"partial": True``) at every RSS sample. ``leak_kib`` > 0 wraps the env
+    in :class:`LeakyEnv` (a self-test of the RSS verdict).
     """
     rng = np.random.default_rng(seed)
     make = make or (lambda r: make_fuzzed_env(env_id, r))
+    if leak_kib > 0:
+        make_plain = make
+
+        def make(r: np.random.Generator) -> tuple[gym.Env, dict]:
+            env, kwargs = make_plain(r)
+            return LeakyEnv(env, leak_kib), kwargs
+    instances = 0
     styles = {name: (list(k), _cumulative(k)) for name, k in (("fuzz", FUZZ_KINDS), ("walk", WALK_KINDS))}
     style_names, style_cum = list(EPISODE_STYLES), _cumulative(EPISODE_STYLES)
     kinds, kinds_cum = styles["fuzz"]
@@ -240,12 +291,17 @@ def soak_env(env_id: str, steps: int, seed: int, make: Callable[[np.random.Gener
                 old.close()
             except Exception as exc:  # noqa: BLE001
                 record_unexpected(exc, "close")
-        while True:
+        nonlocal instances
+        for attempt in range(MAX_MAKE_FAILURES):
             try:
                 env, kwargs = make(rng)
+                instances += 1
                 break
             except Exception as exc:  # noqa: BLE001 - a rejected random config is a failure of the soak's ranges
                 record_unexpected(exc, "make")
+                if attempt == MAX_MAKE_FAILURES - 1:
+                    raise SoakAborted(f"{MAX_MAKE_FAILURES} attempts in a row to make the env failed, the last with "
+                                      f"{type(exc).__name__}: {str(exc)[:300]}") from exc
         if len(randomize_seen) < 20:
             randomize_seen.append(kwargs)
         robot = env.unwrapped.robot
@@ -254,13 +310,15 @@ def soak_env(env_id: str, steps: int, seed: int, make: Callable[[np.random.Gener
     def summarise(wall: float, rss: dict[str, Any], partial: bool) -> dict[str, Any]:
         return {
             "env_id": env_id, "steps": n, "seed": seed, "wall_s": wall, "steps_per_s": n / wall if wall > 0 else None,
-            "episodes": episodes, "outcomes": dict(outcomes), "expected_errors": dict(expected),
+            "episodes": episodes, "instances": instances, "remake_every": remake_every,
+            "outcomes": dict(outcomes), "expected_errors": dict(expected),
             "unexpected_errors": dict(unexpected), "unexpected_examples": examples, "check_failures": dict(failures),
             "warnings": dict(warning_counts), "rss": rss, "randomize_examples": randomize_seen[:5], "partial": partial,
         }
 
     warmup = max(1, int(WARMUP_FRACTION * steps))
     sample_every = max(1, (steps - warmup) // RSS_SAMPLES)
+    next_sample = warmup  # the step of the next RSS sample (a step after the end counts too: n may skip one)
     rss: dict[str, Any] = {"samples": []}
     peak: RssPeak | None = None
     bar = None
@@ -268,7 +326,8 @@ def soak_env(env_id: str, steps: int, seed: int, make: Callable[[np.random.Gener
         from tqdm import tqdm
 
         bar = tqdm(total=steps, desc=env_id, unit="step", mininterval=2.0, file=sys.stderr, smoothing=0.05)
-    env, low, high, nominal = fresh()
+    env: gym.Env | None = None
+    aborted: str | None = None
     need_reset, episodes_in_env, episodes = True, 0, 0
     n = shown = 0
     t0 = time.perf_counter()
@@ -279,95 +338,111 @@ def soak_env(env_id: str, steps: int, seed: int, make: Callable[[np.random.Gener
     with warnings.catch_warnings():
         warnings.simplefilter("always")
         warnings.showwarning = count_warning
-        while n < steps:
-            if need_reset:
-                if episodes_in_env >= REMAKE_EVERY_EPISODES:
-                    env, low, high, nominal = fresh(env)
-                    outcomes["env_remade"] += 1
-                    episodes_in_env = 0
-                seed_i = None if rng.random() < P_UNSEEDED_RESET else int(rng.integers(2**31 - 1))
+        try:
+            env, low, high, nominal = fresh()
+            while n < steps:
+                if need_reset:
+                    if remake_every > 0 and episodes_in_env >= remake_every:
+                        env, low, high, nominal = fresh(env)
+                        outcomes["env_remade"] += 1
+                        episodes_in_env = 0
+                    seed_i = None if rng.random() < P_UNSEEDED_RESET else int(rng.integers(2**31 - 1))
+                    try:
+                        env.reset(seed=seed_i)
+                        need_reset = False
+                        episodes += 1
+                        episodes_in_env += 1
+                        style = style_names[_pick(style_cum, rng)]
+                        kinds, kinds_cum = styles[style]
+                        outcomes[f"style_{style}"] += 1
+                    except Exception as exc:  # noqa: BLE001
+                        record_unexpected(exc, f"reset(seed={seed_i})")
+                        env, low, high, nominal = fresh(env)
+                        continue
+                kind = kinds[_pick(kinds_cum, rng)]
+                action, expect_clipped = fuzz_action(kind, low, high, rng)
+                n += 1
+                before = env.unwrapped.steps if env_id != footstep_gym.MIX_ENV_ID else env.unwrapped.current.steps
                 try:
-                    env.reset(seed=seed_i)
-                    need_reset = False
-                    episodes += 1
-                    episodes_in_env += 1
-                    style = style_names[_pick(style_cum, rng)]
-                    kinds, kinds_cum = styles[style]
-                    outcomes[f"style_{style}"] += 1
+                    result = env.step(action)
+                except ActionError:
+                    if kind == "bad":
+                        expected["ActionError"] += 1
+                        after = (env.unwrapped.steps if env_id != footstep_gym.MIX_ENV_ID
+                                 else env.unwrapped.current.steps)
+                        if after != before:
+                            failures["bad action moved the episode on"] += 1
+                    else:
+                        record_unexpected(sys.exc_info()[1], f"step({kind} action {action!r})")
+                        env, low, high, nominal = fresh(env)
+                        need_reset = True
                 except Exception as exc:  # noqa: BLE001
-                    record_unexpected(exc, f"reset(seed={seed_i})")
+                    record_unexpected(exc, f"step({kind} action {action!r})")
                     env, low, high, nominal = fresh(env)
-                    continue
-            kind = kinds[_pick(kinds_cum, rng)]
-            action, expect_clipped = fuzz_action(kind, low, high, rng)
-            n += 1
-            before = env.unwrapped.steps if env_id != footstep_gym.MIX_ENV_ID else env.unwrapped.current.steps
-            try:
-                result = env.step(action)
-            except ActionError:
-                if kind == "bad":
-                    expected["ActionError"] += 1
-                    after = env.unwrapped.steps if env_id != footstep_gym.MIX_ENV_ID else env.unwrapped.current.steps
-                    if after != before:
-                        failures["bad action moved the episode on"] += 1
+                    need_reset = True
                 else:
-                    record_unexpected(sys.exc_info()[1], f"step({kind} action {action!r})")
-                    env, low, high, nominal = fresh(env)
-                    need_reset = True
-            except Exception as exc:  # noqa: BLE001
-                record_unexpected(exc, f"step({kind} action {action!r})")
-                env, low, high, nominal = fresh(env)
-                need_reset = True
-            else:
-                if kind == "bad":
-                    failures["bad action accepted"] += 1
-                for problem in check_step(result, env.observation_space, expect_clipped):
-                    failures[problem] += 1
-                _, _, terminated, truncated, info = result
-                outcomes["clipped"] += bool(info.get("clipped"))
-                if terminated or truncated:
-                    outcomes[info["termination"] if terminated else "truncated"] += 1
-                    need_reset = True
-                    if rng.random() < P_STEP_AFTER_END and n < steps:
-                        n += 1
-                        try:
-                            env.step(nominal)
-                            failures["step after the end accepted"] += 1
-                        except gym.error.ResetNeeded:
-                            expected["ResetNeeded"] += 1
-                        except Exception as exc:  # noqa: BLE001
-                            record_unexpected(exc, "step after the end")
-            if n >= warmup and peak is None:
-                peak = RssPeak()
-                rss["start"] = rss_bytes()
-                rss["start_step"] = n
-            if peak is not None:
-                if n >= warmup + (steps - warmup) // 2 and "middle" not in rss:
-                    rss["middle"], rss["middle_step"] = rss_bytes(), n
-                if (n - warmup) % sample_every == 0:
-                    rss["samples"].append((n, peak.sample()))
-                    if checkpoint is not None:
-                        so_far = time.perf_counter() - t0
-                        checkpoint(summarise(so_far, {**rss, "end": rss_bytes(), "peak": peak.peak}, partial=True))
-            if bar is not None and n - shown >= PROGRESS_EVERY:
-                bar.update(n - shown)
-                shown = n
+                    if kind == "bad":
+                        failures["bad action accepted"] += 1
+                    for problem in check_step(result, env.observation_space, expect_clipped):
+                        failures[problem] += 1
+                    _, _, terminated, truncated, info = result
+                    outcomes["clipped"] += bool(info.get("clipped"))
+                    if terminated or truncated:
+                        outcomes[info["termination"] if terminated else "truncated"] += 1
+                        need_reset = True
+                        if rng.random() < P_STEP_AFTER_END and n < steps:
+                            n += 1
+                            try:
+                                env.step(nominal)
+                                failures["step after the end accepted"] += 1
+                            except gym.error.ResetNeeded:
+                                expected["ResetNeeded"] += 1
+                            except Exception as exc:  # noqa: BLE001
+                                record_unexpected(exc, "step after the end")
+                if n >= warmup and peak is None:
+                    peak = RssPeak()
+                    rss["start"] = rss_bytes()
+                    rss["start_step"] = n
+                if peak is not None:
+                    if n >= warmup + (steps - warmup) // 2 and "middle" not in rss:
+                        rss["middle"], rss["middle_step"] = rss_bytes(), n
+                    if n >= next_sample:
+                        next_sample += sample_every * ((n - next_sample) // sample_every + 1)
+                        rss["samples"].append((n, peak.sample()))
+                        if checkpoint is not None:
+                            so_far = time.perf_counter() - t0
+                            checkpoint(summarise(so_far, {**rss, "end": rss_bytes(), "peak": peak.peak,
+                                                          "slope": rss_slope(rss["samples"])}, partial=True))
+                if bar is not None and n - shown >= PROGRESS_EVERY:
+                    bar.update(n - shown)
+                    shown = n
+        except SoakAborted as exc:
+            aborted = str(exc)
+            log(f"{env_id}: soak aborted at step {n:,}: {aborted}")
         wall = time.perf_counter() - t0
     if bar is not None:
-        bar.update(steps - bar.n)
+        bar.update(n - bar.n)
         bar.close()
-    env.close()
     rss["end"] = rss_bytes()
+    if env is not None and aborted is None:
+        env.close()
     rss.setdefault("middle", rss["end"])
+    if peak is not None:  # the last sample is the end
+        if rss["samples"] and rss["samples"][-1][0] == n:
+            rss["samples"].pop()
+        rss["samples"].append((n, rss["end"]))
+    rss["slope"] = rss_slope(rss["samples"])
     if peak is not None:
         rss["peak"] = peak.peak
         rss["peak_method"] = peak.method
         peak.close()
-    return summarise(wall, rss, partial=False)
+    res = summarise(wall, rss, partial=False)
+    res["aborted"] = aborted
+    return res
 
 
 def verdict(res: dict[str, Any], tolerance_mib: float) -> dict[str, Any]:
-    """``res`` with ``rss_growth``, ``rss_flat`` and ``passed`` added."""
+    """``res`` with ``rss_growth``, ``rss_flat``, ``passed`` and ``failures`` (why it failed, in words) added."""
     rss = res["rss"]
     start = rss.get("start")
     tol = tolerance_mib * 2**20
@@ -375,7 +450,26 @@ def verdict(res: dict[str, Any], tolerance_mib: float) -> dict[str, Any]:
     over_peak = None if start is None or rss.get("peak") is None else rss["peak"] - start
     flat = None if growth is None else growth <= tol and (over_peak is None or over_peak <= tol)
     res["rss_growth"], res["rss_peak_over_start"], res["rss_flat"] = growth, over_peak, flat
-    res["passed"] = (not res["unexpected_errors"] and not res["check_failures"] and flat is not False)
+    reasons = []
+    if flat is False:
+        steps = res.get("steps", 0) - rss.get("start_step", 0)
+        what = (f"RSS grew {fmt_bytes(growth)} after the warm-up: {fmt_bytes(start)} at step "
+                f"{rss.get('start_step', 0):,}, {fmt_bytes(rss['end'])} at the end (step {res.get('steps', 0):,})")
+        if over_peak is not None and over_peak > tol and growth <= tol:
+            what = (f"peak RSS {fmt_bytes(rss['peak'])} is {fmt_bytes(over_peak)} above the {fmt_bytes(start)} after "
+                    "the warm-up")
+        per = f", {growth / steps:,.0f} B per step" if steps > 0 and growth > tol else ""
+        reasons.append(f"{what}{per}; more than --rss-tolerance-mib={tolerance_mib:g} MiB: memory kept by the env "
+                       f"instance ({res.get('instances', '?')} made)?")
+    if res["unexpected_errors"]:
+        reasons.append("unexpected exceptions: " + ", ".join(f"{k} x{v}" for k, v in res["unexpected_errors"].items()))
+    if res["check_failures"]:
+        reasons.append("failed checks: " + ", ".join(f"{k} x{v}" for k, v in res["check_failures"].items()))
+    if res.get("aborted"):
+        reasons.insert(0, f"aborted at step {res.get('steps', 0):,}: {res['aborted']}")
+    res["failures"] = reasons
+    res["passed"] = (not res["unexpected_errors"] and not res["check_failures"] and flat is not False
+                     and not res.get("aborted"))
     return res
 
 
@@ -391,7 +485,9 @@ def report(summary: dict[str, Any]) -> str:
             ", ".join(f"{k} {v:,}" for k, v in sorted(r["unexpected_errors"].items())) or "none",
             ", ".join(f"{k} {v:,}" for k, v in sorted(r["check_failures"].items())) or "none",
             f"{fmt_bytes(rss.get('start'))} / {fmt_bytes(rss.get('middle'))} / {fmt_bytes(rss.get('end'))}",
-            fmt_bytes(rss.get("peak")), fmt_bytes(r["rss_growth"]), "PASS" if r["passed"] else "FAIL",
+            fmt_bytes(rss.get("peak")), fmt_bytes(r["rss_growth"]),
+            "n/a" if rss.get("slope") is None else f"{rss['slope']:.1f} B", r.get("instances", "n/a"),
+            "PASS" if r["passed"] else "FAIL",
         ])
     meta = summary["meta"]
     lines = [
@@ -401,12 +497,23 @@ def report(summary: dict[str, Any]) -> str:
         f"{meta['load_average_start']} at the start, {meta['load_average_end']} at the end; "
         f"{meta['duration_s']:.0f} s in all.", "",
         markdown_table(["env", "steps", "steps/s", "episodes", "outcomes", "expected errors", "unexpected errors",
-                        "check failures", "RSS start / middle / end", "peak RSS", "growth", "verdict"], rows),
+                        "check failures", "RSS start / middle / end", "peak RSS", "growth", "RSS slope per step",
+                        "env instances", "verdict"], rows),
         "",
-        f"RSS: after {WARMUP_FRACTION:.0%} of the steps (start), at the middle and at the end; peak since the "
-        f"start; flat = end and peak within {meta['rss_tolerance_mib']:g} MiB of the start.",
+        f"RSS: the current resident set (`/proc/self/statm`) after {WARMUP_FRACTION:.0%} of the steps (start), at "
+        f"the middle and at the end; peak since the start (VmHWM); slope: least-squares fit of the current RSS "
+        f"sampled {RSS_SAMPLES} times after the start. Flat = end and peak within "
+        f"{meta['rss_tolerance_mib']:g} MiB of the start (`--rss-tolerance-mib`). "
+        + ("One env instance per env for the whole run (a fresh one only after an unexpected error)."
+           if not meta.get("remake_every") else f"A fresh env every {meta['remake_every']:,} episodes."),
     ]
     for r in summary["envs"]:
+        samples = r["rss"].get("samples") or []
+        if samples:
+            lines += ["", f"{r['env_id']} current RSS [MiB] at steps: " + ", ".join(
+                f"{n:,}: {v / 2**20:.1f}" for n, v in samples if v is not None)]
+        for reason in r.get("failures", []):
+            lines += ["", f"**{r['env_id']} FAIL**: {reason}"]
         for name, kept in r["unexpected_examples"].items():
             lines += ["", f"## {r['env_id']}: {name}", "", "```", kept[0].rstrip(), "```"]
         if r["warnings"]:
@@ -422,13 +529,23 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, default=Path("runs/soak"), help="folder for soak.json and soak.md")
     p.add_argument("--rss-tolerance-mib", type=float, default=DEFAULT_RSS_TOLERANCE_MIB,
-                   help="largest RSS growth after the warm-up still called flat [MiB]")
+                   help="largest growth of the current RSS (and of the peak) over its value after the warm-up "
+                        f"still called flat [MiB] (default {DEFAULT_RSS_TOLERANCE_MIB:g}); more fails the env")
+    p.add_argument("--remake-every", type=int, default=DEFAULT_REMAKE_EVERY, metavar="EPISODES",
+                   help="make a fresh env (new random randomize= settings) every this many episodes; 0 (default): "
+                        "one env instance for the whole run, which is what shows a leak tied to the instance")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--_child", dest="child", default=None, help=argparse.SUPPRESS)
     p.add_argument("--_json", dest="json_path", type=Path, default=None, help=argparse.SUPPRESS)
+    # Self-test of the RSS verdict: the env keeps this many KiB more at every reset (the run must FAIL).
+    p.add_argument("--_inject-leak-kib", dest="leak_kib", type=float, default=0.0, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.steps < 1:
         p.error(f"--steps must be >= 1, got {args.steps}")
+    if not (args.rss_tolerance_mib >= 0 and math.isfinite(args.rss_tolerance_mib)):
+        p.error(f"--rss-tolerance-mib must be a finite number >= 0, got {args.rss_tolerance_mib}")
+    if args.remake_every < 0:
+        p.error(f"--remake-every must be >= 0 (0: one env instance), got {args.remake_every}")
     return args
 
 
@@ -440,7 +557,8 @@ def main(argv: list[str] | None = None) -> int:
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(finite_json(verdict(partial, args.rss_tolerance_mib)), indent=1), encoding="utf-8")
 
-        res = soak_env(args.child, args.steps, args.seed, progress=not args.no_progress, checkpoint=save)
+        res = soak_env(args.child, args.steps, args.seed, progress=not args.no_progress, checkpoint=save,
+                       remake_every=args.remake_every, leak_kib=args.leak_kib)
         args.json_path.write_text(json.dumps(finite_json(res)), encoding="utf-8")
         return 0
     env_ids = [e.strip() for e in args.envs.split(",") if e.strip()]
@@ -449,7 +567,7 @@ def main(argv: list[str] | None = None) -> int:
         raise SystemExit(f"unknown env id(s) {unknown}; choose from {list(ENV_IDS)}")
     started = time.perf_counter()
     meta = {"steps_per_env": args.steps, "seed": args.seed, "rss_tolerance_mib": args.rss_tolerance_mib,
-            "machine": machine_info(), "load_average_start": loadavg(),
+            "remake_every": args.remake_every, "machine": machine_info(), "load_average_start": loadavg(),
             "episode_styles": EPISODE_STYLES, "fuzz_kinds": FUZZ_KINDS, "walk_kinds": WALK_KINDS}
     results = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -457,7 +575,8 @@ def main(argv: list[str] | None = None) -> int:
             path = Path(tmp) / f"{i}.json"
             cmd = [sys.executable, str(Path(__file__).resolve()), "--_child", env_id, "--steps", str(args.steps),
                    "--seed", str(args.seed + i), "--_json", str(path), "--out", str(args.out),
-                   "--rss-tolerance-mib", str(args.rss_tolerance_mib)] + (["--no-progress"] if args.no_progress else [])
+                   "--rss-tolerance-mib", str(args.rss_tolerance_mib), "--remake-every", str(args.remake_every),
+                   "--_inject-leak-kib", str(args.leak_kib)] + (["--no-progress"] if args.no_progress else [])
             proc = subprocess.run(cmd, check=False)
             if proc.returncode != 0 or not path.exists():
                 res = {"env_id": env_id, "steps": 0, "steps_per_s": None, "episodes": 0, "outcomes": {},
@@ -468,6 +587,8 @@ def main(argv: list[str] | None = None) -> int:
                 res = json.loads(path.read_text(encoding="utf-8"))
             results.append(verdict(res, args.rss_tolerance_mib))
             log(f"{env_id}: {'PASS' if results[-1]['passed'] else 'FAIL'}")
+            for reason in results[-1]["failures"]:
+                log(f"{env_id}: FAIL: {reason}")
     meta["duration_s"] = time.perf_counter() - started
     meta["load_average_end"] = loadavg()
     summary = {"meta": meta, "envs": results, "passed": all(r["passed"] for r in results)}
@@ -477,6 +598,10 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "soak.json").write_text(json.dumps(finite_json(summary), indent=2) + "\n", encoding="utf-8")
     (args.out / "soak.md").write_text(text, encoding="utf-8")
     log(f"wrote {args.out / 'soak.json'} and {args.out / 'soak.md'}")
+    if not summary["passed"]:
+        failed = [r for r in results if not r["passed"]]
+        log(f"FAILED: {len(failed)} of {len(results)} env(s): " + "; ".join(
+            f"{r['env_id']}: {' / '.join(r['failures'])}" for r in failed))
     return 0 if summary["passed"] else 1
 
 

@@ -151,10 +151,21 @@ class World:
         self.space.add(self.robot_body, self.robot_shape)
 
     def clear_moving(self) -> None:
-        """Remove every obstacle that is not static and set the clock back to 0 (walls stay)."""
+        """Remove every obstacle that is not static and set the clock back to 0 (walls stay).
+
+        Pymunk keeps every shape removed from a space (in ``Space._removed_shapes``, so that a
+        collision callback of the removal can still reach it) until the space's next
+        ``Space.step``. The compiled sweep moves the bodies itself and never steps the space,
+        so without a step here the removed shapes, and their Chipmunk memory, would pile up
+        for the life of the world (about 0.9 KB per obstacle per reset). ``step(0.0)`` lets
+        pymunk drop them and changes nothing else: Chipmunk's ``cpSpaceStep`` returns at once
+        for a zero time step, and this world has no callbacks or dynamic bodies.
+        """
         for o in self._moving:
             self.space.remove(o.body, o.shape)
             del self._by_shape[o.shape]
+        if self._moving:
+            self.space.step(0.0)  # releases the removed shapes (see above); moves nothing
         self.obstacles = [o for o in self.obstacles if o.static]
         self._geometry_cache = self._sweep_rows = None
         self._cached_states = []

@@ -2,7 +2,8 @@
 
 The soak itself (10^5-10^6 steps per env) is a command, not a test; here it runs 2,000
 steps per env in a subprocess and its JSON is checked for the counts a fuzz must
-produce. A deliberately broken env shows that each kind of fault is reported.
+produce. A deliberately broken env shows that each kind of fault is reported, and an env
+that keeps memory at every reset that the soak fails it (exit status 1, saying why).
 """
 
 from __future__ import annotations
@@ -54,19 +55,26 @@ def test_tiny_soak_passes_every_env(tiny):
         assert r["outcomes"]["clipped"] > 10                  # commands outside the box
         assert r["outcomes"]["fall"] > 10
         assert r["outcomes"]["style_walk"] > 5 and r["outcomes"]["style_fuzz"] > 5
-        assert r["outcomes"].get("env_remade", 0) >= 1 or r["episodes"] < soak.REMAKE_EVERY_EPISODES
-        # Memory figures from /proc.
+        # ONE env instance for the whole run (a fresh env every few hundred episodes hid a leak tied to it).
+        assert r["instances"] == 1 and r["remake_every"] == 0 and "env_remade" not in r["outcomes"]
+        # Memory figures from /proc: the current RSS after the warm-up, sampled over the run, at the end; the peak.
         rss = r["rss"]
         for key in ("start", "middle", "end", "peak"):
             assert isinstance(rss[key], int) and rss[key] > 10 * 2**20, key
         assert rss["start_step"] <= rss["middle_step"] <= STEPS
         assert len(rss["samples"]) >= 10
-        assert r["rss_flat"] is True and abs(r["rss_growth"]) < 2**30
+        steps_sampled = [n for n, _ in rss["samples"]]
+        assert steps_sampled == sorted(set(steps_sampled)) and steps_sampled[-1] == STEPS
+        assert all(isinstance(v, int) and v > 10 * 2**20 for _, v in rss["samples"])
+        assert rss["samples"][-1][1] == rss["end"] and isinstance(rss["slope"], float)
+        assert r["rss_flat"] is True and r["rss_growth"] <= soak.DEFAULT_RSS_TOLERANCE_MIB * 2**20
+        assert r["failures"] == []
     long_episodes = sum(r["outcomes"].get(k, 0) for r in data["envs"] for k in ("goal", "collision", "truncated"))
     assert long_episodes > 0
     for env_id in ENV_IDS:
         assert env_id in md and env_id in stderr  # the table, and the progress bars
     assert "PASS" in md and "FAIL" not in md
+    assert "current RSS [MiB] at steps" in md and "One env instance" in md
     # The figures so far, written while it ran, end close to the final ones.
     for r in data["envs"]:
         p = partial[r["env_id"]]
@@ -110,11 +118,50 @@ def test_soak_reports_every_kind_of_fault():
 
 
 def test_soak_rss_verdict():
-    base = {"unexpected_errors": {}, "check_failures": {}}
+    base = {"unexpected_errors": {}, "check_failures": {}, "steps": 1000, "instances": 1}
     flat = soak.verdict({**base, "rss": {"start": 100 << 20, "end": 101 << 20, "peak": 102 << 20}}, 16.0)
-    assert flat["rss_flat"] and flat["passed"] and flat["rss_growth"] == 1 << 20
-    leak = soak.verdict({**base, "rss": {"start": 100 << 20, "end": 130 << 20, "peak": 130 << 20}}, 16.0)
+    assert flat["rss_flat"] and flat["passed"] and flat["rss_growth"] == 1 << 20 and flat["failures"] == []
+    leak = soak.verdict({**base, "rss": {"start": 100 << 20, "start_step": 100, "end": 130 << 20,
+                                         "peak": 130 << 20}}, 16.0)
     assert leak["rss_flat"] is False and not leak["passed"]
+    assert "RSS grew 30.0 MiB after the warm-up" in leak["failures"][0] and "16 MiB" in leak["failures"][0]
+    # The end back within the tolerance, the peak not: still a failure, said so.
+    spike = soak.verdict({**base, "rss": {"start": 100 << 20, "end": 101 << 20, "peak": 130 << 20}}, 16.0)
+    assert not spike["passed"] and "peak RSS" in spike["failures"][0]
+    # The default tolerance is small: a leak of 10 B per step over 10^6 steps fails it.
+    default = soak.verdict({**base, "rss": {"start": 100 << 20, "end": (100 << 20) + 10 * 900_000,
+                                            "peak": (100 << 20) + 10 * 900_000}}, soak.DEFAULT_RSS_TOLERANCE_MIB)
+    assert not default["passed"]
+
+
+def test_soak_fails_an_env_that_keeps_memory(tmp_path):
+    """The whole command, on an env that keeps 64 KiB at every reset: status 1, and why, on stderr."""
+    proc = subprocess.run([sys.executable, str(SCRIPT), "--steps", "1000", "--envs", "FootstepCrowd-v0",
+                           "--out", str(tmp_path), "--no-progress", "--_inject-leak-kib", "64"],
+                          capture_output=True, text=True, timeout=600, cwd=str(ROOT))
+    assert proc.returncode == 1, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "FootstepCrowd-v0: FAIL: RSS grew" in proc.stderr and "--rss-tolerance-mib=8 MiB" in proc.stderr
+    data = json.loads((tmp_path / "soak.json").read_text())
+    (r,) = data["envs"]
+    assert data["passed"] is False and r["rss_flat"] is False and r["instances"] == 1
+    assert r["unexpected_errors"] == {} and r["check_failures"] == {}  # the memory alone failed it
+    assert r["rss_growth"] > 8 * 2**20 and r["rss"]["slope"] > 5000
+    assert "**FootstepCrowd-v0 FAIL**: RSS grew" in (tmp_path / "soak.md").read_text()
+
+
+def test_soak_remake_every_makes_fresh_envs():
+    res = soak.soak_env("FootstepCrossing-v0", 300, seed=0, progress=False, remake_every=3)
+    assert res["remake_every"] == 3 and res["instances"] >= 5
+    assert res["outcomes"]["env_remade"] == res["instances"] - 1
+    assert soak.verdict(res, soak.DEFAULT_RSS_TOLERANCE_MIB)["passed"]
+
+
+@pytest.mark.parametrize("bad", [["--rss-tolerance-mib", "-1"], ["--rss-tolerance-mib", "nan"],
+                                 ["--remake-every", "-2"], ["--steps", "0"]])
+def test_soak_rejects_bad_options(bad, capsys):
+    with pytest.raises(SystemExit):
+        soak.parse_args(bad)
+    assert bad[0] in capsys.readouterr().err
 
 
 def test_random_randomize_stays_within_the_bounds():
@@ -150,3 +197,20 @@ def test_fuzzed_actions_are_what_they_claim():
             command = np.asarray(command)
             assert was_clipped is clipped, (kind, action)
             assert not math.isnan(command.sum())
+
+
+def test_soak_ends_when_the_env_cannot_be_made():
+    """A config that breaks mid-run (e.g. a YAML key the running code does not know) fails the soak, not hangs it."""
+    calls = []
+
+    def make(rng):
+        calls.append(1)
+        if len(calls) > 1:
+            raise ValueError("configs/env.yaml: unknown key(s) 'new_key'")
+        return Broken(gym.make("FootstepCrossing-v0")), {}  # its 11th step raises: the soak makes a fresh env
+
+    res = soak.verdict(soak.soak_env("FootstepCrossing-v0", 400, seed=0, make=make, progress=False), 16.0)
+    assert not res["passed"] and res["steps"] == 11 and len(calls) == 1 + soak.MAX_MAKE_FAILURES
+    assert "attempts in a row to make the env failed" in res["aborted"] and "new_key" in res["aborted"]
+    assert res["failures"][0].startswith("aborted at step 11")
+    assert res["unexpected_errors"] == {"RuntimeError": 1, "ValueError": soak.MAX_MAKE_FAILURES}

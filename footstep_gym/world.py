@@ -342,7 +342,10 @@ class World:
 
     def _table(self) -> tuple[np.ndarray, dict[int, int]]:
         """Every obstacle as a row of the compiled sweep's shape table (:mod:`footstep_gym.sweep_kernel`), in
-        :attr:`obstacles`' order, and each obstacle's row (by ``id``). Rebuilt after the obstacles change."""
+        :attr:`obstacles`' order, and each obstacle's row keyed by its pymunk shape (the object pymunk's query
+        returns; hashed by identity). Not by ``id()``: a ``copy.deepcopy`` or a pickle of the world (of an env
+        mid-episode) gets new objects, and a map keyed by the old ids would not find them, whereas a dict keyed
+        by the shapes themselves is copied with them. Rebuilt after the obstacles change."""
         if self._sweep_rows is None:
             kernel = _sweep_kernel()
             index = {id(o): i for i, o in enumerate(self._moving)}
@@ -360,7 +363,7 @@ class World:
                 else:  # a circle on its body's origin (add_circle)
                     rows.append((kernel.MOVING_CIRCLE, index[id(o)], 0.0, 0.0, 0.0, 0.0, o.radius, 0.0, 0.0, 0.0))
             table = np.array(rows) if rows else np.zeros((0, 10))
-            self._sweep_rows = (table, {id(o): j for j, o in enumerate(self.obstacles)})
+            self._sweep_rows = (table, {o.shape: j for j, o in enumerate(self.obstacles)})
             n = len(rows)
             self._buffers = (np.empty(n, dtype=np.int64), np.zeros(7, dtype=np.int64), np.zeros(6))
         return self._sweep_rows
@@ -386,9 +389,16 @@ class World:
 
         Stops at the first contact (the world is then at that time). ``robot_speed_bound``
         [m/s] must bound the robot's speed over the step. At most ``max_checks`` + 1 checks
-        (see the module's docstring). A :class:`footstep_gym.lipm.WorldPath` (the env's) runs the
-        compiled loop (unless the world was made with ``compiled=False``); any other callable the
-        plain pymunk loop, :meth:`sweep_pymunk`.
+        (see the module's docstring).
+
+        Which loop runs is decided by ``path``, on purpose, whatever ``compiled`` says: the
+        compiled loop evaluates the robot's path itself, from the constants of its closed form
+        that a :class:`footstep_gym.lipm.WorldPath` (the env's path) hands over as
+        ``sweep_params``. Any other callable (a path written by hand, as the direct tests of
+        ``tests/test_world.py`` and a world scripted outside the env use) can only be asked point
+        by point from Python, so it runs :meth:`sweep_pymunk`, the plain pymunk loop, which gives
+        the same answers (the compiled loop is checked against it bit for bit). ``compiled=False``
+        sends every path there. The env's own sweeps always pass a ``WorldPath``.
         """
         params = getattr(path, "sweep_params", None) if self.compiled else None
         if params is None:
@@ -440,7 +450,7 @@ class World:
             if ival[3]:
                 self._write_back(st_arr.tolist(), states)
             dist, hit = self.clearance((float(px), float(py)), radius + speed * (duration - t) + 1e-9)
-            ival[4], ival[2], fval[3] = 1, -1 if hit is None else row_of[id(hit)], dist
+            ival[4], ival[2], fval[3] = 1, -1 if hit is None else row_of[hit.shape], dist
         t, nearest, self.time, dist, px, py = fval.tolist()
         final = st_arr.tolist()
         if ival[3]:

@@ -1,4 +1,5 @@
-"""baselines/benchmark.py runs end to end (tiny ``--smoke`` mode) and writes a well-formed JSON.
+"""baselines/benchmark.py runs end to end (tiny ``--smoke`` mode) and writes a well-formed JSON; its code,
+``footstep_gym.bench``, is tested here in-process (the planners timed through the evaluation runner).
 
 No timing thresholds here: the speed targets live in the benchmark's own PASS/MISS table.
 These tests check structure, keys and the sanity of the values (positive, finite, ordered
@@ -17,18 +18,19 @@ from pathlib import Path
 
 import pytest
 
+from footstep_gym.bench import fmt, memory, stats
+from footstep_gym.bench.envs import BEFORE_ID
+from footstep_gym.bench.settings import MODES, SECTIONS
+from footstep_gym.bench.targets import LIPM_TARGET_PER_S, evaluate_targets
+
 ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = ROOT / "baselines" / "benchmark.py"
-sys.path.insert(0, str(SCRIPT.parent))
-
-import bench_utils  # noqa: E402
-import benchmark  # noqa: E402
 
 FOOTSTEP_ENVS = ("FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0")
 REFERENCE_ENVS = ("CartPole-v1", "Pendulum-v1", "BipedalWalker-v3")
 PLANNERS = ("period-aware", "fixed-period", "pso-only")
 COMMANDS = ("random", "near_nominal", "planner")
-SMOKE = benchmark.MODES["smoke"]
+SMOKE = MODES["smoke"]
 
 
 def _positive_finite(x, what: str) -> None:
@@ -84,7 +86,7 @@ def test_machine_meta_and_progress(smoke):
     data, _, stderr = smoke
     meta = data["meta"]
     assert meta["mode"] == "smoke"
-    assert meta["sections"] == list(benchmark.SECTIONS)
+    assert meta["sections"] == list(SECTIONS)
     m = meta["machine"]
     for key in ("cpu", "cores_logical", "cores_usable", "python", "numpy", "pymunk", "gymnasium"):
         assert m[key], key
@@ -98,7 +100,7 @@ def test_machine_meta_and_progress(smoke):
 def test_env_steps_per_second(smoke):
     data, _, _ = smoke
     envs = data["env_steps"]
-    assert set(envs) == set(FOOTSTEP_ENVS) | set(REFERENCE_ENVS) | {benchmark.BEFORE_ID}
+    assert set(envs) == set(FOOTSTEP_ENVS) | set(REFERENCE_ENVS) | {BEFORE_ID}
     for env_id in FOOTSTEP_ENVS + REFERENCE_ENVS:
         commands = COMMANDS if env_id in FOOTSTEP_ENVS else ("random",)
         assert set(envs[env_id]) == set(commands)
@@ -128,7 +130,7 @@ def test_make_vec_uses_two_workers_sync_and_async(smoke):
     data, stdout, _ = smoke
     seen = set()
     for env_id, by_cmd in data["env_steps"].items():
-        if env_id == benchmark.BEFORE_ID:  # single-process only
+        if env_id == BEFORE_ID:  # single-process only
             continue
         for c, cell in by_cmd.items():
             for mode in ("sync", "async"):
@@ -163,7 +165,7 @@ def test_planner_replay_and_ratios(smoke):
             _check_spread(ratios[key], key)
             # Paired per interleaved round, then the median.
             paired = sorted(d / b for d, b in zip(door["rates"], bw["rates"]))
-            assert ratios[key]["median"] == pytest.approx(bench_utils.summary(paired)["median"])
+            assert ratios[key]["median"] == pytest.approx(stats.summary(paired)["median"])
         else:
             assert ratios[key] is None
 
@@ -260,7 +262,7 @@ def test_targets_and_table(smoke):
     lipm_t = next(t for t in targets if t["target"] == "LIPM check_steps, batch 1024")
     v = data["lipm"]["check_steps"]["1024"]["commands_per_s"]["median"]
     assert lipm_t["value"] == pytest.approx(v)
-    assert lipm_t["status"] == ("PASS" if v >= benchmark.LIPM_TARGET_PER_S else "MISS")
+    assert lipm_t["status"] == ("PASS" if v >= LIPM_TARGET_PER_S else "MISS")
     for section in ("## Env steps per second", "## LIPM feasibility checks", "## Planning time per footstep",
                     "## Peak memory", "## PPO training throughput"):
         assert section in stdout
@@ -268,7 +270,7 @@ def test_targets_and_table(smoke):
 
 def test_compare_with_times_the_other_checkout_in_the_same_rounds(smoke, before_checkout):
     data, stdout, _ = smoke
-    cell = data["env_steps"][benchmark.BEFORE_ID]["near_nominal"]["single"]
+    cell = data["env_steps"][BEFORE_ID]["near_nominal"]["single"]
     assert Path(cell["footstep_gym"]) == before_checkout / "footstep_gym"  # imported from there, not from here
     assert data["meta"]["compare_with"] == str(before_checkout)
     now = data["env_steps"]["FootstepDoor-v0"]["near_nominal"]["single"]
@@ -276,8 +278,8 @@ def test_compare_with_times_the_other_checkout_in_the_same_rounds(smoke, before_
     _check_spread(cell["steps_per_s"], "before")
     paired = [a / b for a, b in zip(now["rates"], cell["rates"])]
     assert data["ratios"]["FootstepDoor_near_nominal/before"]["median"] == pytest.approx(
-        bench_utils.summary(paired)["median"])
-    assert f"| {benchmark.BEFORE_ID} | near_nominal |" in stdout
+        stats.summary(paired)["median"])
+    assert f"| {BEFORE_ID} | near_nominal |" in stdout
 
 
 def test_ppo_throughput_beside_cartpole(smoke):
@@ -293,7 +295,7 @@ def test_ppo_throughput_beside_cartpole(smoke):
             _check_spread(cell["steps_per_s"], f"ppo {env_id} {n}")
     for n in ("1", "2"):
         door, pole = ppo["cells"]["FootstepDoor-v0"][n]["rates"], ppo["cells"]["CartPole-v1"][n]["rates"]
-        assert ppo["ratios"][n]["median"] == pytest.approx(bench_utils.summary(
+        assert ppo["ratios"][n]["median"] == pytest.approx(stats.summary(
             [a / b for a, b in zip(door, pole)])["median"])
     assert "FootstepDoor-v0 / CartPole-v1 (paired per round)" in stdout
 
@@ -317,7 +319,7 @@ def test_evaluate_targets_pass_miss_logic():
             "D": {"period-aware": _plan(0.001, 0.002, 1), "pso-only": {"skipped": "boom"}},
         },
     }
-    targets, ratios = benchmark.evaluate_targets(res, T)
+    targets, ratios = evaluate_targets(res, T)
     status = {t["target"]: t["status"] for t in targets}
     # Paired per round: 2/1, 3/4, 4/2 -> median 2.
     assert ratios["FootstepDoor_random/BipedalWalker"]["median"] == pytest.approx(2.0)
@@ -325,7 +327,7 @@ def test_evaluate_targets_pass_miss_logic():
     # The steady walk's target is 2x: a median of exactly 2 passes, 1.9 misses.
     assert status["FootstepDoor-v0 steps/s >= 2x BipedalWalker-v3 (1 process, near-nominal commands)"] == "PASS"
     res["env_steps"]["FootstepDoor-v0"]["near_nominal"]["single"]["rates"] = [1.9, 3.0, 3.8]
-    status = {t["target"]: t["status"] for t in benchmark.evaluate_targets(res, T)[0]}
+    status = {t["target"]: t["status"] for t in evaluate_targets(res, T)[0]}
     assert status["FootstepDoor-v0 steps/s >= 2x BipedalWalker-v3 (1 process, near-nominal commands)"] == "MISS"
     assert status["FootstepDoor-v0 steps/s >= 1x BipedalWalker-v3 (1 process, planner commands)"] == "PASS"
     assert status["LIPM check_steps, batch 1024"] == "MISS"
@@ -341,13 +343,13 @@ def test_evaluate_targets_pass_miss_logic():
     for name, scale in (("period-aware", 1.0), ("pso-only", 12.0)):
         res["planners"]["A"][name].update(seeds=[1, 2, 3], plan_time_by_episode_s=[
             [scale * 0.005 * f for f in (0.8, 1.0, 1.3)], [scale * 0.005], [scale * 0.005 * f for f in (0.9, 1.1)]])
-    targets, ratios = benchmark.evaluate_targets(res, T)
+    targets, ratios = evaluate_targets(res, T)
     measured = {t["target"]: t["measured"] for t in targets}
     assert "95% CI 12.0–12.0" in measured["period-aware vs pso-only, A"]
     assert ratios["pso-only/period-aware median plan time, A, 95% CI"] == pytest.approx([12.0, 12.0])
     # Without BipedalWalker (not installed) the ratio is N/A, never a failure.
     res["env_steps"]["BipedalWalker-v3"] = {"random": {"single": {"skipped": "box2d missing"}}}
-    targets, ratios = benchmark.evaluate_targets(res, T)
+    targets, ratios = evaluate_targets(res, T)
     assert ratios["FootstepDoor_random/BipedalWalker"] is None
     assert {t["status"] for t in targets if "BipedalWalker" in t["target"]} == {"N/A"}
 
@@ -358,35 +360,45 @@ def test_median_ratio_interval_resamples_episodes_in_pairs():
     rng = np.random.default_rng(1)
     fast = [rng.uniform(1.0, 2.0, n) for n in (30, 25, 40, 35, 28)]
     slow = [10.0 * ep[: max(len(ep) // 2, 1)] for ep in fast]  # exactly 10x every footstep kept
-    assert bench_utils.median_ratio_interval([10.0 * ep for ep in fast], fast, rng) == pytest.approx((10.0, 10.0))
-    lo, hi = bench_utils.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500)
+    assert stats.median_ratio_interval([10.0 * ep for ep in fast], fast, rng) == pytest.approx((10.0, 10.0))
+    lo, hi = stats.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500)
     point = np.median(np.concatenate(slow)) / np.median(np.concatenate(fast))
     assert lo < point < hi and 8.0 < lo and hi < 12.5  # the footsteps kept differ, so the ratio spreads
-    assert bench_utils.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500) == (lo, hi)
+    assert stats.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500) == (lo, hi)
     with pytest.raises(ValueError, match="same number"):
-        bench_utils.median_ratio_interval(slow, fast[:3], rng)
+        stats.median_ratio_interval(slow, fast[:3], rng)
 
 
-def test_bench_utils():
-    s = bench_utils.summary([5.0, 1.0, 3.0, 2.0, 4.0])
+def test_stats_and_formatting():
+    s = stats.summary([5.0, 1.0, 3.0, 2.0, 4.0])
     assert (s["median"], s["min"], s["max"], s["n"]) == (3.0, 1.0, 5.0, 5)
     assert s["q1"] == 2.0 and s["q3"] == 4.0
-    assert math.isnan(bench_utils.summary([])["median"])
-    t = bench_utils.tail_summary(list(range(1, 101)))
+    assert math.isnan(stats.summary([])["median"])
+    t = stats.tail_summary(list(range(1, 101)))
     assert t["median"] <= t["p95"] <= t["p99"] <= t["max"] == 100 and t["n"] == 100
-    assert bench_utils.fmt_num(1_234_567) == "1.23M" and bench_utils.fmt_num(8467) == "8.47k"
-    assert bench_utils.fmt_num(float("nan")) == "n/a"
-    assert bench_utils.fmt_bytes(2048) == "2.0 KiB" and bench_utils.fmt_bytes(None) == "n/a"
-    j = bench_utils.finite_json({"a": float("nan"), "b": [float("inf"), 1.5], 3: (1, 2)})
+    assert fmt.fmt_num(1_234_567) == "1.23M" and fmt.fmt_num(8467) == "8.47k"
+    assert fmt.fmt_num(float("nan")) == "n/a"
+    assert fmt.fmt_bytes(2048) == "2.0 KiB" and fmt.fmt_bytes(None) == "n/a"
+    j = fmt.finite_json({"a": float("nan"), "b": [float("inf"), 1.5], 3: (1, 2)})
     assert j == {"a": None, "b": [None, 1.5], "3": [1, 2]}
-    assert bench_utils.markdown_table(["x", "y"], [[1, 2]]) == "| x | y |\n|---|---|\n| 1 | 2 |"
+    assert fmt.markdown_table(["x", "y"], [[1, 2]]) == "| x | y |\n|---|---|\n| 1 | 2 |"
+
+
+def test_call_fresh_returns_the_value_or_says_why():
+    """The memory probes, the PPO child and the soak's env processes run through ``fresh.call_fresh``."""
+    from footstep_gym.bench.fresh import ChildFailed, call_fresh
+
+    assert call_fresh(stats.summary, [1.0, 2.0, 3.0])["median"] == 2.0
+    with pytest.raises(ChildFailed, match="ValueError: need the same number") as exc:
+        call_fresh(stats.median_ratio_interval, [[1.0]], [], None, quiet=True)
+    assert exc.value.status == 1
 
 
 @pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs /proc")
 def test_rss_peak_sees_a_transient_allocation():
     import numpy as np
 
-    r = bench_utils.RssPeak()
+    r = memory.RssPeak()
     base = r.sample()
     a = np.ones(64 << 20 >> 3)  # 64 MiB, touched (above any mmap threshold: fresh pages)
     del a
@@ -398,8 +410,68 @@ def test_rss_peak_sees_a_transient_allocation():
 
 
 def test_help_mentions_quick_default_and_full():
-    args = benchmark.parse_args([])
-    assert not args.full and not args.quick  # quick is the default
-    assert benchmark.parse_args(["--full"]).full
-    with pytest.raises(SystemExit):
-        benchmark.parse_args(["--quick", "--full"])
+    """The command line: quick is the default, --full the long mode, the two exclusive."""
+    def run(*args):
+        return subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=120)
+
+    out = run("--help")
+    assert out.returncode == 0
+    for option in ("--quick", "--full", "--out", "--seed", "--sections", "--compare-with"):
+        assert option in out.stdout
+    assert "the default" in out.stdout and "--smoke" not in out.stdout
+    both = run("--quick", "--full")
+    assert both.returncode == 2 and "not allowed with argument" in both.stderr
+    assert "unknown section(s) ['moon']" in run("--sections", "env,moon").stderr
+
+
+# ------------------------------------------------------------------ planners timed through the evaluation runner
+def test_the_runner_hands_every_footstep_to_its_hook():
+    """``run_episode(..., on_step=hook)``: one ActTiming per footstep, its act time the one ``plan_ms`` records;
+    a true return cuts the episode there; the hook changes nothing of the episode."""
+    from footstep_gym.evaluation.runner import Cell, Task, run_episode
+
+    cell = Cell("FootstepDoor-v0", "door", "period-aware")
+    seen = []
+    full = run_episode(Task(0, cell, 3), warm=False, on_step=seen.append)
+    assert [t.footstep for t in seen] == list(range(1, full.steps + 1))
+    assert [1e3 * t.act_s for t in seen] == full.plan_ms
+    assert all(t.sense_s > 0 and t.step_s > 0 for t in seen)
+    assert (seen[-1].terminated or seen[-1].truncated) and not any(t.terminated or t.truncated for t in seen[:-1])
+    assert {"time_period_search_ms", "pso_ran"} <= set(seen[0].last_info)
+    assert [t.info["steps"] for t in seen] == list(range(1, full.steps + 1))
+    again = run_episode(Task(0, cell, 3), warm=False)
+    assert (again.outcome, again.steps, again.time, again.periods) == (full.outcome, full.steps, full.time,
+                                                                       full.periods)
+    cut = []
+    short = run_episode(Task(0, cell, 3), warm=False, on_step=lambda t: cut.append(t) or t.footstep >= 2)
+    assert len(cut) == 2 and short.steps == 2 and short.outcome == "timeout" and len(short.plan_ms) == 2
+
+
+def test_planner_run_times_through_the_runner_and_records_its_commands():
+    import gymnasium as gym
+    import numpy as np
+
+    from footstep_gym.bench.planners import PlannerRun
+    from footstep_gym.evaluation import runner
+
+    # The benchmark warms each planner up as the evaluation warms up a cell, with as many acts (quick and full).
+    assert MODES["quick"].planner_warmup_steps == MODES["full"].planner_warmup_steps == runner.WARMUP_ACTS
+    run = PlannerRun("fixed-period", "FootstepCrossing-v0", max_steps=None)
+    run.warm_up(10_000, acts=2)
+    assert not run.warm_up(10_000, acts=2)  # once per process and cell
+    n = run.episode(1)
+    r = run.result()
+    assert r["footsteps"] == n == r["plan_time_s"]["n"] == len(r["plan_time_by_episode_s"][0])
+    assert r["sensing_time_s"]["n"] == r["env_step_time_s"]["n"] == n
+    assert r["episodes"] == 1 and r["per_episode"][0]["capped"] is False and r["seeds"] == [1]
+    assert "period_search" in r["stage_time_s"]
+    capped = PlannerRun("fixed-period", "FootstepCrossing-v0", max_steps=3)
+    assert capped.episode(1) == 3 and capped.episodes[0]["capped"] is True
+    # The recorded commands replay the episode (the env section times the env on them).
+    seed, actions, termination = run.recorded[0]
+    assert np.asarray(actions).shape == (n, 5)
+    env = gym.make("FootstepCrossing-v0")
+    env.reset(seed=seed)
+    for a in actions:
+        *_, info = env.step(a)
+    assert info.get("termination") == termination == r["per_episode"][0]["termination"]

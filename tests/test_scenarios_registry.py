@@ -255,21 +255,34 @@ def test_the_shipped_fuzz_ranges_are_valid_and_reach_the_bounds():
     assert SCENARIOS["door"].fuzz_ranges()["door_speed"] == (0.0, 360.0)
 
 
-def test_the_fuzz_ranges_are_soaks_until_it_reads_them():
-    """baselines/soak.py kept its own table; until it reads ``Scenario.fuzz_ranges()`` they must agree
-    key for key and in order (the soak's draws follow the order)."""
-    spec = importlib.util.spec_from_file_location("soak_script_registry", REPO / "baselines" / "soak.py")
-    soak = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = soak
-    spec.loader.exec_module(soak)
-    table = getattr(soak, "FUZZ_RANGES", None)
-    if table is None:
-        pytest.skip("soak.py reads Scenario.fuzz_ranges()")
-    for scene, cls in SCENARIOS.items():
-        cfg, bounds = cls.load_config(), cls.Config.upper_bounds()
-        theirs = {k: (float(lo), min(float(hi), getattr(cfg, bounds[k])) if k in bounds else float(hi))
-                  for k, (lo, hi) in {**table["common"], **table[scene]}.items()}
-        assert list(cls.fuzz_ranges().items()) == list(theirs.items()), scene
+def test_the_soak_draws_from_the_fuzz_ranges(toy):
+    """The soak (``footstep_gym.bench.soak``, behind ``baselines/soak.py``) keeps no table of its own: a scenario's
+    ``randomize=`` settings are drawn from its ``fuzz_ranges()``, key by key in their order (a registered
+    scenario's too), bounds as resolved there."""
+    from footstep_gym.bench import soak
+
+    assert not hasattr(soak, "FUZZ_RANGES")
+    ranges = toy.fuzz_ranges()
+    assert ranges["toy_speed"] == (0.0, 2.0)  # .inf: up to max_toy_speed
+    seen = set()
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        spec = soak.random_randomize("toy", rng)
+        for key, (a, b) in spec.items():
+            lo, hi = ranges[key]
+            assert lo <= a <= b <= hi, key
+        seen.update(spec)
+    assert seen == set(ranges)
+    # The draws, one generator for all: per key in order, one number to decide, two for [a, b].
+    mine, recipe = np.random.default_rng(7), np.random.default_rng(7)
+    expected = {}
+    for key, (lo, hi) in ranges.items():
+        if recipe.random() < soak.P_RANDOMIZE_KEY:
+            expected[key] = sorted(float(v) for v in recipe.uniform(lo, hi, 2))
+    assert soak.random_randomize("toy", mine) == expected
+    env, kwargs = soak.make_fuzzed_env(TOY_ID, np.random.default_rng(3))  # the env id's scene: scene_of
+    assert kwargs == {"randomize": soak.random_randomize("toy", np.random.default_rng(3))}
+    env.close()
 
 
 @pytest.mark.parametrize("section, message", [

@@ -1,4 +1,5 @@
-"""baselines/soak.py: a tiny run end to end (its summary), and its checks catching a broken env.
+"""baselines/soak.py: a tiny run end to end (its summary), and its engine (footstep_gym.bench.soak) catching a
+broken env.
 
 The soak itself (10^5-10^6 steps per env) is a command, not a test; here it runs 2,000
 steps per env in a subprocess and its JSON is checked for the counts a fuzz must
@@ -18,11 +19,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from footstep_gym.bench import soak
+
 ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = ROOT / "baselines" / "soak.py"
-sys.path.insert(0, str(SCRIPT.parent))
-
-import soak  # noqa: E402
 
 STEPS = 2000
 ENV_IDS = ("FootstepDoor-v0", "FootstepMix-v0")  # the mix runs the three scenes
@@ -156,22 +156,32 @@ def test_soak_remake_every_makes_fresh_envs():
     assert soak.verdict(res, soak.DEFAULT_RSS_TOLERANCE_MIB)["passed"]
 
 
-@pytest.mark.parametrize("bad", [["--rss-tolerance-mib", "-1"], ["--rss-tolerance-mib", "nan"],
-                                 ["--remake-every", "-2"], ["--steps", "0"]])
-def test_soak_rejects_bad_options(bad, capsys):
-    with pytest.raises(SystemExit):
-        soak.parse_args(bad)
-    assert bad[0] in capsys.readouterr().err
+@pytest.mark.parametrize("bad, said", [(["--rss-tolerance-mib", "-1"], "--rss-tolerance-mib"),
+                                       (["--rss-tolerance-mib", "nan"], "--rss-tolerance-mib"),
+                                       (["--remake-every", "-2"], "--remake-every"), (["--steps", "0"], "--steps"),
+                                       (["--envs", "FootstepMoon-v0"], "unknown env id(s) ['FootstepMoon-v0']")])
+def test_soak_rejects_bad_options(bad, said, tmp_path):
+    proc = subprocess.run([sys.executable, str(SCRIPT), *bad, "--out", str(tmp_path)], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode != 0 and said in proc.stderr
+    assert not (tmp_path / "soak.json").exists()
 
 
-def test_random_randomize_stays_within_the_bounds():
+def test_random_randomize_draws_from_the_scenarios_fuzz_ranges():
+    """The soak's ``randomize=`` settings come from ``Scenario.fuzz_ranges()`` (the YAML's ``fuzz:`` section): every
+    key it sets is one of them, in their order, its ``[a, b]`` inside the range; accepted by the config."""
     from footstep_gym.scenarios import SCENARIOS
 
     rng = np.random.default_rng(0)
     seen = set()
     for _ in range(200):
         for scene, cls in SCENARIOS.items():
+            ranges = cls.fuzz_ranges()
             spec = soak.random_randomize(scene, rng)
+            assert list(spec) == [k for k in ranges if k in spec]  # in the ranges' order
+            for key, (a, b) in spec.items():
+                lo, hi = ranges[key]
+                assert lo <= a <= b <= hi, (scene, key)
             cfg = cls.load_config()
             for key, max_key in cls.Config.upper_bounds().items():
                 if key in spec:
@@ -179,6 +189,7 @@ def test_random_randomize_stays_within_the_bounds():
             seen.update(f"{scene}.{k}" for k in spec)
             cls.load_config({"randomize": spec})  # accepted
     assert {"door.door_speed", "crossing.obstacle_speed", "crowd.crowd_speed"} <= seen
+    assert seen == {f"{scene}.{k}" for scene, cls in SCENARIOS.items() for k in cls.fuzz_ranges()}
 
 
 def test_fuzzed_actions_are_what_they_claim():

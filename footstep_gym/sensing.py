@@ -6,10 +6,16 @@ velocity. Nothing about the future is in it; :meth:`Snapshot.shapes_at` extrapol
 constant velocity and constant angular velocity, which is what a robot that measures
 velocities could do (the crowd's real motion is not constant, so the prediction can be
 wrong, as it would be on a robot).
+
+With the env's sensing options (``configs/env.yaml``: ``sensing_noise_*``, ``sensing_max_range``,
+``sensing_fov``; off by default) the moving obstacles' views are what :func:`sense` makes of the truth:
+noisy, and only those within range and field of view. :func:`nearest_views` computes the
+observation's closest points from such views with ``World.nearest``'s arithmetic.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -137,3 +143,135 @@ class Snapshot:
                 speed = np.linalg.norm(group.velocity, axis=1) + np.abs(group.angular_velocity) * reach
                 best = max(best, float(speed.max()))
         return best
+
+
+# ---------------------------------------------------------------- closest points from sensed views
+#: One entry of :func:`nearest_views` (the form of ``World.nearest``'s): the gap [m] from the point to the
+#: shape's surface (negative inside), the surface's closest point [m], that point's velocity [m/s] (the
+#: body's velocity plus ``omega x r``), and the view.
+Near = tuple[float, tuple[float, float], tuple[float, float], ObstacleView]
+
+
+def _centre_line(view: ObstacleView, px: float, py: float) -> tuple[float, float, float, float, float, float]:
+    """``(gap, qx, qy, nx, ny, d)``: the point of the view's centre line nearest ``(px, py)`` [m], the offset
+    from it to the point and its length, and the gap ``d - radius``: ``World.nearest``'s arithmetic, operation
+    for operation (a static view's ``a``/``b`` are world coordinates, as a wall's are there)."""
+    if view.static:
+        ax, ay = view.a
+        bx, by = view.b
+    else:
+        ox, oy = view.position
+        c, s = math.cos(view.angle), math.sin(view.angle)
+        la, lb = view.a, view.b
+        ax, ay = ox + c * la[0] - s * la[1], oy + s * la[0] + c * la[1]
+        bx, by = ox + c * lb[0] - s * lb[1], oy + s * lb[0] + c * lb[1]
+    dx, dy = bx - ax, by - ay
+    L2 = dx * dx + dy * dy
+    if L2 == 0.0:
+        u = 0.0
+    else:  # min(max(u, 0), 1)
+        u = ((px - ax) * dx + (py - ay) * dy) / L2
+        if 0.0 > u:
+            u = 0.0
+        if 1.0 < u:
+            u = 1.0
+    qx, qy = ax + u * dx, ay + u * dy
+    nx, ny = px - qx, py - qy
+    d = math.hypot(nx, ny)
+    return d - view.radius, qx, qy, nx, ny, d
+
+
+def _surface(view: ObstacleView, qx: float, qy: float, nx: float, ny: float, d: float
+             ) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The closest surface point and its velocity (``World.nearest``'s arithmetic)."""
+    radius = view.radius
+    if d > 0.0:
+        cp = (qx + radius * nx / d, qy + radius * ny / d)
+    else:  # the point lies on the centre line: any normal will do
+        cp = (qx, qy + radius)
+    if view.static:
+        return cp, (0.0, 0.0)
+    ox, oy = view.position
+    w = view.angular_velocity
+    vx, vy = view.velocity
+    return cp, (vx - w * (cp[1] - oy), vy + w * (cp[0] - ox))
+
+
+def nearest_views(views: "tuple[ObstacleView, ...] | list[ObstacleView]", point: tuple[float, float], k: int,
+                  max_distance: float) -> list[Near]:
+    """Up to ``k`` of ``views`` nearest ``point`` [m] whose gap is within ``max_distance`` [m], nearest first.
+
+    What ``World.nearest`` answers for the bodies themselves, computed from the views instead (their
+    sensed, possibly noisy, poses and velocities): each entry is ``(gap, closest_point,
+    velocity_of_that_point, view)``, ties in the views' order. With views read from a world
+    (``World.views``) the answers are ``World.nearest``'s, the same arithmetic operation for operation
+    (``tests/test_sensing_noise.py``).
+    """
+    px, py = point
+    near = []
+    for i, view in enumerate(views):
+        gap, qx, qy, nx, ny, d = _centre_line(view, px, py)
+        if not gap > max_distance:
+            near.append((gap, i, qx, qy, nx, ny, d))
+    near.sort()  # by (gap, index): the index is unique, so nothing further is compared
+    found = []
+    for gap, i, qx, qy, nx, ny, d in near[:k]:
+        view = views[i]
+        cp, v = _surface(view, qx, qy, nx, ny, d)
+        found.append((gap, cp, v, view))
+    return found
+
+
+def in_field_of_view(point: tuple[float, float], heading: float, half_fov: float, target: tuple[float, float]
+                     ) -> bool:
+    """Whether ``target`` [m] lies within ``half_fov`` [rad] (inclusive) either side of ``heading`` [rad] as
+    seen from ``point`` [m] (``half_fov >= pi``: all around)."""
+    if half_fov >= math.pi:
+        return True
+    dx, dy = target[0] - point[0], target[1] - point[1]
+    c, s = math.cos(heading), math.sin(heading)
+    return abs(math.atan2(-s * dx + c * dy, c * dx + s * dy)) <= half_fov
+
+
+def sense(views: "tuple[ObstacleView, ...]", point: tuple[float, float], heading: float, max_range: float,
+          fov: float, noise: "list[list[float]] | None" = None,
+          sigma: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)) -> tuple[ObstacleView, ...]:
+    """What a robot at ``point`` [m] (its CoM) facing ``heading`` [rad] senses of ``views`` (the truth).
+
+    Static views (walls: the robot's map) are kept as they are. Each moving one, in order, is
+    first made noisy when ``noise`` is given: its row ``(x, y, vx, vy, angle, omega)`` of
+    standard normals times ``sigma = (position [m], velocity [m/s], angle [rad], angular
+    velocity [rad/s])`` stds is added to its position, velocity and, for a rod (a segment),
+    angle and angular velocity (a circle's outline is the same at any angle: its angle and
+    angular velocity are kept). It is then sensed when the closest point of its (noisy)
+    surface is within ``max_range`` [m] of ``point`` and within ``fov`` [deg] (the full
+    angle, centred on ``heading``; inclusive) as seen from ``point``; a point inside or on a
+    shape (gap <= 0) is always sensed. Returns the sensed views in ``views``' order.
+    """
+    sp, sv, sa, sw = sigma
+    half = 0.5 * math.radians(fov)
+    px, py = point
+    out = []
+    j = 0
+    for view in views:
+        if view.static:
+            out.append(view)
+            continue
+        if noise is not None:
+            zx, zy, zvx, zvy, za, zw = noise[j]
+            j += 1
+            (x, y), (vx, vy) = view.position, view.velocity
+            rod = view.kind == "segment"
+            view = ObstacleView(  # positional: a third cheaper than by keyword
+                view.name, view.kind, False, (x + sp * zx, y + sp * zy),
+                view.angle + sa * za if rod else view.angle, (vx + sv * zvx, vy + sv * zvy),
+                view.angular_velocity + sw * zw if rod else view.angular_velocity, view.radius, view.a, view.b,
+            )
+        gap, qx, qy, nx, ny, d = _centre_line(view, px, py)
+        if gap > 0.0:
+            if gap > max_range:
+                continue
+            if half < math.pi and not in_field_of_view(point, heading, half, _surface(view, qx, qy, nx, ny, d)[0]):
+                continue
+        out.append(view)
+    return tuple(out)

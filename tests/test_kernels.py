@@ -106,10 +106,14 @@ def snapshot_after(env_id, kwargs, steps, seed=0):
 
 
 def predictors(snap):
-    """Every shape to the horizon; with a short horizon for the first moving shape."""
+    """Every shape to the horizon; with a short horizon for the first moving shape; with the moving shapes
+    accelerating (different accelerations, held 1 s; the first also with the short horizon)."""
     moving = [v.name for v in snap.obstacles if not v.static]
     yield ObstaclePredictor(snap, horizon=30.0)
     yield ObstaclePredictor(snap, horizon=30.0, horizons={moving[0]: 0.7})
+    accelerations = {name: (0.05 * (-1) ** i, 0.03 * (i % 3 - 1)) for i, name in enumerate(moving)}
+    yield ObstaclePredictor(snap, horizon=30.0, horizons={moving[0]: 0.7}, accelerations=accelerations,
+                            acceleration_horizon=1.0)
 
 
 @pytest.mark.parametrize("env_id,kwargs,steps", SCENES)

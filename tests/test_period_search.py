@@ -130,7 +130,9 @@ def crossing_start():
 
 
 def paper_search(robot, vary_period=True):
-    return PeriodSearch(robot, load_planner_config(NUMPY, defaults={"additions": PAPER}), vary_period=vary_period)
+    """Algorithm 1 with every addition off and T0 fixed at period_search.t0_s (T0 = 0.3 s: the bisection's bounds known)."""
+    defaults = {"additions": PAPER, "period_search": {"t0_reachable": False}}
+    return PeriodSearch(robot, load_planner_config(NUMPY, defaults=defaults), vary_period=vary_period)
 
 
 @pytest.mark.parametrize("t_star", [0.42, 0.55, 0.7])

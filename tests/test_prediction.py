@@ -12,7 +12,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from footstep_gym.planners.prediction import ObstaclePredictor, steady_motion_horizons
+from footstep_gym.planners.prediction import ObstaclePredictor, sensed_accelerations, steady_motion_horizons
 from planner_helpers import robot  # noqa: F401
 
 # ====================================================================== prediction
@@ -296,3 +296,61 @@ def test_per_shape_horizon_on_the_door_leaves_walls_checked():
     # a wall does not move: a per-shape horizon does not drop it
     on_wall = np.tile([1.0, -0.66], (4, 1))
     assert not pred.free(on_wall, np.array([0.1, 0.6, 3.0, 10.0]), 0.0).any()
+
+
+# ====================================================================== sensed accelerations (additions.acceleration)
+def test_an_accelerating_shape_is_predicted_at_p_v_t_plus_half_a_t_squared_up_to_the_cap():
+    """``p + v t + a tau (t - tau / 2)``, ``tau = min(t, cap)``: the constant-acceleration parabola up to the cap, then
+    the velocity reached; shapes without an acceleration (and a cap of 0) stay at constant velocity, exactly."""
+    env, snap = snapshot_after("FootstepCrowd-v0", 3, seed=2)
+    name = next(v.name for v in snap.obstacles if not v.static)
+    view = next(v for v in snap.obstacles if v.name == name)
+    a = np.array([0.04, -0.02])
+    plain = ObstaclePredictor(snap, horizon=30.0)
+    accel = ObstaclePredictor(snap, horizon=30.0, accelerations={name: tuple(a)}, acceleration_horizon=1.0)
+    index = [v.name for v in snap.obstacles].index(name)
+    for t in (0.0, 0.4, 1.0, 2.0):
+        tau = min(t, 1.0)
+        centre = np.asarray(view.position) + np.asarray(view.velocity) * t + a * tau * (t - 0.5 * tau)
+        d = accel.distances(centre[None], [t])[0]
+        assert d[index] == pytest.approx(-view.radius, abs=1e-12)  # the predicted centre is that shape's centre
+        others = np.delete(np.arange(len(d)), index)
+        np.testing.assert_array_equal(d[others], plain.distances(centre[None], [t])[0][others])
+    off = ObstaclePredictor(snap, horizon=30.0, accelerations={name: tuple(a)}, acceleration_horizon=0.0)
+    pts = np.asarray(snap.com) + np.random.default_rng(0).uniform(-1, 1, (50, 2))
+    times = np.linspace(0, 3, 50)
+    np.testing.assert_array_equal(off.clearance(pts, times), plain.clearance(pts, times))
+    np.testing.assert_array_equal(off.kernel_shapes, plain.kernel_shapes)
+    env.close()
+
+
+def test_sensed_accelerations_are_finite_differences_of_what_was_sensed():
+    """``(v_now - v_then) / (t_now - t_then)`` over the history's oldest snapshot; shapes whose velocity did not
+    change are left out (the car, the door: their prediction is exactly constant-velocity); pooled: the mean."""
+    env, first = snapshot_after("FootstepCrowd-v0", 2, seed=3)
+    u = env.unwrapped
+    history = [first]
+    for _ in range(2):
+        env.step(u.robot.nominal_command)
+        history.append(u.sensing())
+    now = history.pop()
+    own = sensed_accelerations(history, now)
+    dt = now.time - history[0].time
+    assert own and dt > 0
+    for v in now.obstacles:
+        old = next(o for o in history[0].obstacles if o.name == v.name)
+        want = ((v.velocity[0] - old.velocity[0]) / dt, (v.velocity[1] - old.velocity[1]) / dt)
+        if want == (0.0, 0.0):
+            assert v.name not in own
+        else:
+            assert own[v.name] == pytest.approx(want, abs=1e-15)
+    pooled = sensed_accelerations(history, now, pooled=True)
+    mean = np.mean(list(own.values()), axis=0)
+    assert set(pooled) == set(own) and all(np.allclose(a, mean) for a in pooled.values())
+    assert sensed_accelerations([], now) == {}
+    env.close()
+    for env_id in ("FootstepDoor-v0", "FootstepCrossing-v0"):  # steady motion: no acceleration at all
+        env, snap = snapshot_after(env_id, 1)
+        env.step(env.unwrapped.robot.nominal_command)
+        assert sensed_accelerations([snap], env.unwrapped.sensing()) == {}
+        env.close()

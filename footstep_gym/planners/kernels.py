@@ -7,7 +7,7 @@ once, stopping at the first shape that blocks a point:
 
 * :func:`points_free` — :meth:`.prediction.ObstaclePredictor.free` (numpy reference:
   :meth:`~.prediction.ObstaclePredictor.free_numpy`): points against thick segments moving at
-  constant velocity and angular velocity (docs/model.md §5);
+  constant velocity and angular velocity, or accelerating as sensed for a while (docs/model.md §5);
 * :func:`walks_survival` — :func:`.walks.walks_survival_at` (numpy reference:
   ``walks._walks_survival_numpy``): the body points of whole walks (each at its own period)
   generated and checked in one loop, each walk stopping at its first blocked point;
@@ -19,7 +19,7 @@ once, stopping at the first shape that blocks a point:
 
 Which twin runs is the setting ``kernels.compiled`` of ``configs/planner.yaml``, passed down by the
 stages as ``compiled`` (never the type of the body check, :func:`.walks.on_route`); with it off,
-this module (and numba) is never imported. The kernels read the shapes from one table ``(S, 13)``
+this module (and numba) is never imported. The kernels read the shapes from one table ``(S, 16)``
 (:attr:`.prediction.ObstaclePredictor.kernel_shapes`), one row per shape, its columns named by the
 constants below: so the compiled route needs a :class:`.prediction.BodyModel`. Every kernel is held
 equal to its numpy reference by ``tests/test_kernels.py``: the same booleans, instants and tree
@@ -43,23 +43,33 @@ import numpy as np
 
 #: Columns of the shape table: position [m] and velocity [m/s] of the body origin, yaw [rad] and yaw rate
 #: [rad/s], the cosine and sine of the yaw (of a shape that does not turn), the segment's start ``a`` and
-#: its vector ``ab`` in the body frame [m], and ``|ab|^2`` [m^2] (0 for a circle).
-POS_X, POS_Y, VEL_X, VEL_Y, ANGLE, OMEGA, COS0, SIN0, A_X, A_Y, AB_X, AB_Y, AB2 = range(13)
-SHAPE_COLUMNS = 13
+#: its vector ``ab`` in the body frame [m], ``|ab|^2`` [m^2] (0 for a circle), the sensed acceleration
+#: [m/s^2] and how long it is held [s] (0: none, the shape moves at constant velocity).
+(POS_X, POS_Y, VEL_X, VEL_Y, ANGLE, OMEGA, COS0, SIN0, A_X, A_Y, AB_X, AB_Y, AB2,
+ ACC_X, ACC_Y, ACC_T) = range(16)
+SHAPE_COLUMNS = 16
 
 
 @numba.njit(cache=True, fastmath=False, inline="always")
 def _pose(t: float, q: int, shapes: np.ndarray) -> tuple[float, float, float, float]:
     """Shape ``q``'s centre line at time ``t`` [s]: its start ``(ox, oy)`` [m] and its direction ``(bx, by)`` [m], the
-    body-frame segment ``a``..``a + ab`` rotated by ``angle + omega t`` and carried by ``pos + vel t``."""
+    body-frame segment ``a``..``a + ab`` rotated by ``angle + omega t`` and carried by ``pos + vel t`` (plus
+    ``acc tau (t - tau / 2)``, ``tau = min(t, ACC_T)``, for a shape with a sensed acceleration)."""
     sh = shapes[q]
     if sh[OMEGA] == 0.0:
         c, sn = sh[COS0], sh[SIN0]
     else:
         ang = sh[ANGLE] + sh[OMEGA] * t
         c, sn = math.cos(ang), math.sin(ang)
-    ox = sh[POS_X] + sh[VEL_X] * t + (c * sh[A_X] - sn * sh[A_Y])
-    oy = sh[POS_Y] + sh[VEL_Y] * t + (sn * sh[A_X] + c * sh[A_Y])
+    px = sh[POS_X] + sh[VEL_X] * t
+    py = sh[POS_Y] + sh[VEL_Y] * t
+    if sh[ACC_T] > 0.0:
+        tau = min(t, sh[ACC_T])
+        k = tau * (t - 0.5 * tau)
+        px = px + sh[ACC_X] * k
+        py = py + sh[ACC_Y] * k
+    ox = px + (c * sh[A_X] - sn * sh[A_Y])
+    oy = py + (sn * sh[A_X] + c * sh[A_Y])
     return ox, oy, c * sh[AB_X] - sn * sh[AB_Y], sn * sh[AB_X] + c * sh[AB_Y]
 
 

@@ -31,6 +31,7 @@ class AdditionsParams:
     centred_period: bool = plain()  # stage 1: the middle of the window of free periods (a scan), not its longest end
     long_lookahead: bool = plain()  # stage 1: goal-directed rollouts over the horizon; off: one-step fan (Fig. 2)
     unsteady_horizons: bool = plain()  # shapes whose velocity changed are predicted only unsteady_horizon_s
+    acceleration: bool = plain()  # shapes whose velocity changed: p + v t + a t^2 / 2 with a sensed a (up to a cap)
     lipm_windows: bool = plain()  # T0 = shortest period reachable now; first stride inside the LIPM's window
     search_margin: bool = plain()  # stage 1 checks with period_search.extra_margin_m more clearance
     com_sway: bool = plain()  # the body circle follows the LIPM's lateral sway (off: robot radius only)
@@ -48,6 +49,9 @@ class PredictionParams:
     unsteady_horizon_s: float = positive()  # [s] ... but only this far for shapes whose velocity changed since the last step
     unsteady_speed_mps: float = nonnegative()  # [m/s] a velocity change above this makes a shape unsteady
     unsteady_turn_rad_s: float = nonnegative()  # [rad/s] likewise for the angular velocity
+    acceleration_steps: int = positive()  # additions.acceleration: the sensed velocities this many steps apart
+    acceleration_horizon_s: float = nonnegative()  # [s] ... give an acceleration held this long, then the speed reached
+    acceleration_pooled: bool = plain()  # the shapes whose velocity changed share the mean of their accelerations
     safety_margin_m: float = nonnegative()  # [m] added to robot.body_radius in every collision check
     edge_samples: int = positive()  # points checked along each body-path segment (>= 2)
     check: str = plain()  # "path": the body's path to the midpoint of two nodes; "node": the node itself (the paper)

@@ -28,19 +28,17 @@ says "T0 is determined to be a short walking period that the robot can use".
 the shortest period one step can reach from the current CoM state (from the nominal steady
 gait about 0.37 s, the shortest period of the paper's Table 2). Off, ``T0`` is the fixed
 ``period_search.t0_s`` (0.3 s, ours: T_SS 0.1 s, which the LIPM cannot reach from the steady
-gait in one step). The paper's planners (``paper-*``) use the text's reading;
+gait in one step). Every planner uses the text's reading (the YAML's ``t0_reachable: true``);
 ``paper-period-aware-t0-<s>`` holds ``T0`` fixed at ``<s>`` seconds.
 
 Our additions, each a switch of ``configs/planner.yaml`` (section ``additions``):
 
-* ``lipm_windows``: :func:`shortest_feasible_period` is ``T0`` made state-dependent: the
-  shortest period the robot *can use from its current CoM state* (the paper: "T0 is
-  determined to be a short walking period that the robot can use"). Cutting ``T_SS`` from
-  0.6 s to 0.1 s in one step is infeasible for the LIPM (docs/model.md §3) and the PSO's
-  ``ΔT_SS <= 0`` can only make it worse, so the search starts from the shortest period
-  one step can reach. :func:`stride_window` is the same idea for the stride: at a short
-  period the CoM's momentum forbids stopping (or lengthening the stride) in one step,
-  so the first step of the walks and of the RRT keeps to the front strides the LIPM accepts;
+* ``lipm_windows``: :func:`stride_window`, the idea of the reachable ``T0`` (cutting ``T_SS``
+  from 0.6 s to 0.1 s in one step is infeasible for the LIPM, docs/model.md §3) carried over to
+  the stride: at a short period the CoM's momentum forbids stopping (or lengthening the
+  stride) in one step, so the first step of the walks and of the RRT keeps to the front
+  strides the LIPM accepts. It also implies the reachable ``T0`` whatever ``t0_reachable`` says;
+  off (``period-aware-no-lipm-windows``), ``T0`` is the text's reading like the paper's planner's;
 * ``long_lookahead``: goal-directed rollouts over the prediction horizon instead of the
   one-step check;
 * ``waiting_walks``: only if no period lets the robot go on at full stride, the search

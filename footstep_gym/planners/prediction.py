@@ -21,6 +21,7 @@ points as complex numbers ``x + iy``, so one vectorised expression serves all sh
 from __future__ import annotations
 
 import functools
+from typing import Sequence
 
 import numpy as np
 
@@ -57,6 +58,39 @@ def steady_motion_horizons(previous: Snapshot | None, snapshot: Snapshot, short_
     return out
 
 
+def sensed_accelerations(history: Sequence[Snapshot], snapshot: Snapshot,
+                         pooled: bool = False) -> dict[str, tuple[float, float]]:
+    """``{name: (ax, ay)}`` [m/s^2]: each moving shape's acceleration estimated from what was sensed.
+
+    A finite difference of the sensed velocities between the oldest snapshot of ``history`` (the
+    snapshots of earlier steps, oldest first) that saw the shape and ``snapshot``:
+    ``(v_now - v_then) / (t_now - t_then)``. Only a robot's own observations enter (never the
+    simulator's schedule). Shapes whose sensed velocity did not change (a car, a door turning
+    steadily) are left out: their prediction stays exactly constant-velocity. ``pooled``: the
+    shapes whose velocity changed share one acceleration, the mean of theirs (a group that speeds
+    up together, its members' own back-and-forth averaged out).
+    """
+    out: dict[str, tuple[float, float]] = {}
+    if not history:
+        return out
+    for v in snapshot.obstacles:
+        if v.static:
+            continue
+        for old_snapshot in history:  # oldest first: the longest baseline that saw this shape
+            old = next((o for o in old_snapshot.obstacles if o.name == v.name), None)
+            dt = snapshot.time - old_snapshot.time
+            if old is None or not dt > 0:
+                continue
+            dvx, dvy = float(v.velocity[0] - old.velocity[0]), float(v.velocity[1] - old.velocity[1])
+            if dvx != 0.0 or dvy != 0.0:
+                out[v.name] = (dvx / dt, dvy / dt)
+            break
+    if pooled and out:
+        mean = tuple(float(m) for m in np.mean(np.array(list(out.values())), axis=0))
+        out = {name: mean for name in out}
+    return out
+
+
 class ObstaclePredictor:
     """Clearance of body points at given times against the obstacles of a :class:`Snapshot`.
 
@@ -64,12 +98,19 @@ class ObstaclePredictor:
     (``np.inf``: always predicted). ``moving_only``: leave obstacles that do not move out.
     ``horizons``: ``{shape name: horizon [s]}``, a shorter horizon for shapes whose motion
     is known to be less predictable (see :func:`steady_motion_horizons`).
+    ``accelerations``: ``{shape name: (ax, ay)}`` [m/s^2] (:func:`sensed_accelerations`): such a
+    shape's centre is predicted at ``p + v t + a tau (t - tau / 2)``, ``tau = min(t,
+    acceleration_horizon)``: accelerating for ``acceleration_horizon`` [s], then at the velocity it
+    reached (``p + v t + a t^2 / 2`` up to the cap). Other shapes: ``p + v t``.
     """
 
     def __init__(self, snapshot: Snapshot, horizon: float = np.inf, moving_only: bool = False,
-                 horizons: dict[str, float] | None = None) -> None:
+                 horizons: dict[str, float] | None = None,
+                 accelerations: dict[str, tuple[float, float]] | None = None,
+                 acceleration_horizon: float = 0.0) -> None:
         self.horizon = float(horizon)
         horizons = horizons or {}
+        accelerations = accelerations or {}
         views = [v for v in snapshot.obstacles if _moves(v) or not moving_only]
         n = len(views)
         # Per shape: moving shapes are predicted up to their own horizon (``horizons[name]``, else ``horizon``).
@@ -91,14 +132,21 @@ class ObstaclePredictor:
         self._ab = cplx([v.b if v.kind == "segment" else v.a for v in views]) - self._a  # 0 for a circle
         self._ab2 = np.abs(self._ab) ** 2
         self._radius = col([v.radius for v in views])
-        # The shapes as the compiled kernels read them: one row per shape, its 13 columns named in kernels.py
+        # Sensed accelerations, each held for acceleration_horizon [s] (0: none; the prediction is p + v t).
+        cap = float(acceleration_horizon)
+        accelerating = [v.name in accelerations and _moves(v) and cap > 0 for v in views]
+        self._acceleration = cplx([accelerations[v.name] if on else (0.0, 0.0) for v, on in zip(views, accelerating)])
+        self._acceleration_cap = col([cap if on else 0.0 for on in accelerating])
+        self._accelerates = bool(any(accelerating))
+        # The shapes as the compiled kernels read them: one row per shape, its 16 columns named in kernels.py
         # (kernels.SHAPE_COLUMNS; built here without importing kernels, which imports numba).
         self.kernel_radius = np.ascontiguousarray(self._radius)
         self.kernel_horizon = np.ascontiguousarray(self._horizon)
         self.kernel_shapes = np.ascontiguousarray(np.stack([
             self._position.real, self._position.imag, self._velocity.real, self._velocity.imag, self._angle,
             self._omega, np.cos(self._angle), np.sin(self._angle), self._a.real, self._a.imag, self._ab.real,
-            self._ab.imag, self._ab2], axis=1).reshape(n, 13))
+            self._ab.imag, self._ab2, self._acceleration.real, self._acceleration.imag, self._acceleration_cap],
+            axis=1).reshape(n, 16))
 
     @property
     def n_shapes(self) -> int:
@@ -110,7 +158,11 @@ class ObstaclePredictor:
         p = pts[:, 0] + 1j * pts[:, 1]
         tt = np.broadcast_to(np.asarray(times, dtype=float), p.shape)[:, None]
         rot = np.exp(1j * (self._angle + self._omega * tt))
-        ap = p[:, None] - (self._position + self._velocity * tt + rot * self._a)
+        centre = self._position + self._velocity * tt
+        if self._accelerates:  # accelerating for tau = min(t, cap), then at the velocity reached
+            tau = np.minimum(tt, self._acceleration_cap)
+            centre = centre + self._acceleration * (tau * (tt - 0.5 * tau))
+        ap = p[:, None] - (centre + rot * self._a)
         ab = rot * self._ab
         u = (ap * ab.conj()).real / np.where(self._ab2 > 0, self._ab2, 1.0)
         np.clip(u, 0.0, 1.0, out=u)

@@ -9,6 +9,7 @@ Usage::
     python baselines/eval_planner.py --env door --door-speed 8 --door-speed 17 --policy period-aware \\
         --policy ppo --episodes 10 --split validation --out runs/door --workers 2
     python baselines/eval_planner.py --env crowd --crowd-speed 0.2 --agent runs/rl/ppo/FootstepCrowd-v0_1
+    python baselines/eval_planner.py --benchmark --policy period-aware --out runs/bench   # one leaderboard row
 
 The sweep flags (``--door-speed``, ``--crowd-speed``) are the scenarios' ``sweep_axes``
 (``footstep_gym.scenarios``): a scenario's key ``door_speed`` is ``--door-speed``, one cell per
@@ -33,6 +34,15 @@ place only once it has finished: a run that fails or is interrupted leaves ``--o
 * ``videos/<setting>_<policy>.mp4`` with ``--video``: one episode per policy and setting, in real time
   (in file names a user's agent ``agent:NAME`` is ``agent-NAME``);
 * ``summary.md`` (the table, definitions, the paper's numbers, the files) and ``run.json``.
+
+``--benchmark`` runs one policy (``--policy NAME``, or ``--agent PATH`` repeated over the training
+runs of one method, named with ``--name``) on every cell of every tier of every scene
+(``footstep_gym.evaluation.benchmark``; docs/benchmark.md) with the first ``--episodes`` seeds of
+the test split (100; ``--full``: 500), and writes ``benchmark.json`` (the protocol, one record per
+scene x tier x cell x training run, the records over runs, per tier the IQM with its
+stratified-bootstrap interval over runs), ``benchmark.md`` (the leaderboard row and every cell),
+``episodes.csv`` and ``run.json``, with the same checks and the same temporary folder as above.
+``--env`` and ``--tier`` restrict it to some scenes or tiers: a partial run, no leaderboard row.
 """
 
 from __future__ import annotations
@@ -56,7 +66,7 @@ from typing import Any, Callable, Sequence
 
 import footstep_gym
 from footstep_gym import policies as registry
-from footstep_gym.evaluation import report
+from footstep_gym.evaluation import benchmark, report
 from footstep_gym.evaluation.runner import (BACKENDS, WARMUP_ACTS, Cell, Task, record_video, run_tasks,
                                            safe_name)
 from footstep_gym.evaluation.splits import SPLITS, split_seeds
@@ -87,7 +97,8 @@ PROFILES = {
                      sweeps={"door": {"door_speed": (8.0, 14.0, 17.0)}},
                      policies=("period-aware", "fixed-period", "pso-only", "paper-period-aware",
                                "paper-fixed-period")),
-    # period-aware with each addition switched off in turn, and the paper's planner (filled in by --ablation).
+    # period-aware with each addition switched off in turn, and the paper's planner with each switched on in turn
+    # (filled in by --ablation: footstep_gym.planners.ablation_variants()).
     "ablation": Profile(envs=("door", "crossing", "crowd"), episodes=10, sweeps={"door": {"door_speed": (17.0,)}},
                         policies=()),
     # The agents against both planners on every setting the README reports.
@@ -96,7 +107,7 @@ PROFILES = {
                               "crowd": {"crowd_speed": (0.16, 0.2)}},
                       policies=("period-aware", "fixed-period", "ppo", "ppo-all", "sac")),
 }
-OWN_FILES = ("results.json", "results.csv", "episodes.csv", "summary.md", "run.json")
+OWN_FILES = ("results.json", "results.csv", "episodes.csv", "summary.md", "run.json", "benchmark.json", "benchmark.md")
 OWN_DIRS = ("figures", "tables", "videos", "runs")
 
 
@@ -217,6 +228,20 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-figures", action="store_true", help="skip the figures and command tables")
     parser.add_argument("--video", action="store_true",
                         help="record one episode per policy and setting (the split's first seed) as mp4, in real time")
+    bench = parser.add_argument_group(
+        "benchmark", "--benchmark: one policy on every tier of every scene, one leaderboard row (docs/benchmark.md)")
+    bench.add_argument("--benchmark", action="store_true",
+                       help=f"run the benchmark: --policy NAME (or --agent PATH per training run), --episodes N "
+                            f"(default {benchmark.EPISODES}) seeds of the test split per cell; writes benchmark.json "
+                            "and benchmark.md")
+    bench.add_argument("--full", action="store_true",
+                       help=f"with --benchmark: {benchmark.FULL_EPISODES} episodes per cell (the full protocol)")
+    bench.add_argument("--tier", action="append", metavar="TIER",
+                       help="with --benchmark: only this tier of configs/benchmark.yaml (paper, train, shifted, hard); "
+                            "repeatable; a partial run (so is --env)")
+    bench.add_argument("--name", metavar="LABEL",
+                       help="with --benchmark --agent: the method's name in the tables (agent:LABEL; default the "
+                            "first run's folder name)")
     return parser
 
 
@@ -249,10 +274,15 @@ def _unique(items: Sequence[Any]) -> tuple[Any, ...]:
     return tuple(dict.fromkeys(items))
 
 
-def parse_settings(argv: Sequence[str] | None = None) -> Settings:
+def parse_settings(argv: Sequence[str] | None = None) -> Settings | BenchmarkSettings:
     """Parse and validate the command line; exits with status 2 and a message on a bad value."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.benchmark:
+        return benchmark_settings(parser, args)
+    given = [flag for flag, value in (("--full", args.full), ("--tier", args.tier), ("--name", args.name)) if value]
+    if given:
+        parser.error(f"{', '.join(given)} go(es) with --benchmark")
     chosen = {name for flag, name in ((args.paper, "paper"), (args.ablation, "ablation")) if flag}
     if args.profile:
         chosen.add(args.profile)
@@ -278,8 +308,8 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings:
         policies = ablation_variants()
     elif profile.policies is not None:
         policies = tuple(p for p in profile.policies if p in available)
-    else:
-        policies = available
+    else:  # every registered policy but an upper bound (oracle), which runs only when named
+        policies = tuple(p for p in available if not registry.reads_truth(p))
     for path in args.agent or ():
         if not path.exists():
             parser.error(f"--agent {path}: no such file or folder")
@@ -504,9 +534,156 @@ def record_videos(settings: Settings, cells: list[Cell]) -> list[Path]:
     return paths
 
 
+# ---------------------------------------------------------------- --benchmark
+@dataclass(frozen=True)
+class BenchmarkSettings:
+    """A ``--benchmark`` run: one method (a policy name and, for an agent, its training runs per env id) on the
+    benchmark's cells (``scenes`` / ``tiers``: ``None`` for all of them)."""
+
+    policy: str
+    runs: dict[str, tuple[str, ...]] | None  # env id -> training runs; None: a planner
+    scenes: tuple[str, ...] | None
+    tiers: tuple[str, ...] | None
+    episodes: int
+    out: Path
+    workers: int
+    backend: str
+    ray_address: str | None
+
+    @property
+    def cells(self) -> list[benchmark.BenchmarkCell]:
+        return benchmark.benchmark_cells(self.scenes, self.tiers)
+
+
+#: Options of an evaluation that do not go with --benchmark (its cells, seeds and outputs are the protocol's).
+_NOT_WITH_BENCHMARK = (("--paper", "paper"), ("--ablation", "ablation"), ("--profile", "profile"),
+                       ("--video", "video"), ("--no-figures", "no_figures"))
+
+
+def benchmark_settings(parser: argparse.ArgumentParser, args: argparse.Namespace) -> BenchmarkSettings:
+    """Validate the options of ``--benchmark`` (exit 2 with one line on a bad one; nothing is run or written)."""
+    clash = [flag for flag, dest in _NOT_WITH_BENCHMARK if getattr(args, dest)]
+    clash += [flag_of(key) for key in sweep_axes() if getattr(args, key)]
+    if args.split != benchmark.SPLIT:
+        clash.append(f"--split {args.split}")
+    if args.seed:
+        clash.append("--seed")
+    if clash:
+        parser.error(f"--benchmark runs the protocol's cells and test seeds: {', '.join(clash)} do(es) not apply")
+    named = list(args.policy or [])
+    if bool(named) == bool(args.agent) or len(named) > 1:
+        parser.error("--benchmark evaluates one method: give one --policy NAME, or --agent PATH (repeated for "
+                     "its training runs)")
+    if args.name and not args.agent:
+        parser.error("--name names an --agent's method")
+    if args.full and args.episodes not in (None, benchmark.FULL_EPISODES):
+        parser.error(f"--full is {benchmark.FULL_EPISODES} episodes per cell; --episodes {args.episodes} "
+                     "contradicts it")
+    episodes = benchmark.FULL_EPISODES if args.full else args.episodes or benchmark.EPISODES
+    try:
+        scenes = _unique([scene_of(resolve_env_id(e)) for e in args.env]) if args.env else None
+        tiers = _unique(args.tier) if args.tier else None
+        cells = benchmark.benchmark_cells(scenes, tiers)
+        split_seeds(benchmark.SPLIT, episodes)
+    except ValueError as exc:
+        parser.error(str(exc))
+    if args.ray_address and args.backend != "ray":
+        parser.error("--ray-address needs --backend ray")
+    env_ids = sorted({c.env_id for c in cells})
+    runs: dict[str, tuple[str, ...]] | None = None
+    if args.agent:
+        for path in args.agent:
+            if not path.exists():
+                parser.error(f"--agent {path}: no such file or folder")
+        first = args.agent[0]
+        label = args.name or (first.stem if first.suffix == ".zip" else first.name)
+        policy = f"{registry.USER_AGENT_PREFIX}{label}"
+        paths = tuple(str(p.resolve()) for p in _unique(args.agent))
+        runs = {env_id: paths for env_id in env_ids}
+    else:
+        policy = named[0]
+        if not registry.is_policy(policy):
+            parser.error(f"unknown policy {policy!r}; choose from {', '.join(registry.policy_names())}")
+        if policy in registry.AGENTS:
+            runs = {env_id: tuple(str(r) for r in registry.agent_runs(policy, env_id, args.agents_dir))
+                    for env_id in env_ids}
+            missing = [env_id for env_id, found in runs.items() if not found]
+            if missing:
+                parser.error(f"{policy}: no training run for {', '.join(missing)} "
+                             f"({registry.missing_agents_note({policy: missing}, args.agents_dir)}); a benchmark "
+                             "row needs every scene (--env restricts it: a partial run)")
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return BenchmarkSettings(policy=policy, runs=runs, scenes=scenes, tiers=tiers, episodes=episodes, out=args.out,
+                             workers=args.workers or cores, backend=args.backend, ray_address=args.ray_address)
+
+
+def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell],
+                    owners: list[benchmark.BenchmarkCell], results: list[EpisodeResult], wall_s: float,
+                    argv: Sequence[str]) -> tuple[str, list[Path]]:
+    """``benchmark.json``, ``benchmark.md``, ``episodes.csv`` and ``run.json`` of a finished run, into ``folder``."""
+    command = "python " + " ".join(shlex.quote(a) for a in ["baselines/eval_planner.py", *argv])
+    run_info = {"command": command, "mode": "benchmark", "policy": settings.policy,
+                "episodes": settings.episodes, "split": benchmark.SPLIT, "workers": settings.workers,
+                "backend": settings.backend, "wall_time_s": round(wall_s, 2), "cpu_count": os.cpu_count(),
+                "agent_runs": sorted({c.run for c in cells if c.run})}
+    records = benchmark.cell_records(cells, owners, results)
+    doc = benchmark.benchmark_document(settings.policy, settings.cells, records, settings.episodes, run_info)
+    text = benchmark.markdown(doc, command)
+    files = [folder / "benchmark.json", folder / "benchmark.md", folder / "episodes.csv", folder / "run.json"]
+    files[0].write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    files[1].write_text(text, encoding="utf-8")
+    rows = report.episode_rows(cells, results)
+    report.write_csv(files[2], list(rows[0]), rows)
+    files[3].write_text(json.dumps({**run_info, "complete": doc["complete"],
+                                    "footstep_gym": footstep_gym.__version__}, indent=2) + "\n", encoding="utf-8")
+    row = text.split("## Leaderboard row\n\n", 1)[1].split("\n\n", 1)[0]
+    return row, files
+
+
+def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str]) -> int:
+    """``--benchmark``: check every cell and ``--out`` first, run the episodes, write into a temporary folder that
+    replaces ``--out`` once finished (as an evaluation does)."""
+    runs = settings.runs
+    cells, owners = benchmark.runner_cells(settings.cells, settings.policy,
+                                           None if runs is None else (lambda env_id: runs.get(env_id, ())))
+    problem = benchmark.check_cells(cells) or check_out(settings.out)
+    if problem:
+        build_parser().error(problem)  # one line, exit status 2; nothing written
+    tasks = benchmark.tasks(cells, settings.episodes)
+    workers = max(1, min(settings.workers, len(tasks)))
+    per_run = f" ({len(cells)} with the training runs)" if len(cells) != len(settings.cells) else ""
+    print(f"benchmark of {settings.policy}: {len(settings.cells)} cells{per_run} x {settings.episodes} seeds = "
+          f"{len(tasks)} episodes on {workers} worker(s) ({settings.backend}) -> {settings.out}", file=sys.stderr)
+    folder = new_run_folder(settings.out)
+    try:
+        t0 = time.perf_counter()
+        results = run_tasks(tasks, workers, backend=settings.backend, address=settings.ray_address)
+        wall = time.perf_counter() - t0
+        row, files = write_benchmark(folder, settings, cells, owners, results, wall, argv)
+    except KeyboardInterrupt:
+        shutil.rmtree(folder, ignore_errors=True)
+        print(f"\ninterrupted; {settings.out} left as it was", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        shutil.rmtree(folder, ignore_errors=True)
+        traceback.print_exc()
+        print(f"error: the benchmark failed; {settings.out} left as it was. {exc}", file=sys.stderr)
+        return 1
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    commit_out(folder, settings.out)
+    print(row)
+    print(f"{len(results)} episodes in {wall:.1f} s; wrote {len(files)} files to {settings.out}/ "
+          "(benchmark.md: every cell)")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     settings = parse_settings(argv)
+    if isinstance(settings, BenchmarkSettings):
+        return run_benchmark(settings, argv)
     cells = make_cells(settings)
     if not cells:
         print("error: nothing to evaluate (no policy has a cell on these envs)", file=sys.stderr)

@@ -12,6 +12,10 @@ A policy is a :class:`footstep_gym.policy.Policy` (``reset(seed)``, ``act(obs, s
   one training run (``run=``; :func:`footstep_gym.rl.agent_runs` lists the shipped ones);
 * ``agent:<label>`` with ``run=``: a user's own zoo run folder or ``.zip``.
 
+One planner is no baseline: ``oracle`` reads the true future of the obstacles (an upper bound,
+:mod:`footstep_gym.planners.oracle`); :func:`reads_truth` names it, the evaluation binds it to
+the env and marks it "(upper bound)", and it runs only when asked for by name.
+
 Each name is listed once, with its description, in those two tables; :func:`policy_names`,
 :func:`is_policy` and :func:`describe` read them. Nothing here imports the planners' kernels
 or torch until a policy is made.
@@ -40,7 +44,8 @@ if TYPE_CHECKING:
 USER_AGENT_PREFIX = "agent:"
 
 __all__ = ["AGENTS", "AGENTS_DIR_ENV_VAR", "USER_AGENT_PREFIX", "agent_runs", "default_agents_dir", "describe",
-           "is_agent", "is_policy", "make_policy", "missing_agents_note", "planner_names", "policy_names"]
+           "is_agent", "is_policy", "make_policy", "missing_agents_note", "planner_names", "policy_names",
+           "reads_truth"]
 
 
 def planner_names() -> tuple[str, ...]:
@@ -71,6 +76,14 @@ def is_policy(name: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+def reads_truth(name: str) -> bool:
+    """Whether policy ``name`` reads the true future through ``bind_truth`` (``oracle``): an upper bound, never a
+    baseline; the evaluation marks it "(upper bound)" and runs it only when named. Agents never do."""
+    if is_agent(name):
+        return False
+    return getattr(_planner_spec(name).planner, "reads_truth", False) is True
 
 
 def describe(name: str) -> str:

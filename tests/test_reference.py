@@ -52,7 +52,8 @@ def test_fixed_period_planner_passes_a_slow_door_and_not_a_fast_one(door_speed, 
 def test_registry_has_the_paper_planners_beside_ours():
     from footstep_gym.planners import POLICIES
 
-    assert set(POLICIES) == {"period-aware", "fixed-period", "pso-only", "paper-period-aware", "paper-fixed-period"}
+    assert set(POLICIES) == {"period-aware", "fixed-period", "pso-only", "paper-period-aware", "paper-fixed-period",
+                             "oracle"}  # the oracle: an upper bound that reads the true future, not a baseline
 
 
 def test_variant_names_switch_one_addition_off():
@@ -64,8 +65,9 @@ def test_variant_names_switch_one_addition_off():
 
     switches = [f.name for f in dataclasses.fields(AdditionsParams)]
     names = ablation_variants()
-    assert names[0] == "period-aware" and names[-1] == "paper-period-aware" and len(names) == len(switches) + 2
-    for switch, name in zip(switches, names[1:-1]):
+    n = len(switches)
+    assert names[0] == "period-aware" and names[n + 1] == "paper-period-aware" and len(names) == 2 * n + 2
+    for switch, name in zip(switches, names[1:n + 1]):
         assert name == "period-aware-no-" + switch.replace("_", "-")
         policy = make_policy(name, seed=0)
         assert policy.name == name
@@ -73,6 +75,33 @@ def test_variant_names_switch_one_addition_off():
         assert off == [switch]
     fixed = make_policy("fixed-period-no-fallback")
     assert not fixed.vary_period and not fixed.config.additions.fallback
+
+
+def test_with_names_switch_one_addition_on_in_the_papers_planner():
+    """``paper-period-aware-with-<switch>``: the paper's planner (its readings kept) with that one addition on."""
+    import dataclasses
+
+    from footstep_gym import make_policy
+    from footstep_gym.planners import ablation_variants
+    from footstep_gym.planners.params import AdditionsParams
+    from footstep_gym.policies import describe, is_policy
+
+    switches = [f.name for f in dataclasses.fields(AdditionsParams)]
+    paper = make_policy("paper-period-aware").config
+    names = ablation_variants()[len(switches) + 2:]
+    assert len(names) == len(switches)
+    for switch, name in zip(switches, names):
+        assert name == "paper-period-aware-with-" + switch.replace("_", "-") and is_policy(name)
+        assert describe(name) == f"paper-period-aware with the addition {switch} on"
+        policy = make_policy(name, seed=0)
+        assert policy.name == name and policy.vary_period
+        on = [s for s in switches if getattr(policy.config.additions, s)]
+        assert on == [switch]
+        assert dataclasses.replace(policy.config, additions=paper.additions) == paper  # the paper's readings kept
+    fixed = make_policy("paper-fixed-period-with-fallback")
+    assert not fixed.vary_period and fixed.config.additions.fallback
+    for bad in ("paper-period-aware-with-nothing", "pso-only-with-fallback", "paper-period-aware-with-"):
+        assert not is_policy(bad)
 
 
 @pytest.mark.parametrize("name", ["period-aware-no-such-thing", "pso-only-no-fallback", "nonsense",

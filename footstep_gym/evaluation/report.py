@@ -22,6 +22,18 @@ def _mm(v: float | None) -> str:
     return "–" if v is None else f"{1000 * v:.0f}"
 
 
+def upper_bound(policy: str) -> bool:
+    """Whether ``policy`` reads the true future (``oracle``): an upper bound, never a baseline."""
+    from footstep_gym import policies
+
+    return policies.is_policy(policy) and policies.reads_truth(policy)
+
+
+def policy_label(policy: str) -> str:
+    """The policy's name in a table: ``oracle (upper bound)`` for a policy that reads the truth, else the name."""
+    return f"{policy} (upper bound)" if upper_bound(policy) else policy
+
+
 def markdown_table(records: list[dict[str, Any]]) -> str:
     """One row per record (planners, and agents summarised over their training runs by ``over_runs``)."""
     head = ["env", "setting", "policy", "n", "success [95% CI]", "IQM over training seeds [95% CI]",
@@ -38,7 +50,7 @@ def markdown_table(records: list[dict[str, Any]]) -> str:
         else:
             iqm = "– (1 run)" if r.get("runs") else "–"
         lines.append("| " + " | ".join([
-            r["scenario"], setting, r["policy"], str(r["episodes"]),
+            r["scenario"], setting, policy_label(r["policy"]), str(r["episodes"]),
             f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]", iqm, f"{r['collision_rate']:.2f}",
             f"{r['fall_rate']:.2f}", f"{r['timeout_rate']:.2f}", _fmt(r["mean_steps"], 1),
             _fmt(r["mean_path_length"]), _fmt(r["mean_time"], 1), _fmt(r["mean_period"]),

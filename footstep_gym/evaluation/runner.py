@@ -12,6 +12,9 @@ The policy's act time is measured after a warm-up (:func:`warm_up`): the first a
 policy in a fresh process load (or compile) the planners' numba kernels and an agent's
 torch graph, which is start-up, not planning; so each process first acts
 :data:`WARMUP_ACTS` times untimed, on a throwaway env, with each cell's policy.
+An ``on_step`` hook (:func:`run_episode`) sees every footstep's timings (sensing, act, env
+step) and the policy's ``last_info``: the benchmark (:mod:`footstep_gym.bench.planners`) times
+the planners through this loop.
 
 :func:`run_tasks` runs many episodes on a backend (``"local"``: worker processes on this
 machine; ``"ray"``: Ray tasks on a local Ray or a cluster), with a progress bar that moves
@@ -38,6 +41,32 @@ from footstep_gym.evaluation.stats import EpisodeResult
 
 #: ``factory(cell, robot, seed) -> policy`` with ``reset(seed=...)`` and ``act(obs, snapshot)``.
 PolicyFactory = Callable[..., Any]
+
+
+@dataclass(frozen=True)
+class ActTiming:
+    """One footstep of an episode as :func:`run_episode`'s ``on_step`` hook sees it, right after it.
+
+    ``act_s`` is the time ``EpisodeResult.plan_ms`` records (in seconds); ``sense_s`` the
+    ``sensing()`` call that made the snapshot this act saw (after the reset or the previous
+    step); ``step_s`` the ``env.step``. ``last_info`` is the policy's ``last_info`` after the
+    act (``{}`` without one: per-stage times such as ``time_pso_ms``, ``pso_ran``).
+    """
+
+    footstep: int  # 1 for the episode's first
+    sense_s: float  # [s]
+    act_s: float  # [s]
+    step_s: float  # [s]
+    action: Any  # what the policy returned
+    last_info: dict[str, Any]
+    info: dict[str, Any]  # env.step's info
+    terminated: bool
+    truncated: bool
+
+
+#: ``on_step(timing) -> stop``: called after every footstep of :func:`run_episode` (never during the warm-up);
+#: a true return ends the episode there (it is then reported as a timeout, the outcome of an episode cut short).
+StepHook = Callable[[ActTiming], Any]
 
 BACKENDS = ("local", "ray")
 
@@ -72,8 +101,10 @@ class Cell:
 
     @property
     def setting(self) -> str:
-        """Short name of the env and its parameters, e.g. ``door_17`` (file names, figure titles)."""
-        return "_".join([self.scenario] + [f"{v:g}" for _, v in self.params])
+        """Short name of the env and its parameters, e.g. ``door_17`` (file names, figure titles); a benchmark
+        cell's text values as they are (``door_paper_door-17``)."""
+        return "_".join([self.scenario] + [f"{v:g}" if isinstance(v, (int, float)) else str(v)
+                                           for _, v in self.params])
 
     @property
     def run_name(self) -> str | None:
@@ -160,6 +191,19 @@ def planner_notes(policy: Any) -> tuple[np.ndarray | None, bool | None]:
 
 
 # ---------------------------------------------------------------- running
+def bind_truth(policy: Any, env: Any) -> bool:
+    """Hand ``env`` to ``policy`` if it declares ``reads_truth = True`` (the oracle, an upper bound); return whether.
+
+    The one place the evaluation gives a policy more than ``env.unwrapped.sensing()`` and the
+    observation: a policy that reads the true future (:class:`footstep_gym.planners.oracle.OraclePlanner`)
+    gets the env through its ``bind_truth`` here, once per env, and every other policy gets nothing.
+    """
+    if getattr(policy, "reads_truth", False) is not True:
+        return False
+    policy.bind_truth(env.unwrapped)
+    return True
+
+
 def default_factory(cell: Cell, robot: Any, seed: int) -> Any:
     """The policy registry (imported here so workers resolve it themselves)."""
     from footstep_gym.policies import make_policy
@@ -204,6 +248,7 @@ def warm_up(cell: Cell, seed: int, factory: PolicyFactory = default_factory, act
     try:
         base = env.unwrapped
         policy = factory(cell, base.robot, seed)
+        bind_truth(policy, env)
         obs, _ = env.reset(seed=seed)
         policy.reset(seed=seed)
         for _ in range(acts):
@@ -216,31 +261,36 @@ def warm_up(cell: Cell, seed: int, factory: PolicyFactory = default_factory, act
     return True
 
 
-def run_episode(task: Task, factory: PolicyFactory = default_factory, warm: bool = True) -> EpisodeResult:
+def run_episode(task: Task, factory: PolicyFactory = default_factory, warm: bool = True,
+                on_step: StepHook | None = None) -> EpisodeResult:
     """Run ``task``'s episode to its end; record a :class:`Trace` if ``task.record``.
 
     ``warm``: run :func:`warm_up` first (it acts only on a process's first episode of the cell).
+    ``on_step``: called with an :class:`ActTiming` after every footstep (see :data:`StepHook`).
     """
     cell, seed = task.cell, task.seed
     try:
         if warm:
             warm_up(cell, seed, factory)
-        return _run(task, factory)
+        return _run(task, factory, on_step)
     except Exception as exc:  # name the episode: a worker's traceback alone does not
         run = f" run={cell.run_name}" if cell.run else ""
         raise RuntimeError(f"episode failed: env={cell.env_id} params={cell.params_dict} "
                            f"policy={cell.policy}{run} seed={seed}: {type(exc).__name__}: {exc}") from exc
 
 
-def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
+def _run(task: Task, factory: PolicyFactory, on_step: StepHook | None = None) -> EpisodeResult:
     cell, seed = task.cell, task.seed
     env = gym.make(cell.env_id, **cell.params_dict)
     try:
         base = env.unwrapped
         policy = factory(cell, base.robot, seed)
+        bind_truth(policy, env)
         obs, _ = env.reset(seed=seed)
         policy.reset(seed=seed)
+        t_sense = time.perf_counter()
         snapshot = base.sensing()
+        sense_s = time.perf_counter() - t_sense
         snaps = [snapshot]
         plan_ms: list[float] = []
         periods: list[float] = []
@@ -253,9 +303,12 @@ def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
         while not (terminated or truncated):
             t0 = time.perf_counter()
             action = policy.act(obs, snapshot)
-            plan_ms.append(1e3 * (time.perf_counter() - t0))
+            t1 = time.perf_counter()
+            plan_ms.append(1e3 * (t1 - t0))
             pre, ran = planner_notes(policy)
+            t_step = time.perf_counter()
             obs, _, terminated, truncated, info = env.step(action)
+            step_s = time.perf_counter() - t_step
             applied.append(info["command"])
             planned.append(np.asarray(action, dtype=float).reshape(5))
             pre_pso.append(pre if pre is not None else np.full(5, np.nan))
@@ -264,8 +317,15 @@ def _run(task: Task, factory: PolicyFactory) -> EpisodeResult:
             if info["clearance"] is not None:
                 clearance.append(float(info["clearance"]))
             zmp_margin.append(float(info["zmp_margin"]))
+            t_sense = time.perf_counter()
             snapshot = base.sensing()
+            next_sense_s = time.perf_counter() - t_sense
             snaps.append(snapshot)
+            if on_step is not None and on_step(ActTiming(
+                    len(plan_ms), sense_s, t1 - t0, step_s, action, getattr(policy, "last_info", None) or {}, info,
+                    terminated, truncated)):
+                break
+            sense_s = next_sense_s
         outcome = info["termination"] if terminated else "timeout"
         centre = np.array([s.centre for s in snaps], dtype=float)
         com_path = np.asarray(base.history["com"], dtype=float).reshape(-1, 2)
@@ -396,6 +456,7 @@ def record_video(cell: Cell, seed: int, folder: str | Path, name: str | None = N
                           disable_logger=True)
         try:
             policy = default_factory(cell, env.unwrapped.robot, seed)
+            bind_truth(policy, env)
             obs, _ = env.reset(seed=seed)
             policy.reset(seed=seed)
             terminated = truncated = False

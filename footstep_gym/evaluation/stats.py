@@ -216,3 +216,32 @@ def over_runs(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                       seeds=group[0]["seeds"], outcomes=[o for r in group for o in r["outcomes"]])
         out.append(pooled)
     return out
+
+
+def iqm_over_tasks(scores: Any, reps: int = 2000, seed: int = 0) -> tuple[float, float, float]:
+    """IQM of a ``(runs, tasks)`` matrix of scores and its stratified-bootstrap 95 % interval over runs (rliable).
+
+    The benchmark's aggregate of a tier (:mod:`footstep_gym.evaluation.benchmark`): one column per
+    cell of the tier (every scene's), one row per training run, each entry a success rate. The IQM is
+    the mean of the middle half of all ``runs x tasks`` entries (``scipy.stats.trim_mean`` cutting 25 %
+    each side, rliable's ``aggregate_iqm``); the interval resamples the runs of each task with
+    replacement (rliable's stratified bootstrap, ``reps`` resamples, seeded). With one run there is
+    nothing to resample: the interval is the point ``(iqm, iqm)``.
+    """
+    matrix = np.asarray(scores, dtype=float)
+    if matrix.ndim != 2 or matrix.size == 0:
+        raise ValueError(f"iqm_over_tasks needs a non-empty (runs, tasks) matrix, got shape {matrix.shape}")
+    from rliable import library as rly
+    from rliable import metrics
+
+    point = float(metrics.aggregate_iqm(matrix))
+    if matrix.shape[0] == 1:
+        return point, point, point
+    with warnings.catch_warnings():
+        # As iqm_interval: rliable seeds arch's bootstrap through the deprecated ``random_state``.
+        warnings.filterwarnings("ignore", message="random_state is deprecated", category=FutureWarning,
+                                module=r"arch\.bootstrap")
+        _, interval = rly.get_interval_estimates(
+            {"policy": matrix}, lambda x: np.array([metrics.aggregate_iqm(x)]), reps=reps,
+            random_state=np.random.RandomState(seed))
+    return point, float(interval["policy"][0, 0]), float(interval["policy"][1, 0])

@@ -7,8 +7,10 @@ planners and :data:`POLICIES`, their registry: a :class:`PolicySpec` per name (c
 overrides, one-line description), which the factory builds with :meth:`PolicySpec.build`.
 
 The three planners here read only the :class:`~footstep_gym.sensing.Snapshot` (what a
-robot could sense now; the future only through its constant-velocity prediction) and
-ignore ``observation``; a learned agent reads ``observation`` and ignores the snapshot.
+robot could sense now and, for the staged planners, at the last steps; the future only through
+its constant-velocity prediction, or the acceleration sensed over the last step,
+``additions.acceleration``) and ignore ``observation``; a learned agent reads ``observation``
+and ignores the snapshot.
 
 ``period-aware`` — the paper's planner, greedy (one footstep per call, replanned every
 step), docs/model.md §5. :meth:`PeriodAwarePlanner._plan` is the paper's three calls,
@@ -31,7 +33,8 @@ look-ahead, short horizons for unsteady shapes, the LIPM's windows, the fallback
 off and, where the paper specifies something else than our defaults, the paper's reading
 (:data:`PAPER_READINGS`: the text's T0, the one-sample RRT, the node checked now and after
 T, a constant penalty, a finer bisection; every deviation is listed in docs/model.md §5.3).
-``<policy>-no-<switch>`` names a policy with one switch off (:mod:`.ablation`);
+``<policy>-no-<switch>`` names a policy with one switch off and ``<policy>-with-<switch>`` one with
+a switch on (:mod:`.ablation`: ours less one addition, the paper's plus one);
 ``paper-period-aware-t0-<s>`` is the paper's planner with T0 fixed at ``<s>`` seconds
 (``paper-period-aware-t0-0.3`` is our earlier reading of Algorithm 1's T0).
 
@@ -57,6 +60,7 @@ import dataclasses
 import math
 import time
 from abc import abstractmethod
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
@@ -70,6 +74,7 @@ from footstep_gym.planners.prediction import (
     BodyModel,
     ObstaclePredictor,
     body_path_points,
+    sensed_accelerations,
     steady_motion_horizons,
 )
 from footstep_gym.planners.pso import CommandRepair
@@ -138,11 +143,19 @@ class PeriodAwarePlanner(_Planner):
         self.margin = pp.safety_margin_m
         self.search_margin = pp.safety_margin_m + (config.period_search.extra_margin_m if add.search_margin else 0.0)
         self.com_sway = add.com_sway
-        self._previous_snapshot: Snapshot | None = None  # what was sensed one step ago
+        self.acceleration_horizon = pp.acceleration_horizon_s if add.acceleration else 0.0
+        self.acceleration_pooled = pp.acceleration_pooled
+        # What was sensed at the last steps, oldest first (the previous snapshot last).
+        self._history: deque[Snapshot] = deque(maxlen=pp.acceleration_steps if add.acceleration else 1)
+
+    @property
+    def _previous_snapshot(self) -> Snapshot | None:
+        """What was sensed one step ago."""
+        return self._history[-1] if self._history else None
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
-        self._previous_snapshot = None
+        self._history.clear()
 
     # -------------------------------------------------------------- the three stages
     def _plan(self, snapshot: Snapshot) -> tuple[np.ndarray, dict[str, Any]]:
@@ -169,8 +182,11 @@ class PeriodAwarePlanner(_Planner):
         shapes were found unsteady (their velocity changed since the previous step)."""
         unsteady = (steady_motion_horizons(self._previous_snapshot, snapshot, *self.unsteady)
                     if self.unsteady is not None else {})
-        self._previous_snapshot = snapshot
-        predictor = ObstaclePredictor(snapshot, horizon=self.horizon, horizons=unsteady)
+        accelerations = (sensed_accelerations(self._history, snapshot, self.acceleration_pooled)
+                         if self.acceleration_horizon > 0 else {})
+        self._history.append(snapshot)
+        predictor = ObstaclePredictor(snapshot, horizon=self.horizon, horizons=unsteady, accelerations=accelerations,
+                                      acceleration_horizon=self.acceleration_horizon)
         body = BodyModel(predictor, self.robot, self.margin, sway=self.com_sway)
         search_body = BodyModel(predictor, self.robot, self.search_margin, sway=self.com_sway)
         return body, search_body, len(unsteady)
@@ -281,9 +297,9 @@ PAPER = {f.name: False for f in dataclasses.fields(AdditionsParams)}
 #: Where the paper specifies something other than our defaults of ``configs/planner.yaml``, the paper's
 #: planners follow the paper (docs/model.md §5.3, one row per deviation, with what the paper says):
 PAPER_READINGS: dict[str, dict[str, Any]] = {
-    # §2.2: "T0 is determined to be a short walking period that the robot can use" (not the fixed 0.3 s).
+    # (§2.2's T0, "a short walking period that the robot can use", is the YAML's period_search.t0_reachable.)
     # N is not given; Table 2's periods move in 10-20 ms steps: (T_n - T0) / 2^6 = 6 ms.
-    "period_search": {"t0_reachable": True, "iterations": 6},
+    "period_search": {"iterations": 6},
     # Algorithm 2 draws and extends one sample at a time.
     "rrt": {"batch_size": 1},
     # Algorithm 2 step 11 tests "the selected node"; §2.2 checks "the predicted position of the obstacle and the
@@ -292,6 +308,10 @@ PAPER_READINGS: dict[str, dict[str, Any]] = {
     # Eq. (7): P is a constant when infeasible (its value 1 cannot be meant: Table 2's own repairs cost more).
     "pso": {"violation_weight": 0.0},
 }
+
+# The oracle (footstep_gym/planners/oracle.py) subclasses PeriodAwarePlanner, so it is imported once that is defined.
+from footstep_gym.planners.oracle import DESCRIPTION as ORACLE_DESCRIPTION  # noqa: E402
+from footstep_gym.planners.oracle import OraclePlanner  # noqa: E402
 
 #: The registry of scripted policies, by name.
 POLICIES: dict[str, PolicySpec] = {
@@ -306,10 +326,15 @@ POLICIES: dict[str, PolicySpec] = {
                                                  "infeasible, none of our additions"),
     "paper-fixed-period": PolicySpec(FixedPeriodPlanner, PAPER, PAPER_READINGS,
                                      description="the paper's planner as written, the period held at T_n"),
+    # An upper bound, not a baseline: period-aware told the truth (reads_truth; tables mark it "(upper bound)").
+    "oracle": PolicySpec(OraclePlanner, readings={"kernels": {"compiled": False}}, description=ORACLE_DESCRIPTION),
 }
 
 #: ``<policy>-no-<switch>``: a staged policy of :data:`POLICIES` with one switch of ``additions`` off.
 VARIANT_SEPARATOR = "-no-"
+#: ``<policy>-with-<switch>``: a staged policy of :data:`POLICIES` with one switch of ``additions`` on (the
+#: paper's planners plus one of our additions: which ones rescue it).
+WITH_SEPARATOR = "-with-"
 #: ``<paper policy>-t0-<seconds>``: a paper planner with T0 fixed (``period_search.t0_reachable`` off, ``t0_s``).
 T0_SEPARATOR = "-t0-"
 
@@ -323,6 +348,12 @@ def variant_name(policy: str, switch: str) -> str:
     """The name of ``policy`` with switch ``switch`` off: ``period-aware`` + ``waiting_walks`` ->
     ``period-aware-no-waiting-walks``."""
     return f"{policy}{VARIANT_SEPARATOR}{switch.replace('_', '-')}"
+
+
+def with_name(policy: str, switch: str) -> str:
+    """The name of ``policy`` with switch ``switch`` on: ``paper-period-aware`` + ``fallback`` ->
+    ``paper-period-aware-with-fallback``."""
+    return f"{policy}{WITH_SEPARATOR}{switch.replace('_', '-')}"
 
 
 def fixed_t0_name(policy: str, t0_s: float) -> str:
@@ -347,22 +378,33 @@ def _fixed_t0_spec(name: str) -> PolicySpec | None:
     return PolicySpec(spec.planner, spec.additions, readings, f"{base} with T0 fixed at {t0:g} s")
 
 
+def _switched_spec(name: str) -> PolicySpec | None:
+    """``<staged policy>-no-<switch>`` (that switch off) or ``<staged policy>-with-<switch>`` (on), else ``None``."""
+    switches = [f.name for f in dataclasses.fields(AdditionsParams)]
+    for separator, on, word in ((VARIANT_SEPARATOR, False, "off"), (WITH_SEPARATOR, True, "on")):
+        base, sep, label = name.partition(separator)
+        if sep and base in POLICIES and switch_of(label) in switches:
+            spec = POLICIES[base]
+            if issubclass(spec.planner, PeriodAwarePlanner):
+                return PolicySpec(spec.planner, {**spec.additions, switch_of(label): on}, spec.readings,
+                                  f"{base} with the addition {switch_of(label)} {word}")
+    return None
+
+
 def policy_spec(name: str) -> PolicySpec:
-    """The :class:`PolicySpec` of a registered name, of a variant ``<policy>-no-<switch>`` or of
-    ``<paper policy>-t0-<seconds>``."""
+    """The :class:`PolicySpec` of a registered name, of a variant ``<policy>-no-<switch>`` /
+    ``<policy>-with-<switch>`` or of ``<paper policy>-t0-<seconds>``."""
     if name in POLICIES:
         return POLICIES[name]
-    switches = [f.name for f in dataclasses.fields(AdditionsParams)]
-    base, sep, label = name.partition(VARIANT_SEPARATOR)
-    if sep and base in POLICIES and switch_of(label) in switches:
-        spec = POLICIES[base]
-        if issubclass(spec.planner, PeriodAwarePlanner):
-            return PolicySpec(spec.planner, {**spec.additions, switch_of(label): False}, spec.readings,
-                              f"{base} with the addition {switch_of(label)} off")
+    switched = _switched_spec(name)
+    if switched is not None:
+        return switched
     fixed = _fixed_t0_spec(name)
     if fixed is not None:
         return fixed
+    switches = [f.name for f in dataclasses.fields(AdditionsParams)]
     variants = ", ".join(variant_name("period-aware", s) for s in switches)
     raise ValueError(f"unknown policy {name!r}; known: {', '.join(sorted(POLICIES))}, <staged policy>-no-<switch> "
-                     f"such as {variants}, and {fixed_t0_name('paper-period-aware', 0.3)} (the paper's planner "
-                     f"with T0 fixed at 0.3 s)")
+                     f"such as {variants}, <staged policy>-with-<switch> such as "
+                     f"{with_name('paper-period-aware', switches[0])}, and {fixed_t0_name('paper-period-aware', 0.3)} "
+                     f"(the paper's planner with T0 fixed at 0.3 s)")

@@ -1,0 +1,361 @@
+"""The benchmark: one policy on every cell of every tier of every scene, one leaderboard row.
+
+``python baselines/eval_planner.py --benchmark --policy NAME --out DIR`` (docs/benchmark.md) is a
+thin front-end to this module:
+
+* :func:`benchmark_cells`: the cells, ``(scene, tier, cell)`` triples with their env kwargs, from
+  the benchmark's tiers (``configs/benchmark.yaml`` through :mod:`footstep_gym.tiers`); each
+  runs as ``gymnasium.make(env_id, tier=TIER, tier_cell=CELL)``;
+* :func:`runner_cells` and :func:`tasks`: the evaluation runner's cells (one per benchmark cell and
+  training run) and episodes, the same seeds for every cell: the first ``episodes`` seeds of the
+  test split (:data:`EPISODES` by default, :data:`FULL_EPISODES` for a full run, as CrowdNav's 500
+  test cases), run by :func:`~footstep_gym.evaluation.runner.run_tasks` locally or on Ray;
+* :func:`cell_records`: one record per scene x tier x cell x policy (x training run), the
+  evaluation's record (:func:`~footstep_gym.evaluation.stats.cell_record`: success with its Wilson
+  95 % interval, collision, fall and timeout rates, time to goal and path length over the
+  successes, smallest clearance and ZMP margin, act time median / p99 after the warm-up) with the
+  cell's ``scene``, ``tier``, ``cell``, ``env_kwargs`` and ``upper_bound`` added;
+* :func:`tier_aggregates`: per tier, the IQM of the success rates over every cell of the tier (all
+  scenes) with rliable's stratified-bootstrap 95 % interval over training runs
+  (:func:`~footstep_gym.evaluation.stats.iqm_over_tasks`);
+* :func:`benchmark_document` and :func:`markdown`: ``benchmark.json`` and ``benchmark.md``.
+
+A policy that reads the true future (``oracle``, :func:`footstep_gym.policies.reads_truth`) is an
+upper bound: its records carry ``upper_bound: true`` and the tables call it "NAME (upper bound)".
+"""
+
+from __future__ import annotations
+
+import math
+import platform
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+import footstep_gym
+from footstep_gym.evaluation.report import policy_label, upper_bound
+from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, Task
+from footstep_gym.evaluation.splits import split_seeds
+from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, cell_record, iqm_over_tasks, over_runs
+
+#: The seeds of every cell: the test split's first ones (configs/eval.yaml).
+SPLIT = "test"
+#: Episodes per cell by default, and for a full run (CrowdNav's 500 test cases).
+EPISODES = 100
+FULL_EPISODES = 500
+#: Version of the protocol written into benchmark.json (tiers, seeds, metrics, aggregates).
+PROTOCOL_VERSION = 1
+
+
+@dataclass(frozen=True)
+class BenchmarkCell:
+    """One cell of the benchmark: ``scene`` (door / crossing / crowd), ``tier``, the cell's ``name`` in it, the
+    env kwargs it stands for (``env_kwargs``, for the record) and ``selector``: what ``gymnasium.make`` is given
+    beside the env id to build it (``tier=TIER, tier_cell=CELL``)."""
+
+    scene: str
+    tier: str
+    name: str
+    selector: tuple[tuple[str, Any], ...] = ()
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict, compare=False, hash=False)
+
+    @property
+    def env_id(self) -> str:
+        return footstep_gym.ENV_IDS[self.scene]
+
+    @property
+    def label(self) -> str:
+        """``scene/tier/cell``."""
+        return f"{self.scene}/{self.tier}/{self.name}"
+
+
+def _tier_table() -> list[tuple[str, str, str, dict[str, Any]]]:
+    """``(scene, tier, cell, env kwargs)`` of every cell the tiers define (configs/benchmark.yaml), tier by tier in
+    the file's order, then scene by scene (``SCENARIOS``' order), then the tier's cells in the file's order."""
+    from footstep_gym import tiers
+    from footstep_gym.scenarios import SCENARIOS
+
+    table = []
+    for name in tiers.tier_names():
+        listed = tiers.tier(name).scenes
+        for scene in SCENARIOS:
+            if scene not in listed and name != tiers.DEFAULT_TIER:
+                continue  # a tier need not cover every scene (the default tier covers them all)
+            table += [(scene, name, cell.name, tiers.plain(cell.kwargs)) for cell in tiers.cells(scene, name)]
+    return table
+
+
+def tier_names() -> list[str]:
+    """The benchmark's tiers, in the order of configs/benchmark.yaml (``paper``, ``train``, ``shifted``, ``hard``)."""
+    from footstep_gym import tiers
+
+    return tiers.tier_names()
+
+
+def benchmark_cells(scenes: Sequence[str] | None = None, tiers: Sequence[str] | None = None) -> list[BenchmarkCell]:
+    """Every cell of the benchmark (tier by tier, scene by scene, cell by cell), or those of ``scenes`` / ``tiers``
+    only (a partial run: fine while developing, no leaderboard row). Each is made as
+    ``gymnasium.make(env_id, tier=TIER, tier_cell=CELL)``."""
+    table = _tier_table()
+    known_scenes = list(dict.fromkeys(scene for scene, *_ in table))
+    known_tiers = list(dict.fromkeys(tier for _, tier, *_ in table))
+    for what, asked, known in (("scene", scenes, known_scenes), ("tier", tiers, known_tiers)):
+        unknown = [x for x in asked or () if x not in known]
+        if unknown:
+            raise ValueError(f"unknown benchmark {what}(s) {', '.join(map(repr, unknown))}; the benchmark has "
+                             f"{', '.join(known)}")
+    return [BenchmarkCell(scene, tier, name, selector=(("tier", tier), ("tier_cell", name)), env_kwargs=kwargs)
+            for scene, tier, name, kwargs in table
+            if (scenes is None or scene in scenes) and (tiers is None or tier in tiers)]
+
+
+def is_complete(cells: Sequence[BenchmarkCell]) -> bool:
+    """Whether ``cells`` are every cell of the benchmark (a leaderboard row needs them all)."""
+    return {c.label for c in cells} == {c.label for c in benchmark_cells()}
+
+
+# ---------------------------------------------------------------- what runs
+#: ``runs(env_id) -> [run, ...]``: the training runs of an agent for an env (``[None]``: a planner, one "run").
+RunsOf = Callable[[str], Sequence[str | None]]
+
+
+def runner_cells(cells: Sequence[BenchmarkCell], policy: str, runs_of: RunsOf | None = None
+                 ) -> tuple[list[Cell], list[BenchmarkCell]]:
+    """The runner's cells (one per benchmark cell and training run) and, index for index, their benchmark cells.
+
+    ``runs_of``: an agent's training runs per env id (``None``: a planner, no run). A cell whose env has
+    no run is left out (the caller says so).
+    """
+    out: list[Cell] = []
+    owners: list[BenchmarkCell] = []
+    for bc in cells:
+        for run in (runs_of(bc.env_id) if runs_of is not None else [None]):
+            out.append(Cell(bc.env_id, bc.scene, policy, bc.selector, run=None if run is None else str(run)))
+            owners.append(bc)
+    return out, owners
+
+
+def seeds(episodes: int) -> list[int]:
+    """The seeds of every cell: the first ``episodes`` of the test split."""
+    return split_seeds(SPLIT, episodes)
+
+
+def tasks(cells: Sequence[Cell], episodes: int) -> list[Task]:
+    """Every episode: each cell at each of :func:`seeds` (nothing recorded for figures)."""
+    return [Task(i, c, s) for i, c in enumerate(cells) for s in seeds(episodes)]
+
+
+def check_cells(cells: Sequence[Cell]) -> str | None:
+    """The first problem of any cell, as one line, or None: each cell's env is built once (its configuration
+    checked) and each agent's files are checked (without loading it), before anything runs."""
+    import gymnasium as gym
+
+    from footstep_gym import policies
+    from footstep_gym.rl.agents import check_run
+
+    built: set[tuple[str, Any]] = set()
+    checked: set[str] = set()
+    for cell in cells:
+        if (cell.env_id, cell.params) not in built:
+            built.add((cell.env_id, cell.params))
+            try:
+                gym.make(cell.env_id, **cell.params_dict).close()
+            except (ValueError, TypeError, KeyError) as exc:
+                return f"{cell.env_id} with {cell.params_dict or 'its defaults'}: {exc}"
+        if cell.run is not None and cell.run not in checked:
+            checked.add(cell.run)
+            entry = policies.AGENTS.get(cell.policy)
+            try:
+                check_run(cell.run, entry.algo if entry is not None else None)
+            except (OSError, ValueError) as exc:
+                return f"{cell.policy}: {exc}"
+    return None
+
+
+# ---------------------------------------------------------------- records and aggregates
+def cell_records(cells: Sequence[Cell], owners: Sequence[BenchmarkCell], results: Sequence[EpisodeResult]
+                 ) -> list[dict[str, Any]]:
+    """One record per runner cell (scene x tier x cell x policy x training run), in the cells' order."""
+    by_cell: dict[int, list[EpisodeResult]] = {}
+    for r in results:
+        by_cell.setdefault(r.cell_index, []).append(r)
+    out = []
+    for i, (c, bc) in enumerate(zip(cells, owners)):
+        record = cell_record(c.env_id, c.scenario, c.policy, c.params_dict, by_cell.get(i, []), run=c.run_name)
+        record.update(scene=bc.scene, tier=bc.tier, cell=bc.name, env_kwargs=dict(bc.env_kwargs),
+                      upper_bound=upper_bound(c.policy))
+        out.append(record)
+    return out
+
+
+def tier_aggregates(records: Sequence[dict[str, Any]], reps: int = 2000) -> list[dict[str, Any]]:
+    """Per tier and policy: the IQM of the success rates over the tier's cells (all scenes) with a stratified-bootstrap
+    95 % interval over training runs (:func:`~footstep_gym.evaluation.stats.iqm_over_tasks`).
+
+    ``records``: one per cell and run (:func:`cell_records`). The score matrix has one column per cell of
+    the tier and one row per training run, the ``k``-th run (in name order) of each cell in row ``k``; an
+    agent with fewer runs for some scene is cut to the fewest (``runs`` says how many entered). A planner
+    is one run: its interval is its point. Also ``success_mean`` (the plain mean over the tier's cells of the
+    success pooled over runs), ``cells``, ``scenes`` and ``episodes`` (all episodes of the tier).
+    """
+    groups: dict[tuple[str, str], dict[str, list[dict[str, Any]]]] = {}
+    for r in records:
+        groups.setdefault((r["tier"], r["policy"]), {}).setdefault(f"{r['scene']}/{r['cell']}", []).append(r)
+    out = []
+    for (tier, policy), by_task in groups.items():
+        columns = [sorted(rs, key=lambda r: r["run"] or "") for rs in by_task.values()]
+        n_runs = min(len(col) for col in columns)
+        matrix = np.array([[col[k]["success_rate"] for col in columns] for k in range(n_runs)], dtype=float)
+        iqm, lo, hi = iqm_over_tasks(matrix, reps=reps)
+        pooled = [sum(r["successes"] for r in col) / sum(r["episodes"] for r in col) for col in columns]
+        out.append({
+            "tier": tier, "policy": policy, "upper_bound": bool(columns[0][0]["upper_bound"]),
+            "success_iqm": iqm, "success_iqm_ci95": [lo, hi], "success_mean": float(np.mean(pooled)),
+            "runs": n_runs, "cells": list(by_task), "scenes": sorted({c.split("/")[0] for c in by_task}),
+            "episodes": sum(r["episodes"] for col in columns for r in col),
+            "runs_used": sorted({r["run"] for col in columns for r in col[:n_runs] if r["run"] is not None}),
+        })
+    return out
+
+
+#: The files that define the benchmark's envs (relative to configs/): a submission's ``env_configs_sha256``
+#: must match the release's (the planner's and the agents' own configs are the method's business).
+ENV_CONFIGS = ("benchmark.yaml", "env.yaml", "eval.yaml", "robot.yaml", "scenarios/door.yaml",
+               "scenarios/crossing.yaml", "scenarios/crowd.yaml")
+
+
+def env_configs_sha256() -> str:
+    """One SHA-256 over the files of :data:`ENV_CONFIGS` (name and bytes of each, in that order)."""
+    import hashlib
+
+    from footstep_gym.config import config_dir
+
+    digest = hashlib.sha256()
+    for name in ENV_CONFIGS:
+        digest.update(name.encode() + b"\0" + (config_dir() / name).read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+def source_commit() -> str | None:
+    """The git commit of the package's checkout (``+dirty`` with uncommitted changes), or None outside one."""
+    import subprocess
+    from pathlib import Path
+
+    here = Path(__file__).resolve().parent
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=10)
+        if head.returncode != 0:
+            return None
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
+
+
+def benchmark_document(policy: str, cells: Sequence[BenchmarkCell], records: Sequence[dict[str, Any]],
+                       episodes: int, run_info: Mapping[str, Any]) -> dict[str, Any]:
+    """What ``benchmark.json`` holds: the protocol, the per-run records, their summary over runs, the aggregates."""
+    from footstep_gym import policies
+
+    return {
+        "benchmark": "footstep_gym", "protocol_version": PROTOCOL_VERSION, "footstep_gym": footstep_gym.__version__,
+        "policy": policy, "label": policy_label(policy), "upper_bound": upper_bound(policy),
+        "description": policies.describe(policy) if policies.is_policy(policy) else "a user's trained agent",
+        "complete": is_complete(cells),
+        "protocol": {
+            "split": SPLIT, "episodes_per_cell": episodes, "seeds": seeds(episodes),
+            "tiers": list(dict.fromkeys(c.tier for c in cells)), "scenes": list(dict.fromkeys(c.scene for c in cells)),
+            "cells": [{"scene": c.scene, "tier": c.tier, "cell": c.name, "env_id": c.env_id,
+                       "env_kwargs": dict(c.env_kwargs)} for c in cells],
+            "warmup_acts": WARMUP_ACTS, "timing_fields": list(TIMING_FIELDS),
+            "env_configs_sha256": env_configs_sha256(),
+        },
+        "aggregates": tier_aggregates(records),
+        "records": list(records),
+        "summary": over_runs(list(records)),
+        "run": {**run_info, "python": platform.python_version(), "machine": platform.machine(),
+                "source_commit": source_commit()},
+    }
+
+
+# ---------------------------------------------------------------- markdown
+def _num(v: float | None, digits: int = 2) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
+
+
+def _mm(v: float | None) -> str:
+    return "–" if v is None else f"{1000 * v:.0f}"
+
+
+def _iqm_text(a: Mapping[str, Any]) -> str:
+    lo, hi = a["success_iqm_ci95"]
+    runs = f"{a['runs']} runs" if a["runs"] > 1 else "1 run"
+    return f"{a['success_iqm']:.2f} [{lo:.2f}, {hi:.2f}] ({runs})"
+
+
+DEFINITIONS = """\
+Every cell runs the same seeds, the first {episodes} of the test split ({first}..{last}); each
+episode seeds the env and the policy with its seed, so the figures do not depend on the machine,
+the worker count or the backend, except the act times. Success [95 % CI] is the share of episodes
+that reached the goal with its Wilson interval; collision, fall (an infeasible step) and timeout
+(step or time limit) are the other outcomes' shares (the four sum to 1). Time to goal and path
+(the robot centre's walked path) are means over the successful episodes (– when there is none).
+Clearance is the smallest gap between the body circle and any obstacle over an episode, ZMP
+margin the smallest distance of the ZMP from the stable region's edge, both in mm as median /
+min over the cell's episodes. Act time is the wall clock of `policy.act` per footstep (planning,
+or an agent's inference) as median / p99 over the cell's footsteps, timed after each worker's
+untimed warm-up of {warmup} acts per cell. A tier's aggregate is the interquartile mean (IQM) of
+the success rates over all of its cells (every scene), with rliable's stratified-bootstrap 95 %
+interval over training runs (one run, a planner's: the interval is the point); "mean" is the
+plain mean of the cells' success rates. A policy marked "(upper bound)" reads the true future
+of the obstacles (docs/benchmark.md): it bounds what prediction can buy, it is not a baseline.
+"""
+
+
+def markdown(doc: Mapping[str, Any], command: str = "") -> str:
+    """``benchmark.md``: the leaderboard row (IQM per tier), then every cell's record, then the definitions."""
+    protocol = doc["protocol"]
+    label = doc["label"]
+    aggregates = doc["aggregates"]
+    seeds_ = protocol["seeds"]
+    tiers = protocol["tiers"]
+    lines = [f"# Benchmark: {label}", ""]
+    if command:
+        lines += [f"`{command}`", ""]
+    n = protocol["episodes_per_cell"]
+    lines.append(f"{len(protocol['cells'])} cells (tiers {', '.join(tiers)}; scenes {', '.join(protocol['scenes'])}), "
+                 f"{n} episode{'s' if n != 1 else ''} per cell, test seeds {seeds_[0]}..{seeds_[-1]}.")
+    if not doc["complete"]:
+        lines += ["", "**Partial run** (some tiers or scenes left out): not a leaderboard row."]
+    lines += ["", "## Leaderboard row", "",
+              "| policy | " + " | ".join(f"{t}: IQM success [95% CI]" for t in tiers) + " |",
+              "|---|" + "---:|" * len(tiers)]
+    by_tier = {a["tier"]: a for a in aggregates}
+    lines.append(f"| {label} | " + " | ".join(_iqm_text(by_tier[t]) if t in by_tier else "–" for t in tiers) + " |")
+    lines += ["", "## Cells", ""]
+    head = ["tier", "scene", "cell", "n", "success [95% CI]", "collision", "fall", "timeout", "time to goal (s)*",
+            "path (m)*", "clearance mm", "ZMP margin mm", "act ms median / p99"]
+    lines += ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] * 3 + ["---:"] * (len(head) - 3)) + "|"]
+    summary = doc["summary"]
+    for tier in tiers:
+        for r in (r for r in summary if r["tier"] == tier):
+            lo, hi = r["success_ci95"]
+            runs = f" ({len(r['runs'])} runs)" if r.get("runs") else ""
+            lines.append("| " + " | ".join([
+                r["tier"], r["scene"], r["cell"], f"{r['episodes']}{runs}",
+                f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]",
+                f"{r['collision_rate']:.2f}", f"{r['fall_rate']:.2f}", f"{r['timeout_rate']:.2f}",
+                _num(r["mean_time"], 1), _num(r["mean_path_length"]),
+                f"{_mm(r['min_clearance_median'])} / {_mm(r['min_clearance_min'])}",
+                f"{_mm(r['min_zmp_margin_median'])} / {_mm(r['min_zmp_margin_min'])}",
+                f"{_num(r['plan_ms_median'], 2)} / {_num(r['plan_ms_p99'], 1)}",
+            ]) + " |")
+        a = by_tier.get(tier)
+        if a is not None:
+            lines.append(f"| **{tier}** | **all** | IQM over {len(a['cells'])} cells | {a['episodes']} | "
+                         f"**{_iqm_text(a)}** | mean {a['success_mean']:.2f} |" + " |" * (len(head) - 6))
+    lines += ["", DEFINITIONS.format(episodes=protocol["episodes_per_cell"], first=seeds_[0], last=seeds_[-1],
+                                     warmup=protocol["warmup_acts"])]
+    return "\n".join(lines)

@@ -1,0 +1,214 @@
+"""One command, one leaderboard row (issue 19 §4): ``eval_planner.py --benchmark``.
+
+The command runs end to end on one episode per cell (every cell of every tier in process; a partial run
+of two scenes and two tiers as a user runs it, in a subprocess; the same on a local Ray), writes
+``benchmark.json`` / ``benchmark.md`` into a temporary folder moved into place, and refuses bad options
+before touching ``--out``. The records carry every field of the protocol; the tier aggregate (IQM with a
+stratified-bootstrap interval over training runs) is checked against hand-worked cases.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from footstep_gym import tiers
+from footstep_gym.evaluation import benchmark, report
+from footstep_gym.evaluation.splits import split_seeds
+from footstep_gym.evaluation.stats import iqm_over_tasks
+
+REPO = Path(__file__).resolve().parents[1]
+SCRIPT = REPO / "baselines" / "eval_planner.py"
+FAST = "fixed-period"  # the quickest planner per footstep
+#: Every field a benchmark record has, with its type (None allowed where a cell may have no success).
+RECORD_FIELDS = {
+    "scene": str, "tier": str, "cell": str, "env_kwargs": dict, "upper_bound": bool, "env": str, "policy": str,
+    "params": dict, "episodes": int, "successes": int, "success_rate": float, "success_ci95": list,
+    "collision_rate": float, "fall_rate": float, "timeout_rate": float, "mean_time": (float, type(None)),
+    "mean_path_length": (float, type(None)), "min_clearance_median": (float, type(None)),
+    "min_clearance_min": (float, type(None)), "min_zmp_margin_median": float, "min_zmp_margin_min": float,
+    "plan_ms_median": float, "plan_ms_p99": float, "seeds": list, "outcomes": list,
+}
+AGGREGATE_FIELDS = {"tier": str, "policy": str, "upper_bound": bool, "success_iqm": float, "success_iqm_ci95": list,
+                    "success_mean": float, "runs": int, "cells": list, "scenes": list, "episodes": int}
+
+
+def run_cli(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(SCRIPT), *args], cwd=REPO, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def _load_script():
+    """baselines/eval_planner.py as a module (it is a script, not part of the package)."""
+    import importlib.util
+
+    if "eval_planner_script" not in sys.modules:
+        spec = importlib.util.spec_from_file_location("eval_planner_script", SCRIPT)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module  # its dataclasses look their module up
+        spec.loader.exec_module(module)
+    return sys.modules["eval_planner_script"]
+
+
+def check_document(doc: dict, episodes: int, labels: list[str]) -> None:
+    assert doc["benchmark"] == "footstep_gym" and doc["protocol"]["split"] == "test"
+    assert doc["protocol"]["seeds"] == split_seeds("test", episodes)
+    assert [f"{c['scene']}/{c['tier']}/{c['cell']}" for c in doc["protocol"]["cells"]] == labels
+    assert [f"{r['scene']}/{r['tier']}/{r['cell']}" for r in doc["records"]] == labels  # a planner: one run
+    for r in doc["records"]:
+        for key, kind in RECORD_FIELDS.items():
+            assert isinstance(r[key], kind), (key, r[key])
+        assert r["params"] == {"tier": r["tier"], "tier_cell": r["cell"]}
+        assert r["env_kwargs"] == tiers.plain(tiers.cells(r["scene"], r["tier"], r["cell"])[0].kwargs)
+        assert r["episodes"] == episodes and r["seeds"] == split_seeds("test", episodes)
+        assert sum(r[k] for k in ("success_rate", "collision_rate", "fall_rate", "timeout_rate")) == pytest.approx(1)
+        lo, hi = r["success_ci95"]
+        assert 0 <= lo <= r["success_rate"] <= hi <= 1
+    by_tier = {a["tier"]: a for a in doc["aggregates"]}
+    assert list(by_tier) == list(dict.fromkeys(label.split("/")[1] for label in labels))
+    for tier, a in by_tier.items():
+        for key, kind in AGGREGATE_FIELDS.items():
+            assert isinstance(a[key], kind), (key, a[key])
+        rates = sorted(r["success_rate"] for r in doc["records"] if r["tier"] == tier)
+        assert a["runs"] == 1 and a["success_iqm_ci95"] == [a["success_iqm"]] * 2  # a planner: one run
+        assert a["success_iqm"] == pytest.approx(iqm_over_tasks([rates])[0])
+
+
+# ---------------------------------------------------------------- the cells
+def test_the_benchmark_is_every_cell_of_every_tier_of_every_scene():
+    cells = benchmark.benchmark_cells()
+    expected = [f"{scene}/{tier}/{c.name}" for tier in tiers.tier_names() for scene in ("door", "crossing", "crowd")
+                for c in tiers.cells(scene, tier)]
+    assert [c.label for c in cells] == expected and benchmark.is_complete(cells)
+    assert all(c.selector == (("tier", c.tier), ("tier_cell", c.name)) for c in cells)
+    partial = benchmark.benchmark_cells(["crowd"], ["hard"])
+    assert [c.label for c in partial] == [c.label for c in cells if c.scene == "crowd" and c.tier == "hard"]
+    assert not benchmark.is_complete(partial)
+    with pytest.raises(ValueError, match="unknown benchmark tier"):
+        benchmark.benchmark_cells(tiers=["impossible"])
+
+
+# ---------------------------------------------------------------- end to end
+def test_every_cell_end_to_end_in_process(tmp_path, capsys):
+    """The whole benchmark at one episode per cell, written over an earlier run (a user's file beside it kept)."""
+    out = tmp_path / "bench"
+    out.mkdir()
+    (out / "run.json").write_text('{"mode": "benchmark"}\n')
+    (out / "benchmark.json").write_text("{}\n")
+    (out / "notes.txt").write_text("keep")
+    script = _load_script()
+    argv = ["--benchmark", "--policy", FAST, "--episodes", "1", "--workers", "1", "--out", str(out)]
+    assert script.main(argv) == 0
+    doc = json.loads((out / "benchmark.json").read_text())
+    labels = [c.label for c in benchmark.benchmark_cells()]
+    check_document(doc, 1, labels)
+    assert doc["complete"] and doc["policy"] == FAST and doc["label"] == FAST and not doc["upper_bound"]
+    text = (out / "benchmark.md").read_text()
+    assert "## Leaderboard row" in text and "Partial run" not in text
+    for tier in tiers.tier_names():
+        assert f"| **{tier}** | **all** |" in text
+    assert (out / "notes.txt").read_text() == "keep" and (out / "episodes.csv").is_file()
+    assert json.loads((out / "run.json").read_text())["complete"]
+    assert f"| {FAST} |" in capsys.readouterr().out  # the row printed
+    assert not list(tmp_path.glob(".bench.*"))  # no temporary folder left
+
+
+def test_a_partial_run_from_the_command_line(tmp_path):
+    out = tmp_path / "bench"
+    proc = run_cli("--benchmark", "--policy", FAST, "--episodes", "1", "--env", "crossing", "--env", "crowd",
+                   "--tier", "paper", "--tier", "hard", "--workers", "2", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads((out / "benchmark.json").read_text())
+    labels = [c.label for c in benchmark.benchmark_cells(["crossing", "crowd"], ["paper", "hard"])]
+    check_document(doc, 1, labels)
+    assert not doc["complete"] and "Partial run" in (out / "benchmark.md").read_text()
+
+
+def test_the_ray_backend_gives_the_same_records(tmp_path):
+    pytest.importorskip("ray")
+    script = _load_script()
+    common = ["--benchmark", "--policy", FAST, "--episodes", "2", "--env", "crossing", "--tier", "paper",
+              "--tier", "hard"]
+    assert script.main([*common, "--workers", "1", "--out", str(tmp_path / "local")]) == 0
+    assert script.main([*common, "--workers", "2", "--backend", "ray", "--out", str(tmp_path / "ray")]) == 0
+    local, remote = (json.loads((tmp_path / name / "benchmark.json").read_text()) for name in ("local", "ray"))
+    timing = ("plan_ms_median", "plan_ms_p95", "plan_ms_p99", "plan_ms_max")
+    strip = lambda doc: [{k: v for k, v in r.items() if k not in timing} for r in doc["records"]]  # noqa: E731
+    assert strip(local) == strip(remote) and local["aggregates"] == remote["aggregates"]
+    assert json.loads((tmp_path / "ray" / "run.json").read_text())["backend"] == "ray"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--policy", FAST, "--policy", "period-aware"], "one method"),
+    ([], "one method"),
+    (["--policy", FAST, "--paper"], "--paper"),
+    (["--policy", FAST, "--door-speed", "8"], "--door-speed"),
+    (["--policy", FAST, "--split", "validation"], "--split validation"),
+    (["--policy", FAST, "--full", "--episodes", "3"], "--full is 500"),
+    (["--policy", FAST, "--tier", "impossible"], "unknown benchmark tier"),
+    (["--policy", "teleport"], "unknown policy 'teleport'"),
+    (["--policy", FAST, "--name", "x"], "--name names an --agent"),
+])
+def test_bad_benchmark_options_exit_2_before_touching_out(args, message, tmp_path):
+    proc = run_cli("--benchmark", *args, "--out", str(tmp_path / "x"), timeout=120)
+    assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+    assert not (tmp_path / "x").exists()
+
+
+def test_benchmark_options_need_benchmark(tmp_path):
+    proc = run_cli("--full", "--out", str(tmp_path / "x"), timeout=120)
+    assert proc.returncode == 2 and "go(es) with --benchmark" in proc.stderr
+    assert not (tmp_path / "x").exists()
+
+
+# ---------------------------------------------------------------- the aggregate, by hand
+def test_iqm_over_tasks_hand_worked():
+    # One run, four cells: the IQM drops the lowest and the highest quarter (one value each): (0.5 + 0.6) / 2.
+    assert iqm_over_tasks([[0.0, 0.5, 0.6, 1.0]]) == (0.55, 0.55, 0.55)
+    # Two runs, four cells, eight values 0.2 ... 0.9: the middle four 0.4, 0.5, 0.6, 0.7 give 0.55. Each resample
+    # draws each cell's two runs from {run a, run b}: all-a gives IQM 0.5, all-b 0.6, and every mix lies between.
+    iqm, lo, hi = iqm_over_tasks([[0.2, 0.4, 0.6, 0.8], [0.3, 0.5, 0.7, 0.9]])
+    assert iqm == pytest.approx(0.55) and 0.5 - 1e-12 <= lo <= iqm <= hi <= 0.6 + 1e-12 and lo < hi
+    # Identical runs: every resample is the same matrix, so the interval is the point.
+    assert iqm_over_tasks([[0.2, 0.4, 0.6, 0.8]] * 3) == pytest.approx((0.5, 0.5, 0.5))
+    with pytest.raises(ValueError):
+        iqm_over_tasks([])
+
+
+def test_tier_aggregates_over_training_runs_and_scenes():
+    def record(tier, scene, cell, run, rate, policy="agent:mine"):
+        return {"tier": tier, "scene": scene, "cell": cell, "run": run, "policy": policy, "success_rate": rate,
+                "successes": round(10 * rate), "episodes": 10, "upper_bound": False}
+
+    rates = {("door", "a"): (0.2, 0.3), ("door", "b"): (0.4, 0.5), ("crowd", "a"): (0.6, 0.7),
+             ("crowd", "b"): (0.8, 0.9)}
+    records = [record("hard", scene, cell, run, r[k]) for (scene, cell), r in rates.items()
+               for k, run in enumerate(("run_2", "run_1"))]  # the runs out of name order: paired by name
+    records.append(record("paper", "door", "default", None, 1.0, policy=FAST))
+    hard, paper = benchmark.tier_aggregates(records)
+    assert (hard["tier"], hard["runs"], hard["scenes"], hard["episodes"]) == ("hard", 2, ["crowd", "door"], 80)
+    assert hard["success_iqm"] == pytest.approx(0.55) and hard["success_mean"] == pytest.approx(0.55)
+    lo, hi = hard["success_iqm_ci95"]
+    assert 0.5 - 1e-12 <= lo < hi <= 0.6 + 1e-12
+    assert hard["runs_used"] == ["run_1", "run_2"]
+    assert (paper["policy"], paper["success_iqm"], paper["success_iqm_ci95"], paper["runs"]) == (FAST, 1.0,
+                                                                                                 [1.0, 1.0], 1)
+
+
+# ---------------------------------------------------------------- the oracle is labelled, never a baseline
+def test_the_oracle_is_marked_upper_bound_and_not_run_by_default():
+    assert report.policy_label("oracle") == "oracle (upper bound)" and report.policy_label(FAST) == FAST
+    assert report.policy_label("agent:mine") == "agent:mine"
+    script = _load_script()
+    assert "oracle" not in script.parse_settings([]).policies  # the quick default: every policy but the oracle
+    assert script.parse_settings(["--policy", "oracle"]).policies == ("oracle",)
+    record = {"scenario": "door", "params": {}, "policy": "oracle", "episodes": 1, "success_ci95": [0.2, 1.0],
+              "success_rate": 1.0, "collision_rate": 0.0, "fall_rate": 0.0, "timeout_rate": 0.0, "mean_steps": 30.0,
+              "mean_path_length": 2.6, "mean_time": 12.0, "mean_period": 0.8, "min_clearance_median": 0.03,
+              "min_clearance_min": 0.03, "min_zmp_margin_median": 0.01, "min_zmp_margin_min": 0.01,
+              "pso_step_rate": 0.0, "plan_ms_median": 20.0, "plan_ms_p95": 30.0, "plan_ms_p99": 40.0}
+    assert "| oracle (upper bound) |" in report.markdown_table([record])

@@ -1,4 +1,8 @@
-"""Render one frame of each scenario after a short episode: ``python baselines/demo.py --out docs/img``.
+"""Render one frame of each scenario after a short episode, as the README's pictures.
+
+Usage (the README's command; ``--out`` defaults to the folder its pictures live in)::
+
+    SDL_VIDEODRIVER=dummy .venv/bin/python baselines/demo.py --out baselines/results/frames --steps 14
 
 The robot is driven by the period-aware planner when ``footstep_gym.planners`` is
 available, otherwise it walks straight ahead at the nominal period.
@@ -16,6 +20,9 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import footstep_gym  # noqa: E402,F401
+
+#: Where the README's pictures live: the default --out.
+FRAMES = Path(__file__).resolve().parent / "results" / "frames"
 
 
 def run(env_id: str, seed: int, steps: int, out: Path) -> Path:
@@ -46,7 +53,8 @@ def run(env_id: str, seed: int, steps: int, out: Path) -> Path:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--out", type=Path, default=Path("docs/img"))
+    parser.add_argument("--out", type=Path, default=FRAMES,
+                        help="folder for <scene>.png (default baselines/results/frames, the README's pictures)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=200, help="footsteps at most per episode")
     args = parser.parse_args()

@@ -1,0 +1,376 @@
+"""The results pages, written from the committed result files: ``docs/results.md`` and the generated blocks of
+``docs/speed.md`` and ``README.md``.
+
+Nothing here runs an episode: every number comes from a file under ``baselines/results/`` (each evaluation's
+``run.json`` and ``results.json``, the benchmark's ``benchmark.md``, the soak's ``soak.md``) or from a shipped
+agent's ``manifest.json`` under ``baselines/agents/``. :func:`render_docs` gives the text each page must have;
+``baselines/make_results_doc.py`` writes it (``--check``: only says which page is stale) and
+``tests/test_docs.py`` fails when a committed page differs from it, so a re-run whose results are committed
+without the pages shows up.
+
+``docs/results.md`` is generated whole: one section per evaluation folder (those of :data:`EVALUATIONS` first,
+then any other folder holding a ``run.json`` and a ``results.json``), then the shipped agents' training runs.
+``docs/speed.md`` and ``README.md`` are written by hand around blocks that this module fills::
+
+    <!-- BEGIN GENERATED benchmark: ... -->
+    ...
+    <!-- END GENERATED benchmark -->
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from footstep_gym.evaluation.report import ablation_table, paper_comparison
+
+#: The page :func:`results_markdown` writes, and the hand-written pages with generated blocks, relative to the repo.
+RESULTS_DOC = Path("docs") / "results.md"
+SPEED_DOC = Path("docs") / "speed.md"
+README = Path("README.md")
+#: The command that regenerates the pages (shown in them).
+COMMAND = "python baselines/make_results_doc.py"
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """A committed evaluation: its folder under ``baselines/results/``, its title and what it is."""
+
+    folder: str
+    title: str
+    about: str
+    #: ``"wide"``: success and outcome tables, a column per policy; ``"ablation"``: the ablation's table.
+    layout: str = "wide"
+
+
+#: The evaluations of ``baselines/results/``, in the order the page shows them.
+EVALUATIONS = (
+    Evaluation("paper", "Reproduction of the paper",
+               "The paper's protocol (`--paper`): the door at 8, 14 and 17 deg/s, the crossing and the crowd at "
+               "its default speed, our three planners and the paper's planner as written "
+               "(`paper-period-aware`, `paper-fixed-period`)."),
+    Evaluation("robustness", "The planners on unseen seeds",
+               "The period-aware and the fixed-period planner on test seeds that nobody looked at while the "
+               "planner was built, over a sweep of door and crowd speeds."),
+    Evaluation("agents", "Agents against the planners",
+               "`--profile agents`: the shipped agents (`ppo`: three training seeds, summarised over them; "
+               "`ppo-all`: one agent for the three scenes; `sac`: the door) against both planners, at settings "
+               "each agent met only as part of its randomised training distribution, on test seeds disjoint "
+               "from training."),
+    Evaluation("ablation", "Ablation: what each addition buys",
+               "`--ablation`: `period-aware`, the same with each of our additions switched off in turn "
+               "(`period-aware-no-<switch>`), and the paper's planner (every addition off).",
+               layout="ablation"),
+)
+
+#: The evaluation and the policies of the README's headline table.
+HEADLINE = ("agents", ("period-aware", "fixed-period", "ppo", "ppo-all", "sac"))
+
+_BEGIN = re.compile(r"<!-- BEGIN GENERATED (?P<name>[a-z0-9_-]+)(?P<note>[^>]*)-->\n")
+
+
+# ---------------------------------------------------------------- reading the files
+def load_json(path: Path) -> Any:
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def evaluation_folders(results_dir: Path) -> list[Evaluation]:
+    """The evaluations committed under ``results_dir``: those of :data:`EVALUATIONS` that exist, then any other
+    folder with a ``run.json`` and a ``results.json`` (titled by its name), alphabetically."""
+    known = [e for e in EVALUATIONS if (results_dir / e.folder / "results.json").is_file()]
+    names = {e.folder for e in EVALUATIONS}
+    extra = sorted(p.name for p in results_dir.iterdir() if p.is_dir() and p.name not in names
+                   and (p / "results.json").is_file() and (p / "run.json").is_file())
+    return known + [Evaluation(name, f"Evaluation `{name}`", "") for name in extra]
+
+
+# ---------------------------------------------------------------- formatting
+def _num(v: float | None, digits: int) -> str:
+    return "–" if v is None else f"{v:.{digits}f}"
+
+
+def _table(head: list[str], rows: list[list[str]], align: str = "---") -> str:
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] + [align] * (len(head) - 1)) + "|"]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def setting_label(record: dict[str, Any]) -> str:
+    """``door 8 deg/s``, ``crowd 0.16 m/s``, ``crossing``; ``crowd (default)`` for a scene with a sweep axis run
+    at its YAML's value; several keys as ``key=value``."""
+    from footstep_gym.scenarios import SCENARIOS, units
+
+    scene, params = record["scenario"], record["params"]
+    if len(params) == 1:
+        (key, value), = params.items()
+        unit = units(scene).get(key, "") if scene in SCENARIOS else ""
+        return f"{scene} {value:g} {unit}".strip()
+    if params:
+        return f"{scene} " + ", ".join(f"{k}={v:g}" for k, v in params.items())
+    swept = scene in SCENARIOS and SCENARIOS[scene].sweep_axes
+    return f"{scene} (default)" if swept else scene
+
+
+def success_text(r: dict[str, Any], failures: bool = True) -> str:
+    """``0.95 [0.76, 0.99]``, then the IQM over training runs where there are several, then the non-zero failure
+    rates: ``(c 0.05, f 0.00)`` with c / f / t = collision / fall / timeout."""
+    lo, hi = r["success_ci95"]
+    text = f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]"
+    if r.get("success_iqm") is not None and len(r.get("runs") or ()) > 1:
+        ilo, ihi = r["success_iqm_ci95"]
+        text += f"; IQM {r['success_iqm']:.2f} [{ilo:.2f}, {ihi:.2f}]"
+    if failures:
+        rates = [f"{tag} {r[key]:.2f}" for tag, key in (("c", "collision_rate"), ("f", "fall_rate"),
+                                                        ("t", "timeout_rate")) if r[key] > 0]
+        if rates:
+            text += f" ({', '.join(rates)})"
+    return text
+
+
+def outcome_text(r: dict[str, Any]) -> str:
+    """``26.9 / 12.5 / 2.60 / 0.46``: steps / time [s] / path [m] over the successes, mean period [s] over all."""
+    return (f"{_num(r['mean_steps'], 1)} / {_num(r['mean_time'], 1)} / {_num(r['mean_path_length'], 2)} / "
+            f"{_num(r['mean_period'], 2)}")
+
+
+def _grid(records: list[dict[str, Any]], policies: list[str],
+          cell: Callable[[dict[str, Any]], str]) -> tuple[list[str], list[list[str]]]:
+    """A row per setting (in the records' order), a column per policy."""
+    settings = list(dict.fromkeys((r["scenario"], tuple(r["params"].items())) for r in records))
+    by_key = {(r["scenario"], tuple(r["params"].items()), r["policy"]): r for r in records}
+    labels = {(r["scenario"], tuple(r["params"].items())): setting_label(r) for r in records}
+    rows = []
+    for key in settings:
+        rows.append([labels[key]] + [cell(by_key[(*key, p)]) if (*key, p) in by_key else "–" for p in policies])
+    return ["setting", *policies], rows
+
+
+def _policies(records: list[dict[str, Any]]) -> list[str]:
+    """The policies in a readable order: the staged planners first, then the other planners, then the agents."""
+    present = list(dict.fromkeys(r["policy"] for r in records))
+    first = [p for p in ("period-aware", "fixed-period", "pso-only", "paper-period-aware", "paper-fixed-period")
+             if p in present]
+    return first + [p for p in present if p not in first]
+
+
+def _seeds(run: dict[str, Any]) -> str:
+    seeds = run.get("seeds") or []
+    if not seeds:
+        return "no seeds recorded"
+    contiguous = seeds == list(range(seeds[0], seeds[0] + len(seeds)))
+    span = f"{seeds[0]}–{seeds[-1]}" if contiguous else ", ".join(map(str, seeds))
+    return f"{len(seeds)} seeds of the {run.get('split', '?')} split per cell ({span})"
+
+
+def _agent_runs(run: dict[str, Any]) -> str:
+    names = [Path(p).parent.name + "/" + Path(p).name for p in run.get("agent_runs") or []]
+    return ", ".join(f"`{n}`" for n in names)
+
+
+def _provenance(folder: str, run: dict[str, Any], records: list[dict[str, Any]]) -> str:
+    episodes = sum(r["episodes"] for r in records)
+    lines = [f"`{run['command']}`", "",
+             f"- {len(records)} cells, {episodes:,} episodes: {_seeds(run)}; {run.get('workers', '?')} worker(s) "
+             f"({run.get('backend', 'local')}), {run.get('wall_time_s', 0):.0f} s wall time; Python "
+             f"{run.get('python', '?')} on {run.get('machine', '?')} with {run.get('cpu_count', '?')} cores, "
+             f"footstep_gym {run.get('footstep_gym', '?')}."]
+    if run.get("agent_runs"):
+        lines.append(f"- Agents' training runs: {_agent_runs(run)}.")
+    lines.append(f"- Every column (clearance, ZMP margin, act time, PSO share, ...): "
+                 f"[`baselines/results/{folder}/summary.md`](../baselines/results/{folder}/summary.md); "
+                 f"per episode: `episodes.csv`; per cell: `results.json`, `results.csv`.")
+    return "\n".join(lines) + "\n"
+
+
+def _figures(results_dir: Path, folder: str) -> str:
+    figures = sorted((results_dir / folder / "figures").glob("*.png"))
+    if not figures:
+        return ""
+    links = ", ".join(f"[{p.stem}](../baselines/results/{folder}/figures/{p.name})" for p in figures)
+    return f"Figures (the policies side by side on one seed, in the spirit of the paper's Fig. 8–10): {links}.\n"
+
+
+def evaluation_section(results_dir: Path, evaluation: Evaluation) -> str:
+    """The section of one evaluation folder: what it is, how it was run, its tables, its figures."""
+    folder = evaluation.folder
+    run = load_json(results_dir / folder / "run.json")
+    records = load_json(results_dir / folder / "results.json")
+    out = [f"## {evaluation.title}", ""]
+    if evaluation.about:
+        out += [evaluation.about, ""]
+    out += [_provenance(folder, run, records)]
+    if evaluation.layout == "ablation":
+        base = "period-aware"
+        order = [base] + sorted(p for p in dict.fromkeys(r["policy"] for r in records)
+                                if p != base and not p.startswith("paper-")) \
+            + sorted(p for p in dict.fromkeys(r["policy"] for r in records) if p.startswith("paper-"))
+        ordered = sorted(records, key=lambda r: order.index(r["policy"]))
+        out += ["Each cell: success [Wilson 95 % CI] (difference to `period-aware` where it differs); steps / "
+                "time (s) / path (m), means over the successes; median planning time per footstep.", "",
+                ablation_table(ordered, base)]
+    else:
+        policies = _policies(records)
+        head, rows = _grid(records, policies, success_text)
+        out += ["**Success** [Wilson 95 % CI]; for an agent trained with several seeds the episodes are pooled "
+                "over its runs, followed by the interquartile mean of the runs' success rates with its "
+                "stratified-bootstrap interval (rliable); then the non-zero failure rates (c collision, "
+                "f fall, t timeout).", "", _table(head, rows)]
+        head, rows = _grid(records, policies, outcome_text)
+        out += ["**How**: steps / time (s) / path of the robot centre (m), means over the successful episodes "
+                "(– without one); mean walking period T (s) over all footsteps.", "", _table(head, rows)]
+    if folder == "paper":
+        comparison = paper_comparison(records).strip("\n")
+        if comparison:
+            out += [comparison.replace("## Against the paper", "**Against the paper's own runs** (one run each, "
+                                       "[model.md §6](model.md#6-what-a-reproduction-must-show)):"), ""]
+    figures = _figures(results_dir, folder)
+    if figures:
+        out += [figures]
+    return "\n".join(out).rstrip("\n") + "\n"
+
+
+def _minutes(seconds: float) -> str:
+    return f"{seconds / 60:.0f} min" if seconds >= 600 else f"{seconds / 60:.1f} min"
+
+
+def agent_name(folder: str, manifest: dict[str, Any]) -> str:
+    """The registered agent (``footstep_gym.rl.AGENTS``) a shipped run under ``<agents>/<folder>/`` is: the entry of
+    that folder trained on the run's env (``ppo-all`` for ``ppo/FootstepMix-v0_1``), else the one trained on the env
+    evaluated; the manifest's own name if none fits."""
+    from footstep_gym.rl.agents import AGENTS
+
+    fits = [(entry.trained_on is None, name) for name, entry in AGENTS.items()
+            if (entry.folder or entry.algo) == folder and entry.trained_on in (None, manifest["env_id"])]
+    return min(fits)[1] if fits else manifest.get("agent") or manifest["algorithm"]
+
+
+def training_section(agents_dir: Path) -> str:
+    """The shipped agents' training runs, from their ``manifest.json``: budget, cost and final evaluation."""
+    paths = sorted(agents_dir.glob("*/*/manifest.json"))
+    if not paths:
+        return ""
+    manifests = [(agent_name(p.parent.parent.name, m), m) for p in paths for m in [load_json(p)]]
+    manifests.sort(key=lambda nm: (nm[0], nm[1]["env_id"], nm[1]["seed"]))
+    rows, notes = [], {}
+    for name, m in manifests:
+        eval_kwargs = re.search(r"--eval-env-kwargs (\S+)", m.get("command", ""))
+        mark = ""
+        if eval_kwargs:
+            note = (f"periodic evaluation on the scene's default setting with `{eval_kwargs.group(1)}` "
+                    "(`--eval-env-kwargs`), not on the randomised training distribution")
+            mark = notes.setdefault(note, "¹²³⁴⁵"[len(notes)])
+        rows.append([name, m["env_id"], str(m["seed"]), f"{m['timesteps']:,}",
+                     str(m.get("n_envs", "?")), _minutes(m["wall_time_s"]), f"{m['env_steps_per_s']:,.0f}",
+                     f"{m['final_eval_success']:.2f}{mark}", m.get("versions", {}).get("torch", "?")])
+    out = ["## The shipped agents' training runs", "",
+           "From each agent's `manifest.json` under [`baselines/agents/`](../baselines/agents/) "
+           "(`python baselines/train_rl.py ... --ship`). Wall time includes start-up and the zoo's periodic "
+           "evaluations; the final evaluation success is the zoo's last deterministic evaluation "
+           "(on the randomised training distribution unless marked). The runs shared two cores with other "
+           "work at different times, so their wall times are not comparable with each other.", "",
+           _table(["agent", "env trained on", "seed", "timesteps", "envs", "wall time", "env steps/s (wall)",
+                   "final eval success", "torch"], rows)]
+    for note, mark in notes.items():
+        out += [f"{mark} {note[0].upper()}{note[1:]}.", ""]
+    return "\n".join(out).rstrip("\n") + "\n"
+
+
+def results_markdown(repo: Path) -> str:
+    """The whole of ``docs/results.md`` for the result files under ``repo``."""
+    results_dir = repo / "baselines" / "results"
+    evaluations = evaluation_folders(results_dir)
+    sections = [evaluation_section(results_dir, e) for e in evaluations]
+    training = training_section(repo / "baselines" / "agents")
+    titles = [e.title for e in evaluations] + (["The shipped agents' training runs"] if training else [])
+    toc = "\n".join(f"- [{t}](#{anchor(t)})" for t in titles)
+    head = (f"# Results\n\n"
+            f"<!-- Generated by `{COMMAND}` from baselines/results/ and baselines/agents/*/*/manifest.json: "
+            f"do not edit by hand (tests/test_docs.py checks it). -->\n\n"
+            "Every table below is generated from the committed result files by "
+            f"`{COMMAND}`, and `tests/test_docs.py` fails when this page differs from what the script writes: "
+            "re-run an evaluation into its folder under `baselines/results/`, then re-run the script. What the "
+            "numbers mean for the paper's claims is in [reproduction.md](reproduction.md); the speed of the "
+            "envs and planners is in [speed.md](speed.md).\n\n"
+            "Seeds come from disjoint splits (`configs/eval.yaml`): train 0–9999, validation 10000–19999, "
+            "test 20000–29999; every evaluation here uses the test split. Each episode seeds the env and the "
+            "policy with its seed, so a result does not depend on the worker that ran it. Scenes without a "
+            "swept setting run at their YAML's values (`configs/scenarios/`); \"(default)\" marks them.\n\n"
+            f"{toc}\n")
+    return "\n".join([head, *sections, *([training] if training else [])]).rstrip("\n") + "\n"
+
+
+def anchor(title: str) -> str:
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces to hyphens."""
+    return re.sub(r"[^\w\- ]", "", title.lower()).replace(" ", "-")
+
+
+# ---------------------------------------------------------------- blocks of the hand-written pages
+def headline_table(repo: Path) -> str:
+    """The README's headline table: success [95 % CI] of the headline policies on every setting of
+    :data:`HEADLINE`'s evaluation."""
+    folder, policies = HEADLINE
+    records = load_json(repo / "baselines" / "results" / folder / "results.json")
+    present = [p for p in policies if any(r["policy"] == p for r in records)]
+    head, rows = _grid(records, present, lambda r: success_text(r, failures=False))
+    return _table(head, rows)
+
+
+def _include(path: Path, skip: Callable[[str], bool] = lambda line: False) -> str:
+    """A generated markdown file's body (its title dropped, its headings one level down)."""
+    lines = path.read_text(encoding="utf-8").rstrip("\n").split("\n")
+    if lines and lines[0].startswith("# "):
+        lines = lines[1:]
+    body = [("#" + line if line.startswith("#") else line) for line in lines if not skip(line)]
+    return "\n".join(body).strip("\n") + "\n"
+
+
+def speed_blocks(repo: Path) -> dict[str, str]:
+    """The blocks of ``docs/speed.md``: the benchmark's tables (``benchmark.md``, which ``baselines/benchmark.py``
+    writes beside ``benchmark.json``) and the soak's (``soak.md``, without its RSS series)."""
+    results = repo / "baselines" / "results"
+    return {"benchmark": _include(results / "benchmark.md"),
+            "soak": _include(results / "soak" / "soak.md", skip=lambda line: "current RSS [MiB] at steps" in line)}
+
+
+def fill_blocks(text: str, blocks: dict[str, str], where: str = "") -> str:
+    """``text`` with the body of each ``<!-- BEGIN GENERATED name ... -->`` ... ``<!-- END GENERATED name -->``
+    block replaced by ``blocks[name]``. A block without its end, or named in neither, raises ``ValueError``."""
+    out, pos = [], 0
+    for match in _BEGIN.finditer(text):
+        if match.start() < pos:
+            continue
+        name = match.group("name")
+        end_marker = f"<!-- END GENERATED {name} -->"
+        end = text.find(end_marker, match.end())
+        if end < 0:
+            raise ValueError(f"{where}: block {name!r} has no '{end_marker}'")
+        if name not in blocks:
+            raise ValueError(f"{where}: unknown generated block {name!r}; known: {', '.join(blocks)}")
+        out += [text[pos:match.end()], "\n", blocks[name].strip("\n"), "\n\n"]
+        pos = end
+    out.append(text[pos:])
+    return "".join(out)
+
+
+def render_docs(repo: Path) -> dict[Path, str]:
+    """``{path relative to repo: the text it must have}`` for every page this module writes or fills."""
+    pages = {RESULTS_DOC: results_markdown(repo)}
+    fills = {SPEED_DOC: speed_blocks(repo), README: {"headline": headline_table(repo)}}
+    for rel, blocks in fills.items():
+        path = repo / rel
+        if path.is_file():
+            pages[rel] = fill_blocks(path.read_text(encoding="utf-8"), blocks, str(rel))
+    return pages
+
+
+def stale_docs(repo: Path) -> list[Path]:
+    """The pages whose committed text differs from :func:`render_docs` (missing ones included)."""
+    stale = []
+    for rel, text in render_docs(repo).items():
+        path = repo / rel
+        if not path.is_file() or path.read_text(encoding="utf-8") != text:
+            stale.append(rel)
+    return stale

@@ -1,0 +1,163 @@
+"""The README and docs/ hold what the code and the committed results say.
+
+* ``docs/results.md`` (generated whole) and the generated blocks of ``docs/speed.md`` and ``README.md`` equal what
+  ``baselines/make_results_doc.py`` writes from the committed result files, and the script follows a change of
+  those files;
+* every relative link (and image) of the README and of ``docs/*.md`` resolves to a file, and every ``#anchor`` to
+  a heading of its page;
+* every Python snippet of the README runs as written from the repository root;
+* the README's two commands are the ones ``.ci/run`` and a newcomer use.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from footstep_gym.evaluation import results_doc
+
+REPO = Path(__file__).resolve().parents[1]
+SCRIPT = REPO / "baselines" / "make_results_doc.py"
+PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+QUICK_START = ('python3 -m venv .venv && .venv/bin/pip install torch==2.13.0 -e ".[dev]" && '
+               '.venv/bin/python baselines/eval_planner.py')
+TEST_COMMAND = ".venv/bin/python -m pytest -q -n 2"
+
+
+# ---------------------------------------------------------------- generated pages
+def test_generated_pages_match_the_committed_results():
+    stale = results_doc.stale_docs(REPO)
+    assert not stale, (f"{', '.join(map(str, stale))} differ(s) from the committed result files: run "
+                       f"python baselines/make_results_doc.py (and commit the pages with the results)")
+
+
+def test_the_script_checks_and_rewrites_a_stale_page(tmp_path):
+    """A copy of the repository's result files, one of them changed: --check fails, the script rewrites the pages
+    from the changed file, and the README's table shows the new number."""
+    repo = tmp_path / "repo"
+    shutil.copytree(REPO / "baselines" / "results", repo / "baselines" / "results",
+                    ignore=shutil.ignore_patterns("episodes.csv", "tables", "runs"))
+    for manifest in (REPO / "baselines" / "agents").glob("*/*/manifest.json"):
+        dest = repo / manifest.relative_to(REPO)
+        dest.parent.mkdir(parents=True)
+        shutil.copy(manifest, dest)
+    (repo / "docs").mkdir()
+    for rel in (results_doc.RESULTS_DOC, results_doc.SPEED_DOC, results_doc.README):
+        shutil.copy(REPO / rel, repo / rel)
+    run = lambda *args: subprocess.run([sys.executable, str(SCRIPT), "--repo", str(repo), *args],  # noqa: E731
+                                       capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert run("--check").returncode == 0
+
+    results = repo / "baselines" / "results" / "agents" / "results.json"
+    records = json.loads(results.read_text(encoding="utf-8"))
+    cell = next(r for r in records if r["policy"] == "fixed-period" and r["params"] == {"door_speed": 8.0})
+    cell["success_ci95"] = [0.123, 0.987]
+    results.write_text(json.dumps(records), encoding="utf-8")
+    checked = run("--check")
+    assert checked.returncode == 1
+    assert "docs/results.md" in checked.stderr and "README.md" in checked.stderr
+    assert run().returncode == 0
+    assert run("--check").returncode == 0
+    for rel in (results_doc.RESULTS_DOC, results_doc.README):
+        assert "[0.12, 0.99]" in (repo / rel).read_text(encoding="utf-8")
+    assert (repo / results_doc.SPEED_DOC).read_text(encoding="utf-8") == \
+        (REPO / results_doc.SPEED_DOC).read_text(encoding="utf-8")
+
+
+def test_a_new_evaluation_folder_gets_its_own_section(tmp_path):
+    results = tmp_path / "baselines" / "results"
+    shutil.copytree(REPO / "baselines" / "results" / "robustness", results / "my_sweep",
+                    ignore=shutil.ignore_patterns("episodes.csv", "tables", "figures"))
+    text = results_doc.results_markdown(tmp_path)
+    assert "## Evaluation `my_sweep`" in text and "baselines/results/my_sweep/summary.md" in text
+
+
+def test_blocks_are_filled_and_bad_markers_are_named():
+    text = "a\n<!-- BEGIN GENERATED t: note -->\nold\n<!-- END GENERATED t -->\nb\n"
+    assert results_doc.fill_blocks(text, {"t": "new\n"}) == \
+        "a\n<!-- BEGIN GENERATED t: note -->\n\nnew\n\n<!-- END GENERATED t -->\nb\n"
+    with pytest.raises(ValueError, match="'u'"):
+        results_doc.fill_blocks(text.replace(" t", " u"), {"t": "new"}, "page")
+    with pytest.raises(ValueError, match="no '<!-- END GENERATED t -->'"):
+        results_doc.fill_blocks("<!-- BEGIN GENERATED t -->\nold\n", {"t": "new"}, "page")
+
+
+# ---------------------------------------------------------------- links
+_LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
+_FENCE = re.compile(r"```.*?```", re.S)
+
+
+def _anchors(page: Path) -> set[str]:
+    """GitHub's anchors of the page's headings (a repeated heading gets -1, -2, ...)."""
+    seen: dict[str, int] = {}
+    out = set()
+    for line in _FENCE.sub("", page.read_text(encoding="utf-8")).splitlines():
+        match = re.match(r"#{1,6} (.+)", line)
+        if match:
+            base = results_doc.anchor(match.group(1).strip())
+            n = seen.get(base, 0)
+            seen[base] = n + 1
+            out.add(base if n == 0 else f"{base}-{n}")
+    return out
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[str(p.relative_to(REPO)) for p in PAGES])
+def test_relative_links_resolve(page):
+    text = _FENCE.sub("", page.read_text(encoding="utf-8"))
+    bad = []
+    for target in _LINK.findall(text):
+        if re.match(r"[a-z]+:", target):  # http(s):, mailto:
+            continue
+        path, _, fragment = target.partition("#")
+        dest = (page.parent / path).resolve() if path else page
+        if not dest.exists():
+            bad.append(f"{target}: no such file")
+        elif fragment and dest.suffix == ".md" and fragment not in _anchors(dest):
+            bad.append(f"{target}: no heading with that anchor in {dest.name}")
+    assert not bad, f"{page.relative_to(REPO)}: " + "; ".join(bad)
+
+
+# ---------------------------------------------------------------- snippets and commands
+def _snippets() -> list[str]:
+    return re.findall(r"```python\n(.*?)```", (REPO / "README.md").read_text(encoding="utf-8"), re.S)
+
+
+def _snippet_params():
+    for i, code in enumerate(_snippets()):
+        slow = "agent_runs" in code or "RecordVideo" in code  # loads torch / writes a video
+        yield pytest.param(code, id=f"snippet{i}", marks=[pytest.mark.slow] if slow else [])
+
+
+@pytest.mark.parametrize("code", list(_snippet_params()))
+def test_readme_python_snippet_runs(code):
+    """As a reader would run it: a fresh interpreter in the repository root (runs/ is where a snippet may write)."""
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy"}
+    env.pop("FOOTSTEP_GYM_AGENTS_DIR", None)
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, f"the snippet failed:\n{code}\n--- stderr:\n{done.stderr[-3000:]}"
+
+
+def test_readme_has_snippets_and_the_two_commands():
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    assert len(_snippets()) >= 3
+    blocks = re.findall(r"```bash\n(.*?)```", readme, re.S)
+    assert QUICK_START in [b.strip() for b in blocks]
+    assert TEST_COMMAND in [b.strip() for b in blocks]
+    assert TEST_COMMAND in (REPO / ".ci" / "run").read_text(encoding="utf-8")
+
+
+def test_readme_has_a_table_of_contents_of_its_sections():
+    readme = REPO / "README.md"
+    text = readme.read_text(encoding="utf-8")
+    sections = [results_doc.anchor(h) for h in re.findall(r"^## (.+)$", _FENCE.sub("", text), re.M)]
+    contents = text.split("## ", 1)[0]
+    missing = [s for s in sections if f"(#{s})" not in contents]
+    assert not missing, f"README sections missing from its contents: {missing}"

@@ -167,11 +167,6 @@ def check_steps(robot: Robot, com: Any, vel: Any, commands: Any, support_side: A
     )
 
 
-def feasible(robot: Robot, com: Any, vel: Any, commands: Any, support_side: Any) -> np.ndarray:
-    """Boolean verdicts ``(N,)`` of :func:`check_steps`."""
-    return check_steps(robot, com, vel, commands, support_side).feasible
-
-
 def _kinematically_feasible_scalar(robot: Robot, S: float, L: float, theta: float, t_ss: float, t_ds: float,
                                    support_side: int) -> bool:
     """Plain-Python twin of :func:`footstep.kinematically_feasible` for one command (same arithmetic).

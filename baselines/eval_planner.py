@@ -69,6 +69,7 @@ from footstep_gym import policies as registry
 from footstep_gym.evaluation import benchmark, report
 from footstep_gym.evaluation.runner import (BACKENDS, WARMUP_ACTS, Cell, Task, record_video, run_tasks,
                                            safe_name)
+from footstep_gym.evaluation.runner import check_cells as runner_check_cells
 from footstep_gym.evaluation.splits import SPLITS, split_seeds
 from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, cell_record, over_runs
 from footstep_gym.scenarios import SCENARIOS, resolve_env_id, scene_of
@@ -372,34 +373,11 @@ def make_cells(settings: Settings) -> list[Cell]:
 
 
 def check_cells(cells: list[Cell]) -> str | None:
-    """The first problem of any cell, as one line, or None: each setting's env is built once
-    (its configuration checked, e.g. a door speed above ``max_door_speed``) and each agent's
-    files are checked (without loading it), here in this process, before anything runs."""
-    import gymnasium as gym
-
-    from footstep_gym.rl.agents import check_run
-
-    built: set[tuple] = set()
-    checked: set[str] = set()
-    for cell in cells:
-        if (cell.env_id, cell.params) not in built:
-            built.add((cell.env_id, cell.params))
-            try:
-                gym.make(cell.env_id, **cell.params_dict).close()
-            except (ValueError, TypeError) as exc:
-                options = " ".join(f"--{k.replace('_', '-')} {v:g}" for k, v in cell.params) or "its defaults"
-                return f"{cell.env_id} with {options}: {exc}"
-        if cell.run is not None and cell.run not in checked:
-            checked.add(cell.run)
-            entry = registry.AGENTS.get(cell.policy)
-            try:
-                check_run(cell.run, entry.algo if entry is not None else None)
-            except (OSError, ValueError) as exc:
-                return f"{cell.policy}: {exc}"
-    return None
+    """:func:`footstep_gym.evaluation.runner.check_cells`, each setting named by its command-line flags."""
+    return runner_check_cells(
+        cells, lambda cell: " ".join(f"--{k.replace('_', '-')} {v:g}" for k, v in cell.params) or "its defaults")
 
 
-# ---------------------------------------------------------------- output
 def check_out(out: Path) -> str | None:
     """Why ``out`` cannot take this run's files (one line), or None: it must be a folder that
     is empty or holds an earlier evaluation (its ``run.json``). Nothing is written."""
@@ -640,13 +618,38 @@ def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell]
     return row, files
 
 
+def run_into(out: Path, what: str, index: str, work: Callable[[Path], tuple[str, list[Path], str]]) -> int:
+    """Run ``work(folder)`` into a new temporary folder beside ``out`` and put it in place only when it finished:
+    a failure (exit status 1) or an interrupt (130) removes the folder and leaves ``out`` as it was. ``work``
+    returns the table to print, the files written and a line on how long it took."""
+    folder = new_run_folder(out)
+    try:
+        table, files, took = work(folder)
+    except KeyboardInterrupt:
+        shutil.rmtree(folder, ignore_errors=True)
+        print(f"\ninterrupted; {out} left as it was", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        shutil.rmtree(folder, ignore_errors=True)
+        traceback.print_exc()
+        print(f"error: {what} failed; {out} left as it was. {exc}", file=sys.stderr)
+        return 1
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    commit_out(folder, out)
+    print(table)
+    print(f"{took}; wrote {len(files)} files to {out}/ ({index})")
+    return 0
+
+
 def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str]) -> int:
     """``--benchmark``: check every cell and ``--out`` first, run the episodes, write into a temporary folder that
     replaces ``--out`` once finished (as an evaluation does)."""
     runs = settings.runs
     cells, owners = benchmark.runner_cells(settings.cells, settings.policy,
                                            None if runs is None else (lambda env_id: runs.get(env_id, ())))
-    problem = benchmark.check_cells(cells) or check_out(settings.out)
+    problem = runner_check_cells(cells) or check_out(settings.out)
     if problem:
         build_parser().error(problem)  # one line, exit status 2; nothing written
     tasks = benchmark.tasks(cells, settings.episodes)
@@ -654,29 +657,14 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str]) -> int:
     per_run = f" ({len(cells)} with the training runs)" if len(cells) != len(settings.cells) else ""
     print(f"benchmark of {settings.policy}: {len(settings.cells)} cells{per_run} x {settings.episodes} seeds = "
           f"{len(tasks)} episodes on {workers} worker(s) ({settings.backend}) -> {settings.out}", file=sys.stderr)
-    folder = new_run_folder(settings.out)
-    try:
+    def work(folder: Path) -> tuple[str, list[Path], str]:
         t0 = time.perf_counter()
         results = run_tasks(tasks, workers, backend=settings.backend, address=settings.ray_address)
         wall = time.perf_counter() - t0
         row, files = write_benchmark(folder, settings, cells, owners, results, wall, argv)
-    except KeyboardInterrupt:
-        shutil.rmtree(folder, ignore_errors=True)
-        print(f"\ninterrupted; {settings.out} left as it was", file=sys.stderr)
-        return 130
-    except Exception as exc:
-        shutil.rmtree(folder, ignore_errors=True)
-        traceback.print_exc()
-        print(f"error: the benchmark failed; {settings.out} left as it was. {exc}", file=sys.stderr)
-        return 1
-    except BaseException:
-        shutil.rmtree(folder, ignore_errors=True)
-        raise
-    commit_out(folder, settings.out)
-    print(row)
-    print(f"{len(results)} episodes in {wall:.1f} s; wrote {len(files)} files to {settings.out}/ "
-          "(benchmark.md: every cell)")
-    return 0
+        return row, files, f"{len(results)} episodes in {wall:.1f} s"
+
+    return run_into(settings.out, "the benchmark", "benchmark.md: every cell", work)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -695,31 +683,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     workers = max(1, min(settings.workers, len(tasks)))
     print(f"{len(cells)} cells x {settings.episodes} seeds = {len(tasks)} episodes on {workers} worker(s) "
           f"({settings.backend}) -> {settings.out}", file=sys.stderr)
-    folder = new_run_folder(settings.out)
-    try:
+    def work(folder: Path) -> tuple[str, list[Path], str]:
         t0 = time.perf_counter()
         results = run_tasks(tasks, workers, backend=settings.backend, address=settings.ray_address)
         wall = time.perf_counter() - t0
         inside = replace(settings, out=folder)  # the files go to the run's own folder until it has finished
         videos = record_videos(inside, cells) if settings.video else []
         table, files = write_outputs(inside, cells, results, wall, argv, videos)
-    except KeyboardInterrupt:
-        shutil.rmtree(folder, ignore_errors=True)
-        print(f"\ninterrupted; {settings.out} left as it was", file=sys.stderr)
-        return 130
-    except Exception as exc:
-        shutil.rmtree(folder, ignore_errors=True)
-        traceback.print_exc()
-        print(f"error: the evaluation failed; {settings.out} left as it was. {exc}", file=sys.stderr)
-        return 1
-    except BaseException:
-        shutil.rmtree(folder, ignore_errors=True)
-        raise
-    commit_out(folder, settings.out)
-    print(table)
-    print(f"{len(results)} episodes in {wall:.1f} s; wrote {len(files)} files to {settings.out}/ "
-          f"(summary.md lists them)")
-    return 0
+        return table, files, f"{len(results)} episodes in {wall:.1f} s"
+
+    return run_into(settings.out, "the evaluation", "summary.md lists them", work)
 
 
 if __name__ == "__main__":

@@ -146,33 +146,6 @@ def tasks(cells: Sequence[Cell], episodes: int) -> list[Task]:
     return [Task(i, c, s) for i, c in enumerate(cells) for s in seeds(episodes)]
 
 
-def check_cells(cells: Sequence[Cell]) -> str | None:
-    """The first problem of any cell, as one line, or None: each cell's env is built once (its configuration
-    checked) and each agent's files are checked (without loading it), before anything runs."""
-    import gymnasium as gym
-
-    from footstep_gym import policies
-    from footstep_gym.rl.agents import check_run
-
-    built: set[tuple[str, Any]] = set()
-    checked: set[str] = set()
-    for cell in cells:
-        if (cell.env_id, cell.params) not in built:
-            built.add((cell.env_id, cell.params))
-            try:
-                gym.make(cell.env_id, **cell.params_dict).close()
-            except (ValueError, TypeError, KeyError) as exc:
-                return f"{cell.env_id} with {cell.params_dict or 'its defaults'}: {exc}"
-        if cell.run is not None and cell.run not in checked:
-            checked.add(cell.run)
-            entry = policies.AGENTS.get(cell.policy)
-            try:
-                check_run(cell.run, entry.algo if entry is not None else None)
-            except (OSError, ValueError) as exc:
-                return f"{cell.policy}: {exc}"
-    return None
-
-
 # ---------------------------------------------------------------- records and aggregates
 def cell_records(cells: Sequence[Cell], owners: Sequence[BenchmarkCell], results: Sequence[EpisodeResult]
                  ) -> list[dict[str, Any]]:

@@ -31,7 +31,7 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any, Callable, Iterator, Sequence
 
 import gymnasium as gym
 import numpy as np
@@ -472,3 +472,31 @@ def record_video(cell: Cell, seed: int, folder: str | Path, name: str | None = N
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     return final
+
+
+def check_cells(cells: "Sequence[Cell]", describe: "Callable[[Cell], str] | None" = None) -> str | None:
+    """The first problem of any cell, as one line, or None: each setting's env is built once (its configuration
+    checked, e.g. a door speed above ``max_door_speed``) and each agent's files are checked (without loading it),
+    in this process, before anything runs. ``describe(cell)`` names a cell's setting in the message (default:
+    its keyword arguments)."""
+    from footstep_gym import policies
+    from footstep_gym.rl.agents import check_run
+
+    built: set[tuple[str, Any]] = set()
+    checked: set[str] = set()
+    for cell in cells:
+        if (cell.env_id, cell.params) not in built:
+            built.add((cell.env_id, cell.params))
+            try:
+                gym.make(cell.env_id, **cell.params_dict).close()
+            except (ValueError, TypeError, KeyError) as exc:
+                what = describe(cell) if describe is not None else (cell.params_dict or "its defaults")
+                return f"{cell.env_id} with {what}: {exc}"
+        if cell.run is not None and cell.run not in checked:
+            checked.add(cell.run)
+            entry = policies.AGENTS.get(cell.policy)
+            try:
+                check_run(cell.run, entry.algo if entry is not None else None)
+            except (OSError, ValueError) as exc:
+                return f"{cell.policy}: {exc}"
+    return None

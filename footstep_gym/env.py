@@ -13,17 +13,20 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.envs.registration import EnvSpec
 
-from footstep_gym import config, footstep, lipm
-from footstep_gym.config import plain, positive
+from footstep_gym import config, footstep, lipm, tiers
+from footstep_gym.config import nonnegative, plain, positive
 from footstep_gym.errors import ActionError, ConfigError
 from footstep_gym.footstep import LEFT, RIGHT, SIDE_NAMES
 from footstep_gym.robot import COMMAND_FIELDS, Robot
 from footstep_gym.scenarios import SCENARIOS, Scenario
 from footstep_gym.scenarios.base import RobotMotion
-from footstep_gym.sensing import Snapshot
+from footstep_gym.sensing import ObstacleView, Snapshot, nearest_views, sense
 from footstep_gym.world import World
 
 TERMINATIONS = ("goal", "collision", "fall")
+#: A float field that may be ``.inf`` (``sensing_max_range``): ``config.build`` coerces ``float`` fields and
+#: refuses non-finite ones, so a field of this name is passed as read and :meth:`EnvConfig.validate` checks it.
+_RangeOrInf = float
 _FLOAT_DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
 
 
@@ -51,10 +54,36 @@ class EnvConfig:
     render_pixels_per_metre: float = positive()
     render_size: tuple[float, float] = config.pair()  # [px] width, height
     video_fps: float = positive()  # [frames per simulated second] of render_mode="rgb_array_list"
+    # What the robot senses of the moving obstacles (all off by default; see the class's "Sensing" paragraph).
+    sensing_noise_position: float = nonnegative()  # [m] std of the noise on each axis of a moving body's position
+    sensing_noise_velocity: float = nonnegative()  # [m/s] std of the noise on each axis of its velocity
+    sensing_noise_angle: float = nonnegative()  # [rad] std of the noise on a moving rod's angle
+    sensing_noise_angular_velocity: float = nonnegative()  # [rad/s] std of the noise on a moving rod's turn rate
+    sensing_max_range: _RangeOrInf = plain()  # [m] moving obstacles farther than this are not sensed; .inf: no limit
+    sensing_fov: float = plain()  # [deg] full field of view centred on the support foot's yaw; 360: all around
 
     def validate(self) -> None:
         if not all(v >= 1 and float(v).is_integer() for v in self.render_size):
             raise ConfigError(f"env.yaml.render_size must be two whole numbers of pixels >= 1, got {self.render_size}")
+        max_range = self.sensing_max_range  # not coerced by config.build (which refuses .inf): checked here
+        if isinstance(max_range, bool) or not isinstance(max_range, (int, float)) or not max_range > 0:
+            raise ConfigError(f"env.yaml.sensing_max_range must be a number > 0 [m] (.inf: no limit), "
+                              f"got {max_range!r}")
+        object.__setattr__(self, "sensing_max_range", float(max_range))
+        if not 0.0 < self.sensing_fov <= 360.0:
+            raise ConfigError(f"env.yaml.sensing_fov must be in (0, 360] [deg] (360: all around), "
+                              f"got {self.sensing_fov!r}")
+
+    @property
+    def sensing_noise(self) -> bool:
+        """Whether any of the sensing noises is on."""
+        return (self.sensing_noise_position > 0.0 or self.sensing_noise_velocity > 0.0
+                or self.sensing_noise_angle > 0.0 or self.sensing_noise_angular_velocity > 0.0)
+
+    @property
+    def sensing_limited(self) -> bool:
+        """Whether the robot senses anything other than the truth (noise, a range or a field of view)."""
+        return self.sensing_noise or self.sensing_max_range < math.inf or self.sensing_fov < 360.0
 
 
 def _world_to_local(origin: tuple[float, float, float], z: complex) -> complex:
@@ -143,6 +172,21 @@ class FootstepEnv(gym.Env):
     space serves the three scenes and every setting. Gymnasium's ``check_env`` warns about
     those infinite bounds.
 
+    **Sensing** (keys of ``configs/env.yaml``, all off by default, when the slots hold the
+    truth read off the bodies): ``sensing_noise_position`` [m] and ``sensing_noise_velocity``
+    [m/s] are the stds of zero-mean Gaussian noise on each axis of every moving body's sensed
+    position and velocity, ``sensing_noise_angle`` [rad] and ``sensing_noise_angular_velocity``
+    [rad/s] on a moving rod's angle and angular velocity (a circle's are not sensed: its outline
+    has none); a moving obstacle whose sensed closest point lies farther than
+    ``sensing_max_range`` [m] from the CoM, or outside the field of view of ``sensing_fov`` [deg]
+    (the full angle, centred on the support foot's yaw), is not sensed. Walls are always sensed
+    exactly (the robot's map). The noise is drawn once per step and at reset, after the world's
+    state is final, from the env's generator (so a seed replays it; only when some noise is
+    on, so default episodes draw what they always did), and the observation's slots and
+    :meth:`sensing` are built from the same sensed state: the slots hold the sensed shapes'
+    closest points and their velocities (:func:`footstep_gym.sensing.nearest_views`), and
+    ``info["sensed_obstacles"]`` counts the moving obstacles sensed (present only when an option is on).
+
     ## Rewards
     Each term is reported in ``info["rewards"]``; the reward is their sum. Weights are
     keys of ``configs/env.yaml``:
@@ -183,10 +227,13 @@ class FootstepEnv(gym.Env):
     ``foot_pose`` (x, y, yaw of the foot just placed), ``zmp`` (world x, y of the
     single-support ZMP), ``com``/``com_vel`` (world, end of the step), ``rewards``,
     ``command`` (the command applied, after clipping), ``zmp_offset`` (local, m),
-    ``zmp_margin`` (m: distance of the ZMP from the stable region's nearest edge, negative
-    outside), ``clearance`` (m: the smallest gap between the body circle and any obstacle at
-    the step's collision checks, negative on a collision, ``inf`` where no obstacle came
-    within reach in the step, ``None`` on a fall),
+    ``zmp_margin`` (m: the signed per-axis margin of the single-support ZMP in the stable
+    region, ``min`` over the two axes of (half extent - |offset|): inside, the distance to the
+    nearest edge; negative when the ZMP is outside, and outside in both axes it is minus the
+    larger per-axis overshoot, not the Euclidean distance to the region), ``clearance`` (m:
+    the smallest gap between the body circle and any obstacle at the step's collision checks,
+    negative on a collision, ``inf`` where no obstacle came within reach in the step, ``None``
+    on a fall),
     ``obstacle`` (name of the shape hit, or ``None``), ``steps``.
     ``reset`` returns ``com``, ``com_vel``, ``support_foot``, ``foot_pose`` and ``time``.
 
@@ -196,6 +243,9 @@ class FootstepEnv(gym.Env):
     ``crowd_speed``, ``goal``, ``randomize={"door_speed": [8, 17]}``), any key of
     ``configs/env.yaml`` (e.g. ``reward_time=-0.2``), and ``robot={...}`` for keys of
     ``configs/robot.yaml``. Unknown keys raise ``ValueError`` naming them.
+    ``fixed_period=True`` (a key of ``configs/env.yaml``) makes the action ``[S, L, θ]``
+    (``Box(3,)``, the first three rows of the table above) and holds ``T_SS`` and ``T_DS`` at the
+    robot's nominal ones (``robot.yaml``: 0.6 s and 0.2 s); the observation is unchanged.
     Speeds and scales the collision sweep's cost grows with have upper bounds, keys of the
     scenario's YAML: ``door_speed <= max_door_speed`` (deg/s), ``door_radius <=
     max_door_radius`` (m), ``obstacle_speed <= max_obstacle_speed`` (m/s),
@@ -209,7 +259,28 @@ class FootstepEnv(gym.Env):
     ``video_fps`` frames per simulated second, so a video at ``metadata["render_fps"]`` plays
     in real time; :class:`footstep_gym.wrappers.RecordVideo` records them all) or ``"human"``.
 
+    ``tier``: a benchmark tier of ``configs/benchmark.yaml`` (:mod:`footstep_gym.tiers`): ``"paper"``
+    (the default: the settings above, the paper's scenes, bit for bit what the env was before
+    tiers), ``"train"`` (the distribution the shipped agents trained on), ``"shifted"`` (the same
+    layouts beyond the training ranges) or ``"hard"`` (a second door, two-way traffic, a reactive
+    crowd, sensing noise); an unknown name raises ``ConfigError`` naming the known tiers. Each
+    tier holds, per scene, named cells, each a set of the keywords above (``randomize`` ranges
+    included): a tier of several cells draws one per episode, uniformly, from the env's seeded
+    generator, before the episode's other draws (``reset(seed=s)`` fixes both; a tier of one cell
+    draws nothing); ``tier_cell="fast"`` takes that cell for every episode. ``env.unwrapped.tier``,
+    ``tier_cells`` and ``tier_cell`` (the episode's) say which; outside the default tier, ``reset``'s
+    info holds ``tier_cell``. Other keywords given with a tier apply on top of its cells, but one
+    that a cell sets (as a value or as a ``randomize`` range) raises ``ConfigError`` naming it: a
+    tier is a fixed distribution whose results stay comparable (use ``tier="paper"``, where every
+    key is free, for your own settings).
+
     A planner reads :meth:`sensing`: a read-only snapshot of what a robot could sense now.
+    ``sensing_noise_position`` [m], ``sensing_noise_velocity`` [m/s], ``sensing_noise_angle``
+    [rad], ``sensing_noise_angular_velocity`` [rad/s] (stds, >= 0), ``sensing_max_range`` [m]
+    (> 0, ``math.inf``: no limit) and ``sensing_fov`` [deg] (in (0, 360]) set what it and the
+    observation sense of the moving obstacles (see "Observation Space"); a value outside its
+    range raises ``ConfigError`` naming the key. ``sensing_range`` only limits the observation's
+    slots.
 
     ## Version History
     * v0: initial release.
@@ -218,23 +289,35 @@ class FootstepEnv(gym.Env):
     metadata = {"render_modes": ["human", "rgb_array", "rgb_array_list"], "render_fps": 4}
     _spec: EnvSpec | None = None
 
-    def __init__(self, scenario: str = "door", render_mode: str | None = None, **overrides: Any) -> None:
+    def __init__(self, scenario: str = "door", render_mode: str | None = None, tier: str | None = tiers.DEFAULT_TIER,
+                 tier_cell: str | None = None, **overrides: Any) -> None:
         if scenario not in SCENARIOS:
             raise ConfigError(f"unknown scenario {scenario!r}; choose one of {sorted(SCENARIOS)}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.scenario_name = scenario
         self._scenario_cls: type[Scenario] = SCENARIOS[scenario]
-        groups, leftover = config.split_overrides(
-            overrides, ("robot", Robot), ("scenario", self._scenario_cls.Config), ("env", EnvConfig)
-        )
-        if leftover:
-            known = [f for _, cls in (("s", self._scenario_cls.Config), ("e", EnvConfig))
-                     for f in cls.__dataclass_fields__] + ["robot"]
-            raise ConfigError(config.unknown_keys_message(f"FootstepEnv({scenario})", list(leftover), known))
-        self.robot: Robot = config.load(Robot, "robot.yaml", groups["robot"])
-        self.scenario_config = self._scenario_cls.load_config(groups["scenario"])
-        self.config: EnvConfig = config.load(EnvConfig, "env.yaml", groups["env"])
+        # The tier's cells (configs/benchmark.yaml, footstep_gym.tiers; "Arguments" above), each with the overrides
+        # on top, built here (a bad value fails now): one (scenario config, env config) per cell. The default tier
+        # has one cell that sets nothing: the overrides alone, as without tiers.
+        self.tier: str = tiers.DEFAULT_TIER if tier is None else tier
+        #: The cells episodes are drawn from (one: no draw), and the one of the episode under way (:attr:`tier_cell`).
+        self.tier_cells: list[tiers.TierCell] = tiers.cells(scenario, self.tier, tier_cell)
+        self._cell_configs: list[tuple[Any, EnvConfig]] = []
+        for cell in self.tier_cells:
+            groups, leftover = config.split_overrides(
+                tiers.merge(cell, overrides, f"FootstepEnv({scenario})"),
+                ("robot", Robot), ("scenario", self._scenario_cls.Config), ("env", EnvConfig)
+            )
+            if leftover:
+                known = [f for _, cls in (("s", self._scenario_cls.Config), ("e", EnvConfig))
+                         for f in cls.__dataclass_fields__] + ["robot", "tier", "tier_cell"]
+                raise ConfigError(config.unknown_keys_message(f"FootstepEnv({scenario})", list(leftover), known))
+            if not self._cell_configs:  # cells set no robot key: one robot
+                self.robot: Robot = config.load(Robot, "robot.yaml", groups["robot"])
+            self._cell_configs.append((self._scenario_cls.load_config(groups["scenario"]),
+                                       config.load(EnvConfig, "env.yaml", groups["env"])))
+        self._use_cell(0)
         self.render_mode = render_mode
         if render_mode == "rgb_array_list":  # frames from inside the steps, evenly spaced in simulated time
             self.metadata = {**self.metadata, "render_fps": self.config.video_fps}
@@ -287,6 +370,16 @@ class FootstepEnv(gym.Env):
         self._reset_state()
 
     # ------------------------------------------------------------------ state
+    def _use_cell(self, index: int) -> None:
+        """Make tier cell ``index`` the current one: its scenario config and env config (sensing keys)."""
+        self.tier_cell: str = self.tier_cells[index].name
+        self.scenario_config, self.config = self._cell_configs[index]
+
+    @property
+    def step_limit(self) -> int:
+        """The largest ``max_steps`` of the tier's cells: the most footsteps an episode can take."""
+        return max(cfg.max_steps for cfg, _ in self._cell_configs)
+
     def _reset_state(self) -> None:
         self.time = 0.0
         self.steps = 0
@@ -307,7 +400,7 @@ class FootstepEnv(gym.Env):
 
     @spec.setter
     def spec(self, spec: EnvSpec | None) -> None:
-        self._spec = with_step_limit(spec, self.scenario_config.max_steps)
+        self._spec = with_step_limit(spec, self.step_limit)
 
     @property
     def env_name(self) -> str:
@@ -346,6 +439,8 @@ class FootstepEnv(gym.Env):
               ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         rng = self.np_random
+        if len(self._cell_configs) > 1:  # a tier of several cells: this episode's, drawn first (one cell: no draw)
+            self._use_cell(int(rng.integers(len(self._cell_configs))))
         cfg = self.scenario_config.draw(rng)
         self.episode_config = cfg
         self._reset_state()
@@ -383,6 +478,11 @@ class FootstepEnv(gym.Env):
             "com": _pair(self.com), "com_vel": _pair(self.com_vel), "time": 0.0,
             "support_foot": SIDE_NAMES[self.support_side], "foot_pose": self.feet[self.support_side],
         }
+        if self.tier != tiers.DEFAULT_TIER:  # the default tier's reset info stays what it always was
+            info["tier_cell"] = self.tier_cell
+        self._sensed = None
+        if env_cfg.sensing_limited:
+            info["sensed_obstacles"] = self._sense()
         if self.render_mode == "human":
             self.render()
         elif self.render_mode == "rgb_array_list":
@@ -528,11 +628,47 @@ class FootstepEnv(gym.Env):
             "com_vel": _pair(self.com_vel),
             "rewards": rewards,
         }
+        if env_cfg.sensing_limited:
+            info["sensed_obstacles"] = self._sense()
         if self.render_mode == "human":
             self.render()
         return self._observation(), float(sum(rewards.values())), terminated, truncated, info
 
     # ------------------------------------------------------------------ observation
+    def _sense(self) -> int:
+        """Sense the world as it is now (the step's or reset's final state) with the sensing options on: draw
+        the noise (only if some is on; one ``(n_moving, 6)`` array of standard normals from
+        :attr:`np_random`), keep what is sensed in :attr:`_sensed` for the observation and :meth:`sensing`,
+        and return how many moving obstacles are sensed."""
+        cfg = self.config
+        world = self.world
+        # Walls never move: their views are read once, kept as {id(wall): (wall, view)} (checked by identity,
+        # so a copied env, whose walls are other objects, reads them again).
+        walls = getattr(self, "_wall_views", None) or {}
+        views = []
+        n_moving = 0
+        for o in world.obstacles:
+            if o.static:
+                entry = walls.get(id(o))
+                if entry is None or entry[0] is not o:
+                    walls = self._wall_views = {id(w): (w, v) for w, v in zip(world.obstacles, world.views())
+                                                if w.static}
+                    entry = walls[id(o)]
+                views.append(entry[1])
+            else:
+                body = o.body
+                (x, y), (vx, vy) = body.position, body.velocity
+                views.append(ObstacleView(o.name, o.kind, False, (x, y), body.angle, (vx, vy), body.angular_velocity,
+                                          o.radius, o.local_a, o.local_b))
+                n_moving += 1
+        noise = None
+        if cfg.sensing_noise:
+            noise = self.np_random.standard_normal((n_moving, 6)).tolist()
+        self._sensed = sense(views, _pair(self.com), self.feet[self.support_side][2], cfg.sensing_max_range,
+                             cfg.sensing_fov, noise, (cfg.sensing_noise_position, cfg.sensing_noise_velocity,
+                                                      cfg.sensing_noise_angle, cfg.sensing_noise_angular_velocity))
+        return sum(1 for v in self._sensed if not v.static)
+
     def _observation(self) -> np.ndarray:
         cfg = self.config
         ps, vs = cfg.observation_position_scale, cfg.observation_velocity_scale
@@ -546,7 +682,10 @@ class FootstepEnv(gym.Env):
         obs = [goal.real, goal.imag, float(self.support_side), com_local.real / com_scale, com_local.imag / com_scale,
                vel_local.real / vs, vel_local.imag / vs, *self._previous_scaled]
         k = cfg.n_obstacles_observed
-        near = self.world.nearest((com.real, com.imag), k, cfg.sensing_range)
+        if self._sensed is None:  # the truth, read off the bodies
+            near = self.world.nearest((com.real, com.imag), k, cfg.sensing_range)
+        else:  # what _sense kept (noisy, within range and field of view)
+            near = nearest_views(self._sensed, (com.real, com.imag), k, cfg.sensing_range)
         for _, (x, y), (vx, vy), _ in near:
             rel = (complex(x, y) - com) * rot / ps
             v = complex(vx, vy) * rot / vs
@@ -574,7 +713,7 @@ class FootstepEnv(gym.Env):
             goal=(float(cfg.goal[0]), float(cfg.goal[1])),
             goal_tolerance=cfg.goal_tolerance,
             previous_command=tuple(self._previous),
-            obstacles=self.world.views(),
+            obstacles=self.world.views() if self._sensed is None else self._sensed,
         )
 
     # ------------------------------------------------------------------ rendering

@@ -4,6 +4,8 @@ The scenes (every scenario of ``footstep_gym.scenarios.SCENARIOS``: door, crossi
 share their action and observation layout, so one agent can be trained across them (the
 ``ppo-all`` baseline). Each scene keeps its own settings, given under its name:
 ``gymnasium.make("FootstepMix-v0", door={"randomize": {"door_speed": [5, 20]}}, crowd={...})``.
+``tier=`` (``configs/benchmark.yaml``) is passed to every scene: ``gymnasium.make("FootstepMix-v0",
+tier="train")`` is the mix of the three scenes' training distributions.
 """
 
 from __future__ import annotations
@@ -48,6 +50,9 @@ class FootstepMixEnv(gym.Env):
     * ``scenes``: the scenes to draw from (default every scenario of ``SCENARIOS``, in its order);
     * ``weights``: their probabilities (default uniform);
     * ``render_mode``: as :class:`~footstep_gym.env.FootstepEnv`;
+    * ``tier``: a benchmark tier (``configs/benchmark.yaml``; default ``"paper"``), passed to every scene's env,
+      each drawing its tier's cells per episode as :class:`~footstep_gym.env.FootstepEnv` does; a scene's own
+      mapping may name another ``tier`` (and a ``tier_cell``, a cell's name being per scene);
     * ``<scene>=...`` (``door``, ``crossing``, ``crowd``, ...): a mapping of keyword overrides of that
       scene's env (any key ``gymnasium.make("FootstepDoor-v0", ...)`` takes, ``randomize`` included).
       A name that is no scenario raises ``ConfigError`` naming the known ones.
@@ -60,7 +65,8 @@ class FootstepMixEnv(gym.Env):
     _spec: EnvSpec | None = None
 
     def __init__(self, scenes: tuple[str, ...] | list[str] | None = None, weights: list[float] | None = None,
-                 render_mode: str | None = None, **scene_kwargs: Mapping[str, Any] | None) -> None:
+                 render_mode: str | None = None, tier: str | None = "paper",
+                 **scene_kwargs: Mapping[str, Any] | None) -> None:
         known = tuple(SCENARIOS)
         scenes = known if scenes is None else tuple(scenes)
         unknown = [s for s in scenes if s not in known]
@@ -78,7 +84,7 @@ class FootstepMixEnv(gym.Env):
         unknown = [name for name in scene_kwargs if name not in known]
         if unknown:
             raise ConfigError(f"FootstepMixEnv: unknown keyword(s) {', '.join(map(repr, unknown))}; besides scenes, "
-                              f"weights and render_mode it takes a scene's overrides under its name: "
+                              f"weights, render_mode and tier it takes a scene's overrides under its name: "
                               f"{', '.join(known)}")
         for name, value in scene_kwargs.items():
             if value is not None and not isinstance(value, Mapping):
@@ -87,7 +93,9 @@ class FootstepMixEnv(gym.Env):
         self.scenes = scenes
         self.weights = probs
         self.render_mode = render_mode
-        self.envs = {s: FootstepEnv(scenario=s, render_mode=render_mode, **dict(overrides[s] or {})) for s in scenes}
+        self.tier = tier
+        self.envs = {s: FootstepEnv(scenario=s, render_mode=render_mode, **{"tier": tier, **dict(overrides[s] or {})})
+                     for s in scenes}
         for name, env in self.envs.items():
             env.display_name = f"{type(self).__name__} (scene {name!r})"  # reset() puts the registered id in
         first = self.envs[scenes[0]]
@@ -110,7 +118,7 @@ class FootstepMixEnv(gym.Env):
 
     @spec.setter
     def spec(self, spec: EnvSpec | None) -> None:
-        self._spec = with_step_limit(spec, max(env.scenario_config.max_steps for env in self.envs.values()))
+        self._spec = with_step_limit(spec, max(env.step_limit for env in self.envs.values()))
 
     @property
     def current(self) -> FootstepEnv:

@@ -4,14 +4,32 @@ A car-like capsule crosses the robot's straight path at ``crossing_x`` moving +y
 ``obstacle_speed``, timed to reach the path when a robot walking at ``arrival_speed``
 (the nominal period's top speed, 10 cm / 0.8 s) does. Quick steps beat it to the
 crossing; at the nominal period the robot must wait or detour.
+
+``traffic_lanes`` >= 1 replaces the one timed car by steady traffic (the benchmark's hard
+tier, configs/benchmark.yaml): that many lanes side by side, ``traffic_lane_width`` apart and
+centred on ``crossing_x``, each a stream of cars (capsules of ``obstacle_length`` x
+``obstacle_width``) ``traffic_spacing`` apart, centre to centre, driving at ``traffic_speed``,
+lane 0 (the nearest the start) along +y and each next lane the other way, so traffic comes
+from both sides. A car that has driven ``traffic_extent`` past the path re-enters the same
+distance before it (its lane is a loop of ``n * traffic_spacing``, ``n`` the fewest cars that
+span ``2 * traffic_extent``), so the gaps pass the path at a steady rhythm for the whole
+episode; each lane's phase is drawn per episode. A gap of ``traffic_spacing -
+obstacle_length`` at ``traffic_speed`` is open for too short a time to be crossed at the
+nominal period: only quicker steps use it (or waiting between the lanes, where they are far
+enough apart).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
 
 from footstep_gym.config import nonnegative, positive
-from footstep_gym.scenarios.base import Scenario, ScenarioConfig
+from footstep_gym.errors import ConfigError
+from footstep_gym.scenarios.base import RobotMotion, Scenario, ScenarioConfig
 from footstep_gym.world import World
 
 
@@ -25,15 +43,48 @@ class CrossingConfig(ScenarioConfig):
     timing_jitter: float = nonnegative()  # [s] uniform +- on the meeting time per episode
     max_obstacle_speed: float = positive()  # [m/s] largest obstacle_speed accepted (randomize ranges included)
     max_arrival_speed: float = positive()  # [m/s] largest arrival_speed accepted
+    # Steady traffic instead of the timed car (traffic_lanes >= 1); the defaults leave the paper's scene.
+    traffic_lanes: int = nonnegative()  # 0: the one timed car; >= 1: lanes of cars, directions alternating
+    traffic_lane_width: float = positive(unit="m")  # [m] between neighbouring lanes' centre lines
+    traffic_spacing: float = positive(unit="m")  # [m] between consecutive cars of a lane, centre to centre
+    traffic_speed: float = positive(max_key="max_obstacle_speed", unit="m/s")  # [m/s] of every car
+    traffic_extent: float = positive(unit="m")  # [m] cars re-enter after driving this far past the path
+
+    def smallest(self, key: str) -> float:
+        """The smallest value numeric ``key`` can take in an episode: its ``randomize`` lower end, else its value."""
+        if key in self.randomize:
+            return min(float(b) for b in self.randomize[key])
+        return float(getattr(self, key))
+
+    def validate(self) -> None:
+        super().validate()
+        if not self.traffic_lanes:
+            return
+        length, spacing = self.largest("obstacle_length"), self.smallest("traffic_spacing")
+        if spacing <= length:
+            raise ConfigError(f"crossing: traffic_spacing (down to {spacing:g} m) must exceed obstacle_length (up to "
+                              f"{length:g} m): the cars of a lane would overlap")
+        width, lane = self.largest("obstacle_width"), self.smallest("traffic_lane_width")
+        if self.traffic_lanes > 1 and lane <= width:
+            raise ConfigError(f"crossing: traffic_lane_width (down to {lane:g} m) must exceed obstacle_width (up to "
+                              f"{width:g} m): neighbouring lanes' cars would overlap")
 
 
 class Crossing(Scenario):
+    """The crossing scene. With ``traffic_lanes`` >= 1, constructing it gives a :class:`CrossingTraffic`
+    (the one timed car's scene itself never changes a velocity, so it has no :meth:`before_step`)."""
+
     config_file = "scenarios/crossing.yaml"
     static_keys = ()  # no walls
     Config = CrossingConfig
     env_id = "FootstepCrossing-v0"
     sweep_axes = {}  # one setting, the YAML's (the paper's §3.2)
     command_tables = False  # the paper gives no command table for it (its Table 3 compares totals)
+
+    def __new__(cls, cfg: Any = None, rng: Any = None) -> "Crossing":
+        if cls is Crossing and getattr(cfg, "traffic_lanes", 0):
+            cls = CrossingTraffic
+        return super().__new__(cls)
 
     def build(self, world: World) -> None:
         c = self.cfg
@@ -42,3 +93,45 @@ class Crossing(Scenario):
         half = 0.5 * (c.obstacle_length - c.obstacle_width)
         world.add_rod("car", (sx + c.crossing_x, sy - c.obstacle_speed * t_meet), (0.0, -half), (0.0, half),
                       c.obstacle_width, velocity=(0.0, c.obstacle_speed))
+
+
+class CrossingTraffic(Crossing):
+    """Steady two-way traffic across the path (``traffic_lanes`` >= 1; the module's doc).
+
+    Every car follows a schedule, :meth:`positions`: its lane's phase (drawn per episode) plus
+    ``traffic_speed`` times the time, wrapped into the lane's loop. Before each footstep the cars
+    are put at their scheduled places (a car past the loop's end re-enters at its start) and keep
+    their lane's velocity through the step, so between re-entries they move as one steady car does.
+    """
+
+    def __init__(self, cfg: CrossingConfig, rng: np.random.Generator) -> None:
+        super().__init__(cfg, rng)
+        lanes = cfg.traffic_lanes
+        self.per_lane = max(1, math.ceil(2.0 * cfg.traffic_extent / cfg.traffic_spacing - 1e-9))
+        self.loop = self.per_lane * cfg.traffic_spacing  # [m] a lane's length, where its cars re-enter
+        k = np.repeat(np.arange(lanes), self.per_lane)
+        j = np.tile(np.arange(self.per_lane), lanes)
+        sx, sy = cfg.start
+        self.x = sx + cfg.crossing_x + (k - 0.5 * (lanes - 1)) * cfg.traffic_lane_width  # per car
+        self.direction = np.where(k % 2 == 0, 1.0, -1.0)  # lane 0 along +y, then alternating
+        phases = rng.uniform(0.0, cfg.traffic_spacing, lanes)  # per lane, per episode
+        self.offset = phases[k] + j * cfg.traffic_spacing  # [m] along the loop at t = 0
+        self.y0 = sy - 0.5 * self.loop
+        self.members: list = []
+
+    def positions(self, t: float) -> np.ndarray:
+        """Car centres ``(n, 2)`` [m] at time ``t`` [s] (lane by lane, car by car)."""
+        along = np.mod(self.offset + self.direction * self.cfg.traffic_speed * t, self.loop)
+        return np.stack([self.x, self.y0 + along], axis=1)
+
+    def build(self, world: World) -> None:
+        c = self.cfg
+        half = 0.5 * (c.obstacle_length - c.obstacle_width)
+        for i, (p, d) in enumerate(zip(self.positions(0.0), self.direction)):
+            lane, car = divmod(i, self.per_lane)
+            self.members.append(world.add_rod(f"car_{lane}_{car}", (float(p[0]), float(p[1])), (0.0, -half),
+                                              (0.0, half), c.obstacle_width, velocity=(0.0, float(d) * c.traffic_speed)))
+
+    def before_step(self, world: World, t: float, duration: float, robot: RobotMotion | None = None) -> None:
+        for m, p in zip(self.members, self.positions(t)):
+            m.body.position = (float(p[0]), float(p[1]))

@@ -9,6 +9,13 @@ the upper half, as a revolving door's enclosure does, so the co-rotating half is
 end rather than a way round. A
 straight crossing at the nominal period's top speed (12.5 cm/s) finds a gap at 8 deg/s
 but not at 14 or 17; quicker steps find one (docs/model.md §4).
+
+``door_count: 2`` adds a second revolving door of the same size ``second_door_offset`` metres
+further along the corridor (+x), turning clockwise at its own ``second_door_speed`` from its own
+phase (``second_door_start_angle`` +- ``second_door_angle_jitter``): the corridor's walls and a
+second half drum are laid around both discs (``corridor_x[1]`` then counts from the second
+door's centre), so the robot crosses two gaps in sequence, with room to wait between the two
+discs. The default, one door, is the paper's scene.
 """
 
 from __future__ import annotations
@@ -37,6 +44,12 @@ class DoorConfig(ScenarioConfig):
     drum_segments: int = nonnegative()  # walls of the half drum over the upper half (0: open, no drum)
     max_door_speed: float = positive()  # [deg/s] largest door_speed accepted (randomize ranges included)
     max_door_radius: float = positive()  # [m] largest door_radius accepted (the tip's speed grows with it)
+    # A second revolving door further along the corridor (door_count: 2); the defaults leave the paper's scene.
+    door_count: int = positive()  # 1: the paper's door; 2: a second door of the same size follows it along +x
+    second_door_offset: float = positive(unit="m")  # [m] from the first door's centre to the second's, along +x
+    second_door_speed: float = nonnegative(max_key="max_door_speed", unit="deg/s")  # [deg/s] clockwise
+    second_door_start_angle: float = plain()  # [deg] of the second rod from +x, counter-clockwise
+    second_door_angle_jitter: float = nonnegative()  # [deg] uniform +- per episode on the second rod
 
     def validate(self) -> None:
         super().validate()
@@ -54,6 +67,15 @@ class DoorConfig(ScenarioConfig):
             if sag >= self.wall_gap:
                 raise ConfigError(f"door: drum_segments={self.drum_segments} is too few: the drum's walls sag "
                                   f"{sag * 1e3:.1f} mm inwards, into the rod's sweep (wall_gap {self.wall_gap} m)")
+        if self.door_count not in (1, 2):
+            raise ConfigError(f"door: door_count must be 1 or 2, got {self.door_count}")
+        if self.door_count == 2:
+            if self.second_door_offset < 2 * self.drum_radius:
+                raise ConfigError(f"door: second_door_offset={self.second_door_offset:g} m must be >= twice the drum "
+                                  f"radius ({2 * self.drum_radius:.3f} m): the two doors' drums would overlap")
+            if self.corridor_x[1] < self.drum_radius:
+                raise ConfigError(f"door: with door_count 2, corridor_x[1]={self.corridor_x[1]:g} m (counted from the "
+                                  f"second door's centre) must reach past its drum ({self.drum_radius:.3f} m)")
 
     @property
     def drum_radius(self) -> float:
@@ -67,7 +89,15 @@ class Door(Scenario):
     env_id = "FootstepDoor-v0"
     sweep_axes = {"door_speed": "deg/s"}
     static_keys = ("door_centre", "corridor_x", "corridor_y", "wall_thickness", "drum_segments",
-                   "door_radius", "door_thickness", "wall_gap")  # drum_radius reads the last three
+                   "door_radius", "door_thickness", "wall_gap",  # drum_radius reads these three
+                   "door_count")  # and, with door_count 2, second_door_offset (static_key adds it)
+
+    @classmethod
+    def static_key(cls, cfg: DoorConfig) -> tuple:
+        """The keys of :attr:`static_keys`, and ``second_door_offset`` where a second door reads it (it moves
+        that door's drum and the walls' ends; with one door it is read by nothing)."""
+        key = tuple(getattr(cfg, k) for k in cls.static_keys)
+        return key + (cfg.second_door_offset,) if cfg.door_count == 2 else key
 
     def build(self, world: World) -> None:
         c = self.cfg
@@ -75,6 +105,11 @@ class Door(Scenario):
         r = c.door_radius
         world.add_rod("door", tuple(c.door_centre), (-r, 0.0), (r, 0.0), c.door_thickness, angle=angle,
                       angular_velocity=-math.radians(c.door_speed))
+        if c.door_count == 2:  # drawn after the first door's: one door draws what it always did
+            angle2 = math.radians(c.second_door_start_angle + self.rng.uniform(-1.0, 1.0) * c.second_door_angle_jitter)
+            centre2 = (c.door_centre[0] + c.second_door_offset, c.door_centre[1])
+            world.add_rod("door_2", centre2, (-r, 0.0), (r, 0.0), c.door_thickness, angle=angle2,
+                          angular_velocity=-math.radians(c.second_door_speed))
 
     def build_static(self, world: World) -> None:
         c = self.cfg
@@ -82,14 +117,20 @@ class Door(Scenario):
         x0, x1 = c.corridor_x
         bottom, top = c.corridor_y
         edge = c.drum_radius
-        world.add_wall("wall_bottom", (cx + x0, cy + bottom), (cx + x1, cy + bottom), c.wall_thickness)
+        # With a second door the walls run on to corridor_x[1] past its centre; the upper wall between the
+        # two drums is "wall_top_middle" (none where the drums touch).
+        far = c.second_door_offset if c.door_count == 2 else 0.0
+        world.add_wall("wall_bottom", (cx + x0, cy + bottom), (cx + far + x1, cy + bottom), c.wall_thickness)
         world.add_wall("wall_top_left", (cx + x0, cy + top), (cx - edge, cy + top), c.wall_thickness)
-        world.add_wall("wall_top_right", (cx + edge, cy + top), (cx + x1, cy + top), c.wall_thickness)
+        if c.door_count == 2 and far - 2 * edge > 0.0:
+            world.add_wall("wall_top_middle", (cx + edge, cy + top), (cx + far - edge, cy + top), c.wall_thickness)
+        world.add_wall("wall_top_right", (cx + far + edge, cy + top), (cx + far + x1, cy + top), c.wall_thickness)
         if c.drum_segments:
             # Vertices on the circle of radius ``edge``, from the right wall's end over the top to
             # the left one's (validate() keeps the chords' sag inside wall_gap).
             a0 = math.asin(top / edge)
             angles = [a0 + (math.pi - 2 * a0) * k / c.drum_segments for k in range(c.drum_segments + 1)]
-            pts = [(cx + edge * math.cos(a), cy + edge * math.sin(a)) for a in angles]
-            for k, (a, b) in enumerate(zip(pts, pts[1:])):
-                world.add_wall(f"drum_{k}", a, b, c.wall_thickness)
+            for prefix, dx in (("drum", 0.0), ("drum2", far))[:c.door_count]:
+                pts = [(cx + dx + edge * math.cos(a), cy + edge * math.sin(a)) for a in angles]
+                for k, (a, b) in enumerate(zip(pts, pts[1:])):
+                    world.add_wall(f"{prefix}_{k}", a, b, c.wall_thickness)

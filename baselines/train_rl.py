@@ -37,18 +37,18 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 import footstep_gym
 from footstep_gym.rl import AGENTS, training
+from footstep_gym.rl.jobs import (draw_curves, draw_run_curves, draw_shipped_curves, grid, run_jobs, shipped_longer,
+                                  throughput_table)
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT_AGENTS = REPO / "baselines" / "agents"
 DEFAULT_CURVES = REPO / "baselines" / "results" / "learning_curves"
 DEFAULT_REFERENCE = REPO / "baselines" / "results" / "agents" / "results.json"
-REFERENCE_PLANNERS = ("period-aware", "fixed-period")
 
 
 def env_id_of(name: str) -> str:
@@ -57,64 +57,6 @@ def env_id_of(name: str) -> str:
         return footstep_gym.resolve_env_id(name, mix=True)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def planner_reference(results: Path, env_id: str) -> dict[str, float]:
-    """Each reference planner's success rate on ``env_id`` pooled over the settings of an evaluation."""
-    if not results.is_file():
-        return {}
-    records = json.loads(results.read_text(encoding="utf-8"))
-    envs = set(footstep_gym.ENV_IDS.values()) if env_id == footstep_gym.MIX_ENV_ID else {env_id}
-    out = {}
-    for planner in REFERENCE_PLANNERS:
-        rows = [r for r in records if r["env"] in envs and r["policy"] == planner]
-        if rows:
-            n = sum(r["episodes"] for r in rows)
-            out[f"{planner} (test split)"] = sum(r["successes"] for r in rows) / n
-    return out
-
-
-def draw_curves(agents_dir: Path, out_dir: Path, reference: Path, only: tuple[str, str] | None = None) -> list[Path]:
-    """One learning-curve PNG per (agent folder, env) of the shipped agents: ``<folder>_<EnvId>.png``
-    (the folder is the algorithm's name unless the agent has its own, e.g. ``ppo-fixed-period``)."""
-    groups: dict[tuple[str, str], list[Path]] = {}
-    algos: dict[str, str] = {}
-    for manifest in sorted(agents_dir.glob("*/*/manifest.json")):
-        m = json.loads(manifest.read_text(encoding="utf-8"))
-        folder = manifest.parent.parent.name
-        algos[folder] = m["algorithm"]
-        groups.setdefault((folder, m["env_id"]), []).append(manifest.parent)
-    written = []
-    for (folder, env_id), runs in sorted(groups.items()):
-        if only is not None and (folder, env_id) != only:
-            continue
-        runs = [r for r in runs if training.eval_curve(r)["success"]]
-        if not runs:
-            print(f"no evaluation recorded for {folder} on {env_id} (training shorter than --eval-freq): no curve",
-                  file=sys.stderr)
-            continue
-        name = algos[folder].upper() + ("" if folder == algos[folder] else f" ({folder})")
-        title = f"{name} on {env_id}: success of the periodic evaluation ({len(runs)} training seed(s))"
-        written.append(training.learning_curves(runs, out_dir / f"{folder}_{env_id}.png", title,
-                                                planner_reference(reference, env_id)))
-    return written
-
-
-def throughput_table(timesteps: int, rounds: int = 3) -> str:
-    """Median over ``rounds`` of PPO's env steps/s with 1 and 2 envs (configs/rl/ppo.yml hyperparameters)."""
-    import statistics
-
-    envs = [(e, None) for e in footstep_gym.ENV_IDS.values()] + [("CartPole-v1", "FootstepDoor-v0")]
-    lines = ["| env | PPO steps/s, 1 env | PPO steps/s, 2 envs |", "|---|---:|---:|"]
-    for env_id, hyper in envs:
-        cells = []
-        for n in (1, 2):
-            rates = [training.ppo_throughput(env_id, n, timesteps, hyperparams_of=hyper) for _ in range(rounds)]
-            cells.append(f"{statistics.median(rates):.0f} ({min(rates):.0f}-{max(rates):.0f})")
-        name = env_id + (" (door's hyperparameters; the ceiling)" if hyper else "")
-        lines.append(f"| {name} | {cells[0]} | {cells[1]} |")
-        print(lines[-1], file=sys.stderr)
-    return "\n".join(lines)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -213,94 +155,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--eval-freq must be >= 1")
     if args.ray_address and args.backend != "ray":
         parser.error("--ray-address needs --backend ray")
-    for algo in args.algo:
-        for env_id in args.env:
-            try:
-                training.zoo_entry(algo, env_id)
-            except KeyError as exc:
-                parser.error(str(exc.args[0]))
-    jobs = [Job(algo, env_id, seed) for algo in args.algo for env_id in args.env for seed in args.seeds]
+    try:
+        jobs = grid(args.algo, args.env, args.seeds)
+    except KeyError as exc:
+        parser.error(str(exc.args[0]))
     if ship and not args.force:  # a shorter run cannot replace a shipped agent: say so before training
-        for job in jobs:
-            problem = training.replace_problem(args.agents_dir / job.algo / f"{job.env_id}_{job.seed}",
-                                               training.planned_timesteps(job.algo, job.env_id, args.timesteps),
-                                               check_success=False)
-            if problem:
-                return refuse(problem)
+        problem = shipped_longer(jobs, args.agents_dir, args.timesteps)
+        if problem:
+            return refuse(problem)
     print(f"runs and logs go to {args.log_folder}; " + (f"shipping to {args.agents_dir}" if ship else
           "nothing is shipped (--ship copies the runs to the agents the evaluation uses)"), file=sys.stderr)
     options = dict(log_folder=str(args.log_folder), agents_dir=str(args.agents_dir) if ship else None,
                    force=args.force, timesteps=args.timesteps, eval_freq=args.eval_freq,
                    eval_episodes=args.eval_episodes, progress=None if args.backend == "local" else False)
     outcomes = run_jobs(jobs, options, args.backend, args.ray_address, args.workers)
-    groups = list(dict.fromkeys((j.algo, j.env_id) for j in jobs))
-    if ship:
-        shipped = {(j.algo, j.env_id) for j, o in zip(jobs, outcomes) if o["shipped"]}
-        for key in groups:
-            if key in shipped:
-                for path in draw_curves(args.agents_dir, args.curves_dir, args.reference, only=key):
-                    print(path)
-    else:
-        for algo, env_id in groups:
-            runs = [Path(o["run"]) for j, o in zip(jobs, outcomes) if (j.algo, j.env_id) == (algo, env_id)]
-            runs = [r for r in runs if training.eval_curve(r)["success"]]
-            if runs:
-                title = f"{algo.upper()} on {env_id}: success of the periodic evaluation ({len(runs)} run(s))"
-                print(training.learning_curves(runs, args.log_folder / "learning_curves" / f"{algo}_{env_id}.png",
-                                               title, planner_reference(args.reference, env_id)))
+    for path in (draw_shipped_curves(jobs, outcomes, args.agents_dir, args.curves_dir, args.reference) if ship
+                 else draw_run_curves(jobs, outcomes, args.log_folder, args.reference)):
+        print(path)
     refused = [o for o in outcomes if o["refused"]]
     for o in refused:
         print(f"train_rl.py: error: {o['refused']}; the run stays in {o['run']} (ship it anyway: "
               f"python baselines/train_rl.py --ship {o['run']} --wall-time {o['wall']:.0f} --force)", file=sys.stderr)
     return 2 if refused else 0
-
-
-@dataclass(frozen=True)
-class Job:
-    """One training run of the grid."""
-
-    algo: str
-    env_id: str
-    seed: int
-
-
-def train_and_ship(job: Job, log_folder: str, agents_dir: str | None, force: bool = False,
-                   **kwargs: Any) -> dict[str, Any]:
-    """Train ``job`` with rl_zoo3 (its own log folder per seed) and ship it if ``agents_dir``.
-
-    Returns ``run`` (the zoo's run folder), ``wall`` [s], ``shipped`` (the agent's folder or
-    None) and ``refused`` (why a shipped agent was not replaced, or None).
-    """
-    run, wall = training.train(job.algo, job.env_id, job.seed, Path(log_folder) / f"seed{job.seed}", **kwargs)
-    print(f"  {job.algo} on {job.env_id}, seed {job.seed}: {run} in {wall:.0f} s", file=sys.stderr)
-    out = {"run": str(run), "wall": wall, "shipped": None, "refused": None}
-    if agents_dir is None:
-        print(f"  to ship it: python baselines/train_rl.py --ship {run} --wall-time {wall:.0f}", file=sys.stderr)
-    else:
-        try:
-            out["shipped"] = str(training.ship(run, agents_dir, wall, seed=job.seed, force=force))
-        except training.ShipRefused as exc:
-            out["refused"] = str(exc)
-    return out
-
-
-def run_jobs(jobs: list[Job], options: dict, backend: str, address: str | None, workers: int) -> list[dict[str, Any]]:
-    """Every job, one after the other or as Ray tasks (a local Ray of ``workers`` CPUs without ``address``)."""
-    print(f"{len(jobs)} training run(s) ({backend}): " + ", ".join(f"{j.algo}/{j.env_id}/{j.seed}" for j in jobs),
-          file=sys.stderr)
-    if backend == "local":
-        return [train_and_ship(job, **options) for job in jobs]
-    import ray
-
-    if address:
-        ray.init(address=address, log_to_driver=True)
-    else:
-        ray.init(num_cpus=workers, include_dashboard=False)
-    try:
-        remote = ray.remote(num_cpus=1)(train_and_ship)
-        return ray.get([remote.remote(job, **options) for job in jobs])
-    finally:
-        ray.shutdown()
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from footstep_gym.evaluation import figures as eval_report
+from footstep_gym.evaluation import profiles
 from footstep_gym.evaluation.runner import Cell, Task, planner_notes, run_episode
 from footstep_gym.evaluation.stats import OUTCOMES, TIMING_FIELDS, EpisodeResult, cell_record, wilson_interval
 
@@ -558,7 +559,7 @@ def test_missing_shipped_agents_are_one_line_not_warnings(tmp_path, capsys, recw
     script = _load_script()
     settings = script.parse_settings(["--env", "door", "--env", "crowd", "--policy", "ppo", "--policy", "sac",
                                       "--policy", FASTEST_POLICY, "--agents-dir", str(tmp_path)])
-    cells = script.make_cells(settings)
+    cells = profiles.make_cells(settings)
     assert [c.policy for c in cells] == [FASTEST_POLICY, FASTEST_POLICY]
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and "ppo on FootstepDoor-v0, FootstepCrowd-v0" in err[0] and "sac on" in err[0]

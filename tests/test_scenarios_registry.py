@@ -20,6 +20,7 @@ import pytest
 import footstep_gym
 from footstep_gym.config import nonnegative, positive
 from footstep_gym.errors import ConfigError
+from footstep_gym.evaluation import profiles
 from footstep_gym.evaluation.runner import Cell
 from footstep_gym.scenarios import (SCENARIOS, Scenario, ScenarioConfig, register_scenario, resolve_env_id,
                                     scene_of, unregister_scenario, units)
@@ -132,16 +133,16 @@ def test_a_registered_scenario_gets_its_sweep_flag_and_cells(toy, capsys):
                                       "--door-speed", "8", "--policy", "fixed-period"])
     assert settings.envs == ("toy", "door")
     assert settings.sweeps["toy"] == {"toy_speed": (0.1, 0.3)} and settings.sweeps["door"] == {"door_speed": (8.0,)}
-    cells = script.make_cells(settings)
+    cells = profiles.make_cells(settings)
     assert cells == [Cell(TOY_ID, "toy", "fixed-period", (("toy_speed", 0.1),)),
                      Cell(TOY_ID, "toy", "fixed-period", (("toy_speed", 0.3),)),
                      Cell("FootstepDoor-v0", "door", "fixed-period", (("door_speed", 8.0),))]
     assert [c.setting for c in cells] == ["toy_0.1", "toy_0.3", "door_8"]
-    assert script.check_cells(cells) is None
-    too_fast = script.make_cells(script.parse_settings(["--env", "toy", "--toy-speed", "5",
-                                                        "--policy", "fixed-period"]))
-    assert "--toy-speed 5" in script.check_cells(too_fast) and "max_toy_speed" in script.check_cells(too_fast)
-    default = script.make_cells(script.parse_settings(["--env", "FootstepToy-v0", "--policy", "fixed-period"]))
+    assert profiles.check_cells(cells) is None
+    too_fast = profiles.make_cells(script.parse_settings(["--env", "toy", "--toy-speed", "5",
+                                                          "--policy", "fixed-period"]))
+    assert "--toy-speed 5" in profiles.check_cells(too_fast) and "max_toy_speed" in profiles.check_cells(too_fast)
+    default = profiles.make_cells(script.parse_settings(["--env", "FootstepToy-v0", "--policy", "fixed-period"]))
     assert [c.params for c in default] == [()]  # no values: the YAML's toy_speed
     with pytest.raises(SystemExit):
         script.parse_settings(["--env", "door", "--toy-speed", "0.1"])
@@ -164,7 +165,7 @@ def test_two_axes_make_the_product_in_their_order(tmp_path):
     register_scenario("toy", cls)
     try:
         script = load_script()
-        cells = script.make_cells(script.parse_settings(
+        cells = profiles.make_cells(script.parse_settings(
             ["--env", "toy", "--toy-x", "1", "--toy-x", "2", "--toy-speed", "0.1", "--policy", "fixed-period"]))
         assert [c.params for c in cells] == [(("toy_speed", 0.1), ("toy_x", 1.0)), (("toy_speed", 0.1), ("toy_x", 2.0))]
         assert [c.setting for c in cells] == ["toy_0.1_1", "toy_0.1_2"]
@@ -194,12 +195,11 @@ def test_a_name_is_registered_once(toy, tmp_path):
 
 
 def test_the_profiles_sweep_the_scenarios_axes():
-    script = load_script()
-    for name, profile in script.PROFILES.items():
+    for name, profile in profiles.PROFILES.items():
         assert set(profile.envs) <= set(SCENARIOS), name
         for scene, sweep in profile.sweeps.items():
             assert set(sweep) <= set(SCENARIOS[scene].sweep_axes), (name, scene)
-    assert {key: [s for s, _ in owners] for key, owners in script.sweep_axes().items()} == {
+    assert {key: [s for s, _ in owners] for key, owners in profiles.sweep_axes().items()} == {
         "door_speed": ["door"], "crowd_speed": ["crowd"]}
 
 

@@ -8,6 +8,8 @@
   :mod:`footstep_gym.policies`; trained agents in :mod:`footstep_gym.rl`);
 * :mod:`.splits`: the seed ranges for training, validation and the reported test;
 * :mod:`.report`: tables and files; :mod:`.figures`: trajectory pictures and command tables.
+* :mod:`.profiles`: a run's profiles, settings and cells; :mod:`.outputs`: a finished run's files;
+  :mod:`.outfolder`: ``--out``, written only once a run has finished; :mod:`.benchmark`: the benchmark.
 
 Nothing here imports torch until an agent is loaded, nor matplotlib until a figure is drawn.
 """

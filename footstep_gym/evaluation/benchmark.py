@@ -18,7 +18,10 @@ thin front-end to this module:
 * :func:`tier_aggregates`: per tier, the IQM of the success rates over every cell of the tier (all
   scenes) with rliable's stratified-bootstrap 95 % interval over training runs
   (:func:`~footstep_gym.evaluation.stats.iqm_over_tasks`);
-* :func:`benchmark_document` and :func:`markdown`: ``benchmark.json`` and ``benchmark.md``.
+* :func:`benchmark_document` and :func:`markdown`: ``benchmark.json`` and ``benchmark.md``;
+* :class:`BenchmarkSettings` (:func:`benchmark_settings` checks a run's options), :func:`run_benchmark`
+  and :func:`write_benchmark`: a whole run into a temporary folder that replaces ``--out`` once
+  finished (:mod:`footstep_gym.evaluation.outfolder`).
 
 A policy that reads the true future (``oracle``, :func:`footstep_gym.policies.reads_truth`) is an
 upper bound: its records carry ``upper_bound: true`` and the tables call it "NAME (upper bound)".
@@ -26,18 +29,29 @@ upper bound: its records carry ``upper_bound: true`` and the tables call it "NAM
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import platform
+import sys
+import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, Callable, Mapping, NoReturn, Sequence
 
 import numpy as np
 
 import footstep_gym
+from footstep_gym import policies as registry
+from footstep_gym.evaluation import report
+from footstep_gym.evaluation.outfolder import check_out, run_into
+from footstep_gym.evaluation.outputs import command_line
+from footstep_gym.evaluation.profiles import OptionError, unique, usable_cores
 from footstep_gym.evaluation.report import policy_label, upper_bound
-from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, Task
+from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, Task, check_cells, run_tasks
 from footstep_gym.evaluation.splits import split_seeds
 from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, cell_record, iqm_over_tasks, over_runs
+from footstep_gym.scenarios import resolve_env_id, scene_of
 
 #: The seeds of every cell: the test split's first ones (configs/eval.yaml).
 SPLIT = "test"
@@ -332,3 +346,124 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
     lines += ["", DEFINITIONS.format(episodes=protocol["episodes_per_cell"], first=seeds_[0], last=seeds_[-1],
                                      warmup=protocol["warmup_acts"])]
     return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- a run (eval_planner.py --benchmark)
+@dataclass(frozen=True)
+class BenchmarkSettings:
+    """A ``--benchmark`` run: one method (a policy name and, for an agent, its training runs per env id) on the
+    benchmark's cells (``scenes`` / ``tiers``: ``None`` for all of them)."""
+
+    policy: str
+    runs: dict[str, tuple[str, ...]] | None  # env id -> training runs; None: a planner
+    scenes: tuple[str, ...] | None
+    tiers: tuple[str, ...] | None
+    episodes: int
+    out: Path
+    workers: int
+    backend: str
+    ray_address: str | None
+
+    @property
+    def cells(self) -> list[BenchmarkCell]:
+        return benchmark_cells(self.scenes, self.tiers)
+
+
+def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[Path] | None, name: str | None,
+                       full: bool, episodes: int | None, envs: Sequence[str] | None, tiers: Sequence[str] | None,
+                       out: Path, workers: int | None, backend: str, ray_address: str | None,
+                       agents_dir: Path | None) -> BenchmarkSettings:
+    """A run's settings from its options, checked: the first bad one raises
+    :class:`~footstep_gym.evaluation.profiles.OptionError` (one line; nothing is run or written)."""
+    named = list(policies or [])
+    if bool(named) == bool(agents) or len(named) > 1:
+        raise OptionError("--benchmark evaluates one method: give one --policy NAME, or --agent PATH (repeated for "
+                          "its training runs)")
+    if name and not agents:
+        raise OptionError("--name names an --agent's method")
+    if full and episodes not in (None, FULL_EPISODES):
+        raise OptionError(f"--full is {FULL_EPISODES} episodes per cell; --episodes {episodes} contradicts it")
+    episodes = FULL_EPISODES if full else episodes or EPISODES
+    try:
+        scenes = unique([scene_of(resolve_env_id(e)) for e in envs]) if envs else None
+        tiers = unique(tiers) if tiers else None
+        cells = benchmark_cells(scenes, tiers)
+        split_seeds(SPLIT, episodes)
+    except ValueError as exc:
+        raise OptionError(str(exc)) from None
+    if ray_address and backend != "ray":
+        raise OptionError("--ray-address needs --backend ray")
+    env_ids = sorted({c.env_id for c in cells})
+    runs: dict[str, tuple[str, ...]] | None = None
+    if agents:
+        for path in agents:
+            if not path.exists():
+                raise OptionError(f"--agent {path}: no such file or folder")
+        first = agents[0]
+        label = name or (first.stem if first.suffix == ".zip" else first.name)
+        policy = f"{registry.USER_AGENT_PREFIX}{label}"
+        paths = tuple(str(p.resolve()) for p in unique(agents))
+        runs = {env_id: paths for env_id in env_ids}
+    else:
+        policy = named[0]
+        if not registry.is_policy(policy):
+            raise OptionError(f"unknown policy {policy!r}; choose from {', '.join(registry.policy_names())}")
+        if policy in registry.AGENTS:
+            runs = {env_id: tuple(str(r) for r in registry.agent_runs(policy, env_id, agents_dir))
+                    for env_id in env_ids}
+            missing = [env_id for env_id, found in runs.items() if not found]
+            if missing:
+                raise OptionError(f"{policy}: no training run for {', '.join(missing)} "
+                                  f"({registry.missing_agents_note({policy: missing}, agents_dir)}); a benchmark "
+                                  "row needs every scene (--env restricts it: a partial run)")
+    return BenchmarkSettings(policy=policy, runs=runs, scenes=scenes, tiers=tiers, episodes=episodes, out=out,
+                             workers=workers or usable_cores(), backend=backend, ray_address=ray_address)
+
+
+def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell],
+                    owners: list[BenchmarkCell], results: list[EpisodeResult], wall_s: float,
+                    argv: Sequence[str]) -> tuple[str, list[Path]]:
+    """``benchmark.json``, ``benchmark.md``, ``episodes.csv`` and ``run.json`` of a finished run, into ``folder``."""
+    command = command_line(argv)
+    run_info = {"command": command, "mode": "benchmark", "policy": settings.policy,
+                "episodes": settings.episodes, "split": SPLIT, "workers": settings.workers,
+                "backend": settings.backend, "wall_time_s": round(wall_s, 2), "cpu_count": os.cpu_count(),
+                "agent_runs": sorted({c.run for c in cells if c.run})}
+    records = cell_records(cells, owners, results)
+    doc = benchmark_document(settings.policy, settings.cells, records, settings.episodes, run_info)
+    text = markdown(doc, command)
+    files = [folder / "benchmark.json", folder / "benchmark.md", folder / "episodes.csv", folder / "run.json"]
+    files[0].write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    files[1].write_text(text, encoding="utf-8")
+    rows = report.episode_rows(cells, results)
+    report.write_csv(files[2], list(rows[0]), rows)
+    files[3].write_text(json.dumps({**run_info, "complete": doc["complete"],
+                                    "footstep_gym": footstep_gym.__version__}, indent=2) + "\n", encoding="utf-8")
+    row = text.split("## Leaderboard row\n\n", 1)[1].split("\n\n", 1)[0]
+    return row, files
+
+
+def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Callable[[str], NoReturn]) -> int:
+    """Check every cell and ``settings.out`` first (a problem goes to ``refuse``, one line: nothing is written), run
+    the episodes, write into a temporary folder that replaces ``settings.out`` once finished (as an evaluation
+    does); returns the exit status."""
+    runs = settings.runs
+    cells, owners = runner_cells(settings.cells, settings.policy,
+                                 None if runs is None else (lambda env_id: runs.get(env_id, ())))
+    problem = check_cells(cells) or check_out(settings.out)
+    if problem:
+        refuse(problem)
+    all_tasks = tasks(cells, settings.episodes)
+    workers = max(1, min(settings.workers, len(all_tasks)))
+    per_run = f" ({len(cells)} with the training runs)" if len(cells) != len(settings.cells) else ""
+    print(f"benchmark of {settings.policy}: {len(settings.cells)} cells{per_run} x {settings.episodes} seeds = "
+          f"{len(all_tasks)} episodes on {workers} worker(s) ({settings.backend}) -> {settings.out}", file=sys.stderr)
+
+    def work(folder: Path) -> tuple[str, list[Path], str]:
+        t0 = time.perf_counter()
+        results = run_tasks(all_tasks, workers, backend=settings.backend, address=settings.ray_address)
+        wall = time.perf_counter() - t0
+        row, files = write_benchmark(folder, settings, cells, owners, results, wall, argv)
+        return row, files, f"{len(results)} episodes in {wall:.1f} s"
+
+    return run_into(settings.out, "the benchmark", "benchmark.md: every cell", work)

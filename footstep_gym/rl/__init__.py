@@ -3,6 +3,7 @@
 * :mod:`.training`: the zoo's command line (:func:`~.training.zoo_command`), a run in a
   subprocess (:func:`~.training.train`), shipping a run with its manifest
   (:func:`~.training.ship`), learning curves, PPO's throughput;
+* :mod:`.jobs`: a grid of training runs, one after the other or as Ray tasks, and their learning curves;
 * :mod:`.agents`: the registry of shipped agents (:data:`AGENTS`, :func:`agent_runs`, where
   the agents folder is: :func:`default_agents_dir`) and :class:`ZooAgent`, a zoo run as a
   :class:`footstep_gym.policy.Policy` (made by name with :func:`footstep_gym.make_policy`).

@@ -22,6 +22,7 @@ from footstep_gym.evaluation.runner import Cell, Task, run_episode
 from footstep_gym.policy import Policy
 from footstep_gym.rl import AGENTS, ZooAgent, agent_runs
 from footstep_gym.robot import load_robot
+from script_helpers import load_script
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED = REPO / "baselines" / "agents"
@@ -337,7 +338,7 @@ def test_an_agent_ships_into_its_registered_folder_with_its_env_options(tmp_path
     run = fake_run(tmp_path / "runs", 8192, 1.0, seed=2)
     (run / "FootstepDoor-v0" / "config.yml").write_text(
         "n_envs: 4\nn_timesteps: 8192\nenv_kwargs:\n  fixed_period: true\n  randomize: {door_speed: [5.0, 20.0]}\n")
-    main = _train_rl().main
+    main = load_script("train_rl").main
     assert main(["--ship", str(run), "--wall-time", "12", "--agent", "ppo-fixed-period", "--agents-dir", str(agents),
                  "--curves-dir", str(tmp_path / "curves"), "--reference", str(tmp_path / "none.json")]) == 0
     dest = agents / "ppo-fixed-period" / "FootstepDoor-v0_2"
@@ -391,17 +392,6 @@ def test_ship_cli_refuses_with_one_line_and_exit_status_2(tmp_path):
     assert snapshot(agents) == before and not (tmp_path / "curves").exists()
 
 
-def _train_rl():
-    import importlib.util
-
-    if "train_rl_script" not in sys.modules:
-        spec = importlib.util.spec_from_file_location("train_rl_script", TRAIN_SCRIPT)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[spec.name] = module
-        spec.loader.exec_module(module)
-    return sys.modules["train_rl_script"]
-
-
 @pytest.fixture
 def fake_training(tmp_path, monkeypatch):
     """train_rl.py's main with rl_zoo3 replaced by a fake run of the asked length (success 0.5)."""
@@ -416,7 +406,7 @@ def fake_training(tmp_path, monkeypatch):
     monkeypatch.setattr(training, "train", train)
     args = ["--log-folder", str(tmp_path / "runs"), "--agents-dir", str(tmp_path / "agents"),
             "--curves-dir", str(tmp_path / "curves"), "--reference", str(tmp_path / "none.json")]
-    return _train_rl().main, args, calls
+    return load_script("train_rl").main, args, calls
 
 
 def test_training_writes_under_runs_and_ships_nothing_by_default(tmp_path, fake_training, capsys):

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import pytest
 
+from script_helpers import load_script
+
 from footstep_gym import tiers
 from footstep_gym.evaluation import benchmark, report
 from footstep_gym.evaluation.splits import split_seeds
@@ -40,18 +42,6 @@ AGGREGATE_FIELDS = {"tier": str, "policy": str, "upper_bound": bool, "success_iq
 def run_cli(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, str(SCRIPT), *args], cwd=REPO, capture_output=True, text=True,
                           timeout=timeout)
-
-
-def _load_script():
-    """baselines/eval_planner.py as a module (it is a script, not part of the package)."""
-    import importlib.util
-
-    if "eval_planner_script" not in sys.modules:
-        spec = importlib.util.spec_from_file_location("eval_planner_script", SCRIPT)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[spec.name] = module  # its dataclasses look their module up
-        spec.loader.exec_module(module)
-    return sys.modules["eval_planner_script"]
 
 
 def check_document(doc: dict, episodes: int, labels: list[str]) -> None:
@@ -100,7 +90,7 @@ def test_every_cell_end_to_end_in_process(tmp_path, capsys):
     (out / "run.json").write_text('{"mode": "benchmark"}\n')
     (out / "benchmark.json").write_text("{}\n")
     (out / "notes.txt").write_text("keep")
-    script = _load_script()
+    script = load_script("eval_planner")
     argv = ["--benchmark", "--policy", FAST, "--episodes", "1", "--workers", "1", "--out", str(out)]
     assert script.main(argv) == 0
     doc = json.loads((out / "benchmark.json").read_text())
@@ -130,7 +120,7 @@ def test_a_partial_run_from_the_command_line(tmp_path):
 
 def test_the_ray_backend_gives_the_same_records(tmp_path):
     pytest.importorskip("ray")
-    script = _load_script()
+    script = load_script("eval_planner")
     common = ["--benchmark", "--policy", FAST, "--episodes", "2", "--env", "crossing", "--tier", "paper",
               "--tier", "hard"]
     assert script.main([*common, "--workers", "1", "--out", str(tmp_path / "local")]) == 0
@@ -203,7 +193,7 @@ def test_tier_aggregates_over_training_runs_and_scenes():
 def test_the_oracle_is_marked_upper_bound_and_not_run_by_default():
     assert report.policy_label("oracle") == "oracle (upper bound)" and report.policy_label(FAST) == FAST
     assert report.policy_label("agent:mine") == "agent:mine"
-    script = _load_script()
+    script = load_script("eval_planner")
     assert "oracle" not in script.parse_settings([]).policies  # the quick default: every policy but the oracle
     assert script.parse_settings(["--policy", "oracle"]).policies == ("oracle",)
     record = {"scenario": "door", "params": {}, "policy": "oracle", "episodes": 1, "success_ci95": [0.2, 1.0],

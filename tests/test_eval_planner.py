@@ -21,6 +21,7 @@ from footstep_gym.evaluation import figures as eval_report
 from footstep_gym.evaluation import profiles
 from footstep_gym.evaluation.runner import Cell, Task, planner_notes, run_episode
 from footstep_gym.evaluation.stats import OUTCOMES, TIMING_FIELDS, EpisodeResult, cell_record, wilson_interval
+from script_helpers import load_script
 
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "baselines" / "eval_planner.py"
@@ -382,18 +383,6 @@ def test_help_lists_every_policy():
 
 
 # ---------------------------------------------------------------- nothing a user made is lost (issue 17 §3)
-def _load_script():
-    """baselines/eval_planner.py as a module (it is a script, not part of the package)."""
-    import importlib.util
-
-    if "eval_planner_script" not in sys.modules:
-        spec = importlib.util.spec_from_file_location("eval_planner_script", SCRIPT)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[spec.name] = module  # its dataclasses look their module up
-        spec.loader.exec_module(module)
-    return sys.modules["eval_planner_script"]
-
-
 def _earlier_run(out: Path) -> dict[str, bytes]:
     """A folder holding an earlier evaluation (and a user's note beside it); its files' bytes by path."""
     (out / "figures").mkdir(parents=True)
@@ -435,7 +424,7 @@ def test_a_run_that_fails_midway_leaves_out_as_it_was(tmp_path, monkeypatch, cap
     """The second episode's policy fails: the earlier run's files are all still there, nothing half-written."""
     from footstep_gym import policies
 
-    script = _load_script()
+    script = load_script("eval_planner")
     real = policies.make_policy
 
     def failing(name, robot=None, seed=None, **kwargs):
@@ -556,7 +545,7 @@ def test_kernels_load_in_the_warm_up_not_in_a_timed_act():
 
 
 def test_missing_shipped_agents_are_one_line_not_warnings(tmp_path, capsys, recwarn):
-    script = _load_script()
+    script = load_script("eval_planner")
     settings = script.parse_settings(["--env", "door", "--env", "crowd", "--policy", "ppo", "--policy", "sac",
                                       "--policy", FASTEST_POLICY, "--agents-dir", str(tmp_path)])
     cells = profiles.make_cells(settings)

@@ -8,8 +8,6 @@ scenarios' fuzz ranges (the YAML's ``fuzz:`` section) are checked here too.
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +23,7 @@ from footstep_gym.evaluation.runner import Cell
 from footstep_gym.scenarios import (SCENARIOS, Scenario, ScenarioConfig, register_scenario, resolve_env_id,
                                     scene_of, unregister_scenario, units)
 from footstep_gym.world import World
+from script_helpers import load_script
 
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "baselines" / "eval_planner.py"
@@ -87,16 +86,6 @@ def toy(tmp_path):
     assert "toy" not in SCENARIOS and TOY_ID not in gym.registry
 
 
-def load_script():
-    """baselines/eval_planner.py as a module (as tests/test_eval_planner.py loads it)."""
-    if "eval_planner_script" not in sys.modules:
-        spec = importlib.util.spec_from_file_location("eval_planner_script", SCRIPT)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[spec.name] = module  # its dataclasses look their module up
-        spec.loader.exec_module(module)
-    return sys.modules["eval_planner_script"]
-
-
 NOMINAL = np.array([0.0, 0.08, 0.0, 0.6, 0.2], dtype=np.float32)
 
 
@@ -127,7 +116,7 @@ def test_a_registered_scenario_joins_the_mix(toy):
 
 
 def test_a_registered_scenario_gets_its_sweep_flag_and_cells(toy, capsys):
-    script = load_script()
+    script = load_script("eval_planner")
     assert "--toy-speed M_S" in script.build_parser().format_help()
     settings = script.parse_settings(["--env", "toy", "--env", "door", "--toy-speed", "0.1", "--toy-speed", "0.3",
                                       "--door-speed", "8", "--policy", "fixed-period"])
@@ -150,7 +139,7 @@ def test_a_registered_scenario_gets_its_sweep_flag_and_cells(toy, capsys):
 
 
 def test_unregistering_takes_the_scenario_out_everywhere(tmp_path):
-    script = load_script()
+    script = load_script("eval_planner")
     register_scenario("toy", toy_class(tmp_path))
     unregister_scenario("toy")
     assert "toy" not in footstep_gym.ENV_IDS and TOY_ID not in gym.registry
@@ -164,7 +153,7 @@ def test_two_axes_make_the_product_in_their_order(tmp_path):
     cls = type("Toy2", (toy_class(tmp_path),), {"sweep_axes": {"toy_speed": "m/s", "toy_x": "m"}})
     register_scenario("toy", cls)
     try:
-        script = load_script()
+        script = load_script("eval_planner")
         cells = profiles.make_cells(script.parse_settings(
             ["--env", "toy", "--toy-x", "1", "--toy-x", "2", "--toy-speed", "0.1", "--policy", "fixed-period"]))
         assert [c.params for c in cells] == [(("toy_speed", 0.1), ("toy_x", 1.0)), (("toy_speed", 0.1), ("toy_x", 2.0))]
@@ -229,11 +218,8 @@ def test_resolve_env_id_takes_names_and_ids():
 
 
 def test_train_rl_resolves_envs_with_the_package_function():
-    spec = importlib.util.spec_from_file_location("train_rl_script_registry", REPO / "baselines" / "train_rl.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
     try:
-        spec.loader.exec_module(module)
+        module = load_script("train_rl")
     except ImportError as exc:  # its optional training dependencies
         pytest.skip(str(exc))
     assert module.env_id_of("crowd") == "FootstepCrowd-v0" and module.env_id_of("all") == "FootstepMix-v0"

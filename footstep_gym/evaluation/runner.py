@@ -246,11 +246,7 @@ def warm_up(cell: Cell, seed: int, factory: PolicyFactory = default_factory, act
         return False
     env = gym.make(cell.env_id, **cell.params_dict)
     try:
-        base = env.unwrapped
-        policy = factory(cell, base.robot, seed)
-        bind_truth(policy, env)
-        obs, _ = env.reset(seed=seed)
-        policy.reset(seed=seed)
+        base, policy, obs = _start(env, cell, seed, factory)
         for _ in range(acts):
             obs, _, terminated, truncated, _ = env.step(policy.act(obs, base.sensing()))
             if terminated or truncated:
@@ -259,6 +255,17 @@ def warm_up(cell: Cell, seed: int, factory: PolicyFactory = default_factory, act
         env.close()
     _warmed.add(key)
     return True
+
+
+def _start(env: gym.Env, cell: Cell, seed: int, factory: PolicyFactory) -> tuple[Any, Any, np.ndarray]:
+    """An episode's start: the policy made for the env's robot (the truth bound where it reads it), env and policy
+    seeded with ``seed``; ``(env.unwrapped, policy, first observation)``."""
+    base = env.unwrapped
+    policy = factory(cell, base.robot, seed)
+    bind_truth(policy, env)
+    obs, _ = env.reset(seed=seed)
+    policy.reset(seed=seed)
+    return base, policy, obs
 
 
 def run_episode(task: Task, factory: PolicyFactory = default_factory, warm: bool = True,
@@ -283,11 +290,7 @@ def _run(task: Task, factory: PolicyFactory, on_step: StepHook | None = None) ->
     cell, seed = task.cell, task.seed
     env = gym.make(cell.env_id, **cell.params_dict)
     try:
-        base = env.unwrapped
-        policy = factory(cell, base.robot, seed)
-        bind_truth(policy, env)
-        obs, _ = env.reset(seed=seed)
-        policy.reset(seed=seed)
+        base, policy, obs = _start(env, cell, seed, factory)
         t_sense = time.perf_counter()
         snapshot = base.sensing()
         sense_s = time.perf_counter() - t_sense

@@ -69,7 +69,7 @@ from typing import Any, Callable
 import numpy as np
 
 from footstep_gym.planners.params import PlannerConfig
-from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor
+from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor, centre_line_gap2
 from footstep_gym.planners.reference import PeriodAwarePlanner
 from footstep_gym.planners.walks import WalkStart
 from footstep_gym.robot import Robot
@@ -266,12 +266,7 @@ class TruthPredictor(ObstaclePredictor):
         tt = np.broadcast_to(np.asarray(times, dtype=float), p.shape)
         centre, angle = self.truth.poses(tt, period)
         rot = np.exp(1j * angle)
-        ap = p[:, None] - (centre + rot * self._la)
-        ab = rot * self._lab
-        u = (ap * ab.conj()).real / np.where(self._lab2 > 0, self._lab2, 1.0)
-        np.clip(u, 0.0, 1.0, out=u)
-        d = ap - u * ab
-        d2 = d.real ** 2 + d.imag ** 2
+        d2 = centre_line_gap2(p, centre, rot, self._la, self._lab, self._lab2)
         if np.isfinite(self._truth_horizon).any():
             d2[tt[:, None] > self._truth_horizon] = np.inf
         return d2

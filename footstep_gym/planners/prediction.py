@@ -91,6 +91,21 @@ def sensed_accelerations(history: Sequence[Snapshot], snapshot: Snapshot,
     return out
 
 
+def centre_line_gap2(p: np.ndarray, centre: np.ndarray, rot: np.ndarray, a: np.ndarray, ab: np.ndarray,
+                     ab2: np.ndarray) -> np.ndarray:
+    """Squared distances ``(N, S)`` [m^2] from points ``p`` (N,) to shapes' centre lines (complex, world frame).
+
+    A shape's body sits at ``centre`` turned by ``rot`` (unit complex; both (N, S) or broadcastable); its centre
+    line runs from ``a`` to ``a + ab`` in the body frame, ``ab2 = |ab|^2`` (a circle: ``ab = 0``).
+    """
+    ap = p[:, None] - (centre + rot * a)
+    ab_world = rot * ab
+    u = (ap * ab_world.conj()).real / np.where(ab2 > 0, ab2, 1.0)
+    np.clip(u, 0.0, 1.0, out=u)
+    d = ap - u * ab_world
+    return d.real ** 2 + d.imag ** 2
+
+
 class ObstaclePredictor:
     """Clearance of body points at given times against the obstacles of a :class:`Snapshot`.
 
@@ -162,12 +177,7 @@ class ObstaclePredictor:
         if self._accelerates:  # accelerating for tau = min(t, cap), then at the velocity reached
             tau = np.minimum(tt, self._acceleration_cap)
             centre = centre + self._acceleration * (tau * (tt - 0.5 * tau))
-        ap = p[:, None] - (centre + rot * self._a)
-        ab = rot * self._ab
-        u = (ap * ab.conj()).real / np.where(self._ab2 > 0, self._ab2, 1.0)
-        np.clip(u, 0.0, 1.0, out=u)
-        d = ap - u * ab
-        d2 = d.real ** 2 + d.imag ** 2
+        d2 = centre_line_gap2(p, centre, rot, self._a, self._ab, self._ab2)
         if np.isfinite(self._horizon).any():
             d2[tt > self._horizon] = np.inf
         return d2

@@ -31,8 +31,10 @@ the field's standard for results over training seeds).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -150,6 +152,23 @@ def cell_record(env_id: str, scenario: str, policy: str, params: dict[str, Any],
     return record
 
 
+@contextlib.contextmanager
+def seeded_bootstrap(seed: int) -> Iterator[np.random.RandomState]:
+    """A seeded rliable bootstrap: its ``StratifiedBootstrap`` draws the resamples from NumPy's global generator
+    (``np.random.choice`` in ``update_indices``) whatever ``random_state`` it is given, so the global generator is
+    seeded here and put back as it was afterwards. Yields the ``random_state`` to pass as well (arch checks it,
+    and warns that it is deprecated: rliable offers no other way; the warning is silenced here)."""
+    state = np.random.get_state()
+    np.random.seed(seed)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="random_state is deprecated", category=FutureWarning,
+                                    module=r"arch\.bootstrap")
+            yield np.random.RandomState(seed)
+    finally:
+        np.random.set_state(state)
+
+
 def iqm_interval(rates: list[float], reps: int = 2000, seed: int = 0) -> tuple[float, float, float]:
     """IQM of per-run success rates and its stratified-bootstrap 95 % interval (rliable).
 
@@ -164,14 +183,9 @@ def iqm_interval(rates: list[float], reps: int = 2000, seed: int = 0) -> tuple[f
     from rliable import metrics
 
     scores = {"agent": np.asarray(rates, dtype=float).reshape(-1, 1)}  # (runs, tasks)
-    with warnings.catch_warnings():
-        # rliable seeds its bootstrap (arch's IIDBootstrap) through ``random_state``, which arch
-        # deprecates with a FutureWarning; rliable offers no other way to seed it.
-        warnings.filterwarnings("ignore", message="random_state is deprecated", category=FutureWarning,
-                                module=r"arch\.bootstrap")
+    with seeded_bootstrap(seed) as random_state:
         point, interval = rly.get_interval_estimates(
-            scores, lambda x: np.array([metrics.aggregate_iqm(x)]), reps=reps,
-            random_state=np.random.RandomState(seed))
+            scores, lambda x: np.array([metrics.aggregate_iqm(x)]), reps=reps, random_state=random_state)
     return float(point["agent"][0]), float(interval["agent"][0, 0]), float(interval["agent"][1, 0])
 
 
@@ -237,11 +251,7 @@ def iqm_over_tasks(scores: Any, reps: int = 2000, seed: int = 0) -> tuple[float,
     point = float(metrics.aggregate_iqm(matrix))
     if matrix.shape[0] == 1:
         return point, point, point
-    with warnings.catch_warnings():
-        # As iqm_interval: rliable seeds arch's bootstrap through the deprecated ``random_state``.
-        warnings.filterwarnings("ignore", message="random_state is deprecated", category=FutureWarning,
-                                module=r"arch\.bootstrap")
+    with seeded_bootstrap(seed) as random_state:
         _, interval = rly.get_interval_estimates(
-            {"policy": matrix}, lambda x: np.array([metrics.aggregate_iqm(x)]), reps=reps,
-            random_state=np.random.RandomState(seed))
+            {"policy": matrix}, lambda x: np.array([metrics.aggregate_iqm(x)]), reps=reps, random_state=random_state)
     return point, float(interval["policy"][0, 0]), float(interval["policy"][1, 0])

@@ -1,0 +1,633 @@
+"""The leaderboard across policies: several ``benchmark.json`` files, one table and rliable's figures.
+
+``python baselines/make_leaderboard.py`` (docs/benchmark.md §4) is a thin front-end to this module:
+
+* :func:`find_benchmarks` and :func:`load_benchmark`: the files (a ``benchmark.json``, a folder holding one, or a
+  folder whose sub-folders hold one each), checked to be benchmark files of :data:`PROTOCOL_VERSION`;
+  :func:`check_compatible`: all of one protocol (``env_configs_sha256``, ``episodes_per_cell``) and one file per
+  policy. A problem raises :class:`LeaderboardError` (one line);
+* :func:`build`: the leaderboard (what ``leaderboard.json`` holds): per policy and tier the score matrix
+  (:func:`score_matrix`: a row per training run, a column per cell of the tier, every scene's), its IQM and
+  optimality gap (threshold 1.0: the mean of ``max(0, 1 - success)``) with rliable's stratified-bootstrap 95 %
+  intervals over training runs (:func:`interval_estimates`; one run, a planner's: the interval is the point), and
+  per policy, tier and scene the mean success over the cells with the pooled Wilson interval
+  (:func:`per_scene`);
+* :func:`headline_markdown` (the table the README shows), :func:`scene_markdown` and :func:`markdown`
+  (``leaderboard.md``);
+* :func:`write_figures`: ``iqm_optimality_gap.png`` (and one per tier) and ``performance_profiles.png``
+  (rliable's ``plot_interval_estimates`` and ``plot_performance_profiles``, matplotlib's Agg backend);
+* :func:`write_leaderboard`: every file, written into a temporary folder beside ``out`` and then moved in one by
+  one (:data:`OWN_FILES`; a user's other files in ``out``, such as the policies' own folders, are left alone).
+
+A policy that covers only some of a tier's cells (a partial run, ``"complete": false``) gets its aggregate over the
+cells it covers, marked as such in the tables, and is left out of that tier's figures (they compare policies on
+the same cells). A policy with fewer runs for some scene is cut to the fewest, as the benchmark's own aggregate
+(:func:`footstep_gym.evaluation.benchmark.tier_aggregates`) does, so the IQM here is the one in that policy's
+``benchmark.json``, and so is its interval (the same resamples, seed and seeded bootstrap,
+:func:`footstep_gym.evaluation.stats.seeded_bootstrap`).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import shutil
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from footstep_gym.evaluation.outfolder import new_run_folder
+from footstep_gym.evaluation.stats import seeded_bootstrap as seeded, wilson_interval
+
+#: The ``protocol_version`` of the benchmark files this module reads (footstep_gym.evaluation.benchmark).
+PROTOCOL_VERSION = 1
+#: Bootstrap resamples and seed of every interval (the benchmark's own: ``stats.iqm_over_tasks``).
+REPS = 2000
+SEED = 0
+#: The optimality gap's threshold: a success rate of 1 is optimal (rliable's ``gamma``).
+GAMMA = 1.0
+#: The thresholds of the performance profiles (success rates).
+TAUS = np.linspace(0.0, 1.0, 101)
+#: The file names this module writes (with ``iqm_optimality_gap_<tier>.png`` per tier); nothing else in the
+#: output folder is touched.
+FIGURE_IQM = "iqm_optimality_gap.png"
+FIGURE_PROFILES = "performance_profiles.png"
+OWN_FILES = ("leaderboard.md", "leaderboard.json", FIGURE_IQM, FIGURE_PROFILES)
+
+
+def tier_figure_name(tier: str) -> str:
+    """The file of one tier's IQM and optimality-gap figure."""
+    return f"iqm_optimality_gap_{tier}.png"
+
+
+class LeaderboardError(ValueError):
+    """Bad input (one line): the script reports it with exit status 2 and writes nothing."""
+
+
+# ---------------------------------------------------------------- input
+def find_benchmarks(paths: Sequence[Path]) -> list[Path]:
+    """The ``benchmark.json`` files ``paths`` name: a file, a folder holding ``benchmark.json``, or a folder whose
+    sub-folders hold one each (as ``baselines/results/benchmark/``), in that order (sub-folders by name)."""
+    found: list[Path] = []
+    for path in paths:
+        if path.is_file():
+            found.append(path)
+        elif (path / "benchmark.json").is_file():
+            found.append(path / "benchmark.json")
+        elif path.is_dir():
+            inner = sorted(p / "benchmark.json" for p in path.iterdir() if (p / "benchmark.json").is_file())
+            if not inner:
+                raise LeaderboardError(f"{path}: no benchmark.json in it or in its sub-folders")
+            found += inner
+        else:
+            raise LeaderboardError(f"{path}: no such file or folder")
+    unique: list[Path] = []
+    for p in found:
+        if p.resolve() not in {u.resolve() for u in unique}:
+            unique.append(p)
+    return unique
+
+
+def load_benchmark(path: Path) -> dict[str, Any]:
+    """One ``benchmark.json``, checked to be a footstep_gym benchmark file of :data:`PROTOCOL_VERSION` with its
+    records."""
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise LeaderboardError(f"{path}: not a readable JSON file ({exc})") from None
+    if not isinstance(doc, dict) or doc.get("benchmark") != "footstep_gym":
+        raise LeaderboardError(f"{path}: not a footstep_gym benchmark.json (no \"benchmark\": \"footstep_gym\")")
+    if doc.get("protocol_version") != PROTOCOL_VERSION:
+        raise LeaderboardError(f"{path}: protocol_version {doc.get('protocol_version')!r}, this leaderboard reads "
+                               f"{PROTOCOL_VERSION}")
+    protocol = doc.get("protocol")
+    records = doc.get("records")
+    if (not isinstance(protocol, dict) or not isinstance(records, list) or not records
+            or not isinstance(doc.get("policy"), str)):
+        raise LeaderboardError(f"{path}: a benchmark.json needs \"policy\", \"protocol\" and non-empty \"records\"")
+    needed = ("scene", "tier", "cell", "run", "episodes", "successes", "success_rate")
+    for r in records:
+        missing = [k for k in needed if k not in r] if isinstance(r, dict) else list(needed)
+        if missing:
+            raise LeaderboardError(f"{path}: a record lacks {', '.join(missing)}")
+    for key in ("env_configs_sha256", "episodes_per_cell", "tiers", "scenes", "cells"):
+        if key not in protocol:
+            raise LeaderboardError(f"{path}: protocol lacks {key!r}")
+    return doc
+
+
+def check_compatible(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path], allow_mixed: bool = False) -> None:
+    """Raise :class:`LeaderboardError` unless the files are of one protocol (the same ``env_configs_sha256`` and
+    ``episodes_per_cell``; ``allow_mixed`` lifts this) and each policy is in one file."""
+    if not docs:
+        raise LeaderboardError("no benchmark.json given")
+    seen: dict[str, Path] = {}
+    for doc, path in zip(docs, paths):
+        if doc["policy"] in seen:
+            raise LeaderboardError(f"policy {doc['policy']!r} is in both {seen[doc['policy']]} and {path}; give one")
+        seen[doc["policy"]] = path
+    if allow_mixed:
+        return
+    for key in ("env_configs_sha256", "episodes_per_cell"):
+        values = {str(doc["protocol"][key]) for doc in docs}
+        if len(values) > 1:
+            which = ", ".join(f"{p} ({str(d['protocol'][key])[:12]})" for d, p in zip(docs, paths))
+            raise LeaderboardError(f"the files differ in protocol.{key}: {which}; rerun on one protocol or pass "
+                                   "--allow-mixed")
+
+
+# ---------------------------------------------------------------- scores
+def _ordered(items: Sequence[Any]) -> list[Any]:
+    return list(dict.fromkeys(items))
+
+
+def tier_cells(docs: Sequence[Mapping[str, Any]]) -> dict[str, list[str]]:
+    """Per tier, its cells (``scene/cell``) in protocol order: the union over the files' protocols (a complete
+    file lists them all; files of one protocol agree on them)."""
+    docs = sorted(docs, key=lambda d: -len(d["protocol"]["cells"]))  # the order of the file with the most cells
+    cells: dict[str, list[str]] = {}
+    for doc in docs:
+        for t in doc["protocol"]["tiers"]:
+            cells.setdefault(t, [])
+        for c in doc["protocol"]["cells"]:
+            key = f"{c['scene']}/{c['cell']}"
+            if key not in cells.setdefault(c["tier"], []):
+                cells[c["tier"]].append(key)
+    return cells
+
+
+def score_matrix(records: Sequence[Mapping[str, Any]], tier: str, cells: Sequence[str]
+                 ) -> tuple[np.ndarray, list[str]]:
+    """The ``(runs, cells)`` success rates of one policy on the ``cells`` of ``tier`` it has records of, and
+    those cells (in ``cells``' order).
+
+    As the benchmark's aggregate (``benchmark.tier_aggregates``): the ``k``-th run (in name order) of each cell
+    is in row ``k`` (an agent shipped per scene pairs its runs by order), and a policy with fewer runs for some
+    cell is cut to the fewest. A planner is one run: one row.
+    """
+    by_cell: dict[str, list[Mapping[str, Any]]] = {}
+    for r in records:
+        if r["tier"] == tier:
+            by_cell.setdefault(f"{r['scene']}/{r['cell']}", []).append(r)
+    covered = [c for c in cells if c in by_cell]
+    if not covered:
+        return np.zeros((0, 0)), []
+    columns = [sorted(by_cell[c], key=lambda r: r["run"] or "") for c in covered]
+    n_runs = min(len(col) for col in columns)
+    return np.array([[col[k]["success_rate"] for col in columns] for k in range(n_runs)], dtype=float), covered
+
+
+
+
+def interval_estimates(matrix: np.ndarray, func: Callable[[np.ndarray], np.ndarray], reps: int = REPS,
+                       seed: int = SEED) -> tuple[np.ndarray, np.ndarray]:
+    """``func``'s point estimates on a ``(runs, tasks)`` matrix and their stratified-bootstrap 95 % intervals over
+    runs (``rliable.library.get_interval_estimates``, ``reps`` resamples, :func:`seeded` afresh for each policy:
+    the same on every rerun, and adding a policy changes no other's interval): ``(point, (2, k) lower/upper)``.
+    With one run there is nothing to resample: the interval is the point."""
+    from rliable import library as rly
+
+    matrix = np.asarray(matrix, dtype=float)
+    if matrix.ndim != 2 or matrix.size == 0:
+        raise ValueError(f"need a non-empty (runs, tasks) matrix, got shape {matrix.shape}")
+    if matrix.shape[0] == 1:
+        point = np.asarray(func(matrix), dtype=float)
+        return point, np.stack([point, point])
+    with seeded(seed) as random_state:
+        point, interval = rly.get_interval_estimates({"policy": matrix}, func, reps=reps, random_state=random_state)
+    return np.asarray(point["policy"], dtype=float), np.asarray(interval["policy"], dtype=float)
+
+
+def profile_estimates(matrix: np.ndarray, reps: int = REPS, seed: int = SEED, taus: np.ndarray = TAUS
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The performance profile of a ``(runs, tasks)`` matrix at ``taus`` and its 95 % stratified-bootstrap band
+    (``rliable.library.create_performance_profile``, score distributions: :func:`profile`), :func:`seeded`."""
+    from rliable import library as rly
+
+    with seeded(seed):
+        point, interval = rly.create_performance_profile(
+            {"policy": np.asarray(matrix, dtype=float)}, taus, custom_profile_func=profile, reps=reps)
+    return np.asarray(point["policy"], dtype=float), np.asarray(interval["policy"], dtype=float)
+
+
+def iqm_and_gap(matrix: np.ndarray) -> np.ndarray:
+    """``[IQM, optimality gap]`` of a ``(runs, tasks)`` matrix of success rates (rliable's ``aggregate_iqm`` and
+    ``aggregate_optimality_gap`` at :data:`GAMMA`: the mean of ``max(0, 1 - score)``)."""
+    from rliable import metrics
+
+    return np.array([metrics.aggregate_iqm(matrix), metrics.aggregate_optimality_gap(matrix, GAMMA)])
+
+
+def profile(matrix: np.ndarray, taus: np.ndarray = TAUS) -> np.ndarray:
+    """rliable's score distribution (``library.score_distributions``, vectorised): for each threshold, the share of
+    the ``runs x cells`` success rates above it."""
+    return (np.asarray(matrix, dtype=float).reshape(-1)[:, None] > np.asarray(taus)[None, :]).mean(axis=0)
+
+
+def per_scene(doc: Mapping[str, Any], tiers: Sequence[str], scenes: Sequence[str]) -> list[dict[str, Any]]:
+    """Per tier and scene the policy has records of: the mean over the scene's cells of the success pooled over
+    training runs, and the Wilson 95 % interval of all their episodes pooled (runs and cells)."""
+    out = []
+    for tier in tiers:
+        for scene in scenes:
+            rs = [r for r in doc["records"] if r["tier"] == tier and r["scene"] == scene]
+            if not rs:
+                continue
+            by_cell: dict[str, list[Mapping[str, Any]]] = {}
+            for r in rs:
+                by_cell.setdefault(r["cell"], []).append(r)
+            rates = [sum(r["successes"] for r in col) / sum(r["episodes"] for r in col) for col in by_cell.values()]
+            wins, n = sum(r["successes"] for r in rs), sum(r["episodes"] for r in rs)
+            out.append({"policy": doc["policy"], "tier": tier, "scene": scene, "success_mean": float(np.mean(rates)),
+                        "success_ci95": list(wilson_interval(wins, n)), "cells": list(by_cell),
+                        "runs": min(len(col) for col in by_cell.values()), "episodes": n})
+    return out
+
+
+# ---------------------------------------------------------------- the leaderboard
+def _shown(path: Path) -> str:
+    """``path`` relative to the working folder where it is inside it (the same text on every machine)."""
+    try:
+        return str(Path(path).absolute().relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
+def _label(doc: Mapping[str, Any]) -> str:
+    label = doc.get("label") or doc["policy"]
+    if doc.get("upper_bound") and "(upper bound)" not in label:
+        label += " (upper bound)"
+    return label
+
+
+def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None, reps: int = REPS,
+          seed: int = SEED) -> dict[str, Any]:
+    """The leaderboard of ``docs`` (checked files): what ``leaderboard.json`` holds, and all the tables and
+    figures are drawn from. Policies are ordered: complete runs by the mean of their tiers' IQMs (best first),
+    then partial runs, then upper bounds."""
+    cells = tier_cells(docs)
+    tiers = list(cells)
+    scenes = _ordered([c.split("/")[0] for cs in cells.values() for c in cs])
+    paths = list(paths) if paths is not None else [None] * len(docs)
+    policies, aggregates, scene_rows = [], [], []
+    for doc, path in zip(docs, paths):
+        name = doc["policy"]
+        rows = []
+        for tier in tiers:
+            matrix, covered = score_matrix(doc["records"], tier, cells[tier])
+            if not covered:
+                continue
+            (iqm, gap), interval = interval_estimates(matrix, iqm_and_gap, reps, seed)
+            rows.append({
+                "policy": name, "tier": tier, "upper_bound": bool(doc.get("upper_bound")),
+                "covers_tier": len(covered) == len(cells[tier]),
+                "iqm": float(iqm), "iqm_ci95": [float(interval[0, 0]), float(interval[1, 0])],
+                "optimality_gap": float(gap), "optimality_gap_ci95": [float(interval[0, 1]), float(interval[1, 1])],
+                "success_mean": float(matrix.mean()), "runs": int(matrix.shape[0]), "cells": covered,
+                "missing_cells": [c for c in cells[tier] if c not in covered],
+                "scores": matrix.tolist(),
+            })
+        aggregates += rows
+        scene_rows += per_scene(doc, tiers, scenes)
+        covered_all = all(r["covers_tier"] for r in rows) and {r["tier"] for r in rows} == set(tiers)
+        policies.append({
+            "policy": name, "label": _label(doc), "upper_bound": bool(doc.get("upper_bound")),
+            "complete": bool(doc.get("complete")) and covered_all,
+            "scenes": _ordered([s for s in scenes if any(r["scene"] == s for r in doc["records"])]),
+            "runs": sorted({r["runs"] for r in rows}),
+            "source": None if path is None else _shown(path),
+            "description": doc.get("description", ""),
+        })
+
+    def rank(p: Mapping[str, Any]) -> tuple:
+        iqms = [a["iqm"] for a in aggregates if a["policy"] == p["policy"]]
+        return (p["upper_bound"], not p["complete"], -float(np.mean(iqms)) if iqms else 0.0, p["policy"])
+
+    policies.sort(key=rank)
+    order = {p["policy"]: i for i, p in enumerate(policies)}
+    aggregates.sort(key=lambda a: (tiers.index(a["tier"]), order[a["policy"]]))
+    scene_rows.sort(key=lambda a: (tiers.index(a["tier"]), scenes.index(a["scene"]), order[a["policy"]]))
+    protocol: dict[str, Any] = {}
+    for key in ("env_configs_sha256", "episodes_per_cell", "split"):
+        values = _ordered([d["protocol"].get(key) for d in docs])
+        protocol[key] = values[0] if len(values) == 1 else values  # a list: mixed files (--allow-mixed)
+    return {
+        "leaderboard": "footstep_gym", "protocol_version": PROTOCOL_VERSION, "protocol": protocol,
+        "tiers": tiers, "scenes": scenes, "tier_cells": cells,
+        "bootstrap": {"reps": reps, "seed": seed, "confidence": 0.95, "gamma": GAMMA},
+        "policies": policies, "aggregates": aggregates, "per_scene": scene_rows,
+    }
+
+
+def _aggregate(board: Mapping[str, Any], policy: str, tier: str) -> Mapping[str, Any] | None:
+    return next((a for a in board["aggregates"] if a["policy"] == policy and a["tier"] == tier), None)
+
+
+def in_figure(board: Mapping[str, Any], tier: str) -> tuple[list[Mapping[str, Any]], list[Mapping[str, Any]]]:
+    """The policies of ``tier``'s figures (those covering every cell of it) and those left out (covering some)."""
+    shown, left_out = [], []
+    for p in board["policies"]:
+        a = _aggregate(board, p["policy"], tier)
+        if a is not None:
+            (shown if a["covers_tier"] else left_out).append(p)
+    return shown, left_out
+
+
+# ---------------------------------------------------------------- markdown
+def _ci(value: float, ci: Sequence[float]) -> str:
+    return f"{value:.2f} [{ci[0]:.2f}, {ci[1]:.2f}]"
+
+
+def _runs(runs: Sequence[int]) -> str:
+    return "–" if not runs else str(runs[0]) if len(runs) == 1 else f"{min(runs)}–{max(runs)}"
+
+
+def _partial_note(board: Mapping[str, Any], p: Mapping[str, Any]) -> str:
+    tiers = [t for t in board["tiers"] if _aggregate(board, p["policy"], t) is not None]
+    full = [t for t in tiers if _aggregate(board, p["policy"], t)["covers_tier"]]
+    parts = []
+    if len(p["scenes"]) < len(board["scenes"]):
+        parts.append(f"scene{'s' if len(p['scenes']) > 1 else ''} {', '.join(p['scenes'])}")
+    if len(tiers) < len(board["tiers"]):
+        parts.append(f"tier{'s' if len(tiers) > 1 else ''} {', '.join(tiers)}")
+    what = "; ".join(parts) + " only" if parts else "some cells only"
+    return (f"{p['label']}: partial run ({what}); its aggregates are over the cells it covers (marked †), not "
+            "comparable with the full rows" + (f" except on {', '.join(full)}" if full else ""))
+
+
+def headline_markdown(board: Mapping[str, Any]) -> str:
+    """The leaderboard's table (the README's): a row per policy, a column per tier with the IQM success over the
+    tier's cells [95 % CI], the training runs; partial runs after the complete ones, upper bounds last."""
+    tiers = board["tiers"]
+    cells = board["tier_cells"]
+    lines = ["| policy | runs | " + " | ".join(f"{t} ({len(cells[t])} cells)" for t in tiers) + " |",
+             "|---|---:|" + "---:|" * len(tiers)]
+    for p in board["policies"]:
+        row = []
+        for t in tiers:
+            a = _aggregate(board, p["policy"], t)
+            row.append("–" if a is None else _ci(a["iqm"], a["iqm_ci95"]) + ("" if a["covers_tier"] else " †"))
+        label = p["label"] if p["complete"] else (f"{p['label'][:-1]}, partial)" if p["label"].endswith(")")
+                                                  else f"{p['label']} (partial)")
+        if p["upper_bound"]:
+            label = f"*{label}*"
+        lines.append(f"| {label} | {_runs(p['runs'])} | " + " | ".join(row) + " |")
+    return "\n".join(lines)
+
+
+def headline_notes(board: Mapping[str, Any]) -> list[str]:
+    """The lines under the headline table: what the numbers are, and the partial runs."""
+    b = board["bootstrap"]
+    notes = [f"IQM of the success rates over every cell of the tier (all scenes) [95 % stratified-bootstrap "
+             f"interval over training runs, rliable, {b['reps']} resamples, seed {b['seed']}; one run, a planner's: "
+             "the interval is the point]; runs: training runs per cell. Rows: complete runs by the mean of their "
+             "tiers' IQMs, then partial runs, then upper bounds (they read the true future; not baselines)."]
+    notes += [_partial_note(board, p) + "." for p in board["policies"] if not p["complete"]]
+    return notes
+
+
+def scene_markdown(board: Mapping[str, Any]) -> str:
+    """Per tier and scene (rows) and policy (columns): the mean success over the scene's cells [pooled Wilson
+    95 % CI]."""
+    labels = {p["policy"]: p["label"] for p in board["policies"]}
+    lines = ["| tier | scene | cells | " + " | ".join(labels.values()) + " |",
+             "|---|---|---:|" + "---:|" * len(labels)]
+    for tier in board["tiers"]:
+        for scene in board["scenes"]:
+            n = sum(c.split("/")[0] == scene for c in board["tier_cells"][tier])
+            if not n:
+                continue
+            row = []
+            for policy in labels:
+                s = next((r for r in board["per_scene"] if (r["policy"], r["tier"], r["scene"]) ==
+                          (policy, tier, scene)), None)
+                row.append("–" if s is None else _ci(s["success_mean"], s["success_ci95"])
+                           + ("" if len(s["cells"]) == n else f" ({len(s['cells'])}/{n} cells)"))
+            lines.append(f"| {tier} | {scene} | {n} | " + " | ".join(row) + " |")
+    return "\n".join(lines)
+
+
+def markdown(board: Mapping[str, Any]) -> str:
+    """``leaderboard.md``: the headline table, the per-scene table, the figures and what was left out of them."""
+    protocol = board["protocol"]
+    n = protocol.get("episodes_per_cell")
+    lines = ["# Leaderboard", "",
+             f"{len(board['policies'])} policies on {sum(len(c) for c in board['tier_cells'].values())} cells "
+             f"(tiers {', '.join(board['tiers'])}; scenes {', '.join(board['scenes'])}), {n} episodes per cell, "
+             f"configs {str(protocol.get('env_configs_sha256'))[:12]}. Regenerate with "
+             "`python baselines/make_leaderboard.py` (docs/benchmark.md §4).", "",
+             "## IQM success per tier", "", headline_markdown(board), ""]
+    lines += [note + "\n" for note in headline_notes(board)]
+    lines += ["## Per scene", "", scene_markdown(board), "",
+              "Mean success over the scene's cells of the tier (each cell's success pooled over the training runs) "
+              "[95 % Wilson interval of all those episodes pooled, runs and cells: it counts the episodes as "
+              "independent, so it is narrower than an interval over training runs]; (k/n cells): a partial run "
+              "covering k of them.", "",
+              "## Figures", "",
+              f"![IQM and optimality gap]({FIGURE_IQM})", "",
+              f"`{FIGURE_IQM}` (and `iqm_optimality_gap_<tier>.png`): per tier, the IQM of the success rates and "
+              f"the optimality gap (the mean of max(0, 1 - success)) over the tier's cells (every scene), with "
+              "stratified-bootstrap 95 % intervals over training runs (rliable); a planner is one run, its interval "
+              "a point.", "",
+              f"![Performance profiles]({FIGURE_PROFILES})", "",
+              f"`{FIGURE_PROFILES}`: per tier, the share of the runs x cells whose success rate exceeds τ, with "
+              "95 % stratified-bootstrap bands over training runs.", ""]
+    left = []
+    for tier in board["tiers"]:
+        _, out = in_figure(board, tier)
+        left += [f"{p['label']} from {tier} ({len(_aggregate(board, p['policy'], tier)['cells'])} of "
+                 f"{len(board['tier_cells'][tier])} cells)" for p in out]
+    lines.append("Each tier's figures show the policies that cover every cell of it"
+                 + (f"; left out: {'; '.join(left)}." if left else " (all of them here)."))
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------- figures
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def policy_colors(board: Mapping[str, Any]) -> dict[str, Any]:
+    """One colour per policy label (seaborn's colour-blind palette, in the leaderboard's order), the same in every
+    figure."""
+    import seaborn as sns
+
+    labels = [p["label"] for p in board["policies"]]
+    return dict(zip(labels, sns.color_palette("colorblind", n_colors=max(len(labels), 1))))
+
+
+def iqm_gap_figure(board: Mapping[str, Any], tier: str, colors: Mapping[str, Any] | None = None):
+    """One tier's IQM and optimality gap with their 95 % intervals (rliable's ``plot_interval_estimates``), or
+    None when no policy covers every cell of the tier."""
+    _pyplot()  # the Agg backend before rliable imports pyplot
+    from rliable import plot_utils
+
+    shown, left_out = in_figure(board, tier)
+    if not shown:
+        return None
+    points, intervals = {}, {}
+    for p in shown:
+        a = _aggregate(board, p["policy"], tier)
+        points[p["label"]] = np.array([a["iqm"], a["optimality_gap"]])
+        intervals[p["label"]] = np.array([[a["iqm_ci95"][0], a["optimality_gap_ci95"][0]],
+                                          [a["iqm_ci95"][1], a["optimality_gap_ci95"][1]]])
+    algorithms = list(points)[::-1]  # plot_interval_estimates draws bottom-up: the leaderboard's first on top
+    colors = dict(colors or policy_colors(board))
+    fig, axes = plot_utils.plot_interval_estimates(
+        points, intervals, metric_names=["IQM success", "Optimality gap"], algorithms=algorithms, colors=colors,
+        xlabel="", row_height=0.55)
+    fig.set_size_inches(fig.get_size_inches()[0], max(1.4, 0.55 * len(algorithms)))
+    for m, ax in enumerate(np.atleast_1d(axes)):
+        ax.set_xlim(-0.02, 1.02)
+        ax.set_xlabel("success rate" if m == 0 else "mean of max(0, 1 - success)", fontsize="x-large")
+        for k, label in enumerate(algorithms):
+            lo, hi = intervals[label][:, m]
+            if hi - lo < 1e-9:  # one run (a planner) or no spread: the interval is the point, drawn as a marker
+                ax.plot([points[label][m]], [k], marker="D", markersize=9, color=colors[label], zorder=3)
+    runs = {p["label"]: _aggregate(board, p["policy"], tier)["runs"] for p in shown}
+    caption = (f"{tier}: {len(board['tier_cells'][tier])} cells; runs: "
+               + ", ".join(f"{k} {v}" for k, v in runs.items()))
+    if left_out:
+        caption += "; left out (partial): " + ", ".join(p["label"] for p in left_out)
+    fig.suptitle(caption, y=1.0 + 0.25 / fig.get_size_inches()[1], fontsize="large")
+    return fig
+
+
+def _png(fig) -> bytes:
+    plt = _pyplot()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=120, bbox_inches="tight", facecolor="white",
+                metadata={"Software": None})  # no version stamp: the same bytes on a rerun
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _stack_pngs(pngs: Sequence[bytes]) -> bytes:
+    """The PNGs one under the other (white padding to the widest) as one PNG."""
+    plt = _pyplot()
+    images = [plt.imread(io.BytesIO(b), format="png")[..., :3] for b in pngs]
+    width = max(im.shape[1] for im in images)
+    rows = [np.pad(im, ((0, 12), (0, width - im.shape[1]), (0, 0)), constant_values=1.0) for im in images]
+    buf = io.BytesIO()
+    plt.imsave(buf, np.clip(np.vstack(rows), 0.0, 1.0), format="png", metadata={"Software": None})
+    return buf.getvalue()
+
+
+def profiles_figure(board: Mapping[str, Any], colors: Mapping[str, Any] | None = None):
+    """Performance profiles (rliable's score distributions, :func:`profile_estimates`, drawn by
+    ``plot_performance_profiles``), one panel per tier, of the policies covering every cell of the tier, with 95 %
+    stratified-bootstrap bands over training runs."""
+    plt = _pyplot()
+    from rliable import plot_utils
+
+    colors = dict(colors or policy_colors(board))
+    tiers = board["tiers"]
+    reps, seed = board["bootstrap"]["reps"], board["bootstrap"]["seed"]
+    fig, axes = plt.subplots(1, len(tiers), figsize=(4.2 * len(tiers), 3.8), squeeze=False)
+    handles = {}
+    for ax, tier in zip(axes[0], tiers):
+        shown, left_out = in_figure(board, tier)
+        curves, bands, styles = {}, {}, {}
+        for p in shown:
+            matrix = np.array(_aggregate(board, p["policy"], tier)["scores"], dtype=float)
+            point, interval = profile_estimates(matrix, reps, seed)
+            curves[p["label"]], bands[p["label"]] = point, interval
+            styles[p["label"]] = "dashed" if p["upper_bound"] else "solid"
+        if curves:
+            plot_utils.plot_performance_profiles(
+                curves, TAUS, performance_profile_cis=bands, colors=colors, linestyles=styles, ax=ax,
+                xlabel=r"success rate $\tau$", ylabel="share of runs x cells > τ" if ax is axes[0][0] else "",
+                xticks=[0.0, 0.25, 0.5, 0.75, 1.0], labelsize="large", ticklabelsize="medium")
+        title = f"{tier} ({len(board['tier_cells'][tier])} cells)"
+        if left_out:
+            title += "\nleft out: " + ", ".join(p["label"] for p in left_out)
+        ax.set_title(title, fontsize="large")
+        for line in ax.get_lines():
+            handles.setdefault(line.get_label(), line)
+    labels = [p["label"] for p in board["policies"] if p["label"] in handles]
+    fig.legend([handles[k] for k in labels], labels, loc="lower center", ncol=min(len(labels), 6),
+               bbox_to_anchor=(0.5, -0.02 - 0.06 * ((len(labels) - 1) // 6)), fontsize="large", frameon=False)
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    return fig
+
+
+def write_figures(board: Mapping[str, Any], folder: Path) -> list[Path]:
+    """``iqm_optimality_gap_<tier>.png`` per tier, ``iqm_optimality_gap.png`` (them stacked) and
+    ``performance_profiles.png`` into ``folder``."""
+    colors = policy_colors(board)
+    files, pngs = [], []
+    for tier in board["tiers"]:
+        fig = iqm_gap_figure(board, tier, colors)
+        if fig is None:
+            continue
+        png = _png(fig)
+        path = folder / tier_figure_name(tier)
+        path.write_bytes(png)
+        files.append(path)
+        pngs.append(png)
+    if pngs:
+        (folder / FIGURE_IQM).write_bytes(_stack_pngs(pngs))
+        files.insert(0, folder / FIGURE_IQM)
+    (folder / FIGURE_PROFILES).write_bytes(_png(profiles_figure(board, colors)))
+    files.append(folder / FIGURE_PROFILES)
+    return files
+
+
+# ---------------------------------------------------------------- files
+def check_out(out: Path) -> str | None:
+    """Why ``out`` cannot take the leaderboard's files (one line), or None: it must be a folder or not exist
+    (other files in it are kept)."""
+    if out.exists() and not out.is_dir():
+        return f"--out {out} is a file, not a folder"
+    return None
+
+
+def write_leaderboard(board: Mapping[str, Any], out: Path) -> list[Path]:
+    """``leaderboard.md``, ``leaderboard.json`` and the figures, written into a temporary folder beside ``out``
+    (``outfolder.new_run_folder``) and moved into ``out`` once all are written, file by file: the leaderboard's
+    earlier files are replaced, nothing else in ``out`` is touched. A failure leaves ``out`` as it was."""
+    folder = new_run_folder(out)
+    try:
+        (folder / "leaderboard.json").write_text(json.dumps(board, indent=2) + "\n", encoding="utf-8")
+        (folder / "leaderboard.md").write_text(markdown(board), encoding="utf-8")
+        write_figures(board, folder)
+        out = out.absolute()
+        out.mkdir(parents=True, exist_ok=True)
+        names = sorted(p.name for p in folder.iterdir())
+        for name in names:
+            os.replace(folder / name, out / name)
+        folder.rmdir()
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    return [out / name for name in names]
+
+
+def leaderboard(paths: Sequence[Path], allow_mixed: bool = False, reps: int = REPS, seed: int = SEED
+                ) -> dict[str, Any]:
+    """The checked leaderboard of the files ``paths`` name (:func:`find_benchmarks`); raises
+    :class:`LeaderboardError` on bad input."""
+    files = find_benchmarks(paths)
+    if not files:
+        raise LeaderboardError("no benchmark.json found in " + ", ".join(map(str, paths)))
+    docs = [load_benchmark(p) for p in files]
+    check_compatible(docs, files, allow_mixed)
+    return build(docs, files, reps=reps, seed=seed)
+
+
+def main_summary(board: Mapping[str, Any], files: Sequence[Path], out: Path) -> str:
+    """What the script prints: the headline table and where the files went."""
+    return "\n".join([headline_markdown(board), "", *headline_notes(board), "",
+                      f"wrote {len(files)} files to {out}/ (leaderboard.md)"])
+
+
+__all__ = ["LeaderboardError", "build", "check_compatible", "find_benchmarks", "headline_markdown", "in_figure",
+           "interval_estimates", "iqm_and_gap", "leaderboard", "load_benchmark", "markdown", "per_scene", "profile",
+           "scene_markdown", "score_matrix", "tier_cells", "write_figures", "write_leaderboard"]

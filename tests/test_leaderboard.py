@@ -1,0 +1,284 @@
+"""The leaderboard across policies (issue 20 §4): ``baselines/make_leaderboard.py`` on benchmark.json files.
+
+The aggregates (IQM and optimality gap with stratified-bootstrap intervals over training runs) are checked against
+a hand-worked score matrix, the per-scene table against tiny fake benchmark.json files built with the records'
+real fields (``stats.cell_record`` plus the benchmark's own), the script end to end on them (tables, JSON and
+non-empty PNGs; a user's file in ``--out`` kept), and bad input is refused with exit status 2 and nothing written.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from script_helpers import load_script
+
+from footstep_gym.evaluation import leaderboard as lb
+from footstep_gym.evaluation.stats import EpisodeResult, cell_record, iqm_over_tasks, wilson_interval
+
+REPS = 20  # few bootstrap resamples: the tests check the plumbing, not the intervals' precision
+ENV_IDS = {"door": "FootstepDoor-v0", "crossing": "FootstepCrossing-v0"}
+#: The fake protocol: two tiers, two scenes, five cells, ten episodes per cell.
+CELLS = [("door", "paper", "default"), ("crossing", "paper", "default"),
+         ("door", "hard", "two_doors"), ("door", "hard", "noisy"), ("crossing", "hard", "traffic")]
+EPISODES = 10
+SHA = "ab" * 32
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def record(policy: str, scene: str, tier: str, cell: str, run: str | None, wins: int,
+           upper_bound: bool = False) -> dict:
+    """A benchmark record as ``benchmark.cell_records`` writes it: ``wins`` of :data:`EPISODES` reach the goal."""
+    episodes = [EpisodeResult(cell_index=0, seed=20000 + i, outcome="goal" if i < wins else "collision", steps=20,
+                              time=10.0, path_length=2.5, com_path_length=2.6, plan_ms=[1.0, 2.0],
+                              periods=[0.45, 0.5], pso_ran=[None, None], min_clearance=0.05, min_zmp_margin=0.01)
+                for i in range(EPISODES)]
+    r = cell_record(ENV_IDS[scene], scene, policy, {"tier": tier, "tier_cell": cell}, episodes, run=run)
+    r.update(scene=scene, tier=tier, cell=cell, env_kwargs={}, upper_bound=upper_bound)
+    return r
+
+
+def document(policy: str, wins: dict[tuple[str, str], list[int]], upper_bound: bool = False, sha: str = SHA,
+             episodes: int = EPISODES, version: int = 1) -> dict:
+    """A benchmark.json of ``policy``: ``wins[(scene, cell)]`` lists the successes of each training run (one
+    entry: a planner). The cells it has no entry for are left out (a partial run)."""
+    cells = [c for c in CELLS if (c[0], c[2]) in wins]
+    agent = any(len(w) > 1 for w in wins.values())
+    records = [record(policy, s, t, c, f"{ENV_IDS[s]}_{k + 1}" if agent else None, w, upper_bound)
+               for s, t, c in cells for k, w in enumerate(wins[(s, c)])]
+    label = f"{policy} (upper bound)" if upper_bound else policy
+    return {
+        "benchmark": "footstep_gym", "protocol_version": version, "footstep_gym": "0.1.0", "policy": policy,
+        "label": label, "upper_bound": upper_bound, "description": "a fake", "complete": len(cells) == len(CELLS),
+        "protocol": {"split": "test", "episodes_per_cell": episodes, "seeds": list(range(20000, 20000 + episodes)),
+                     "tiers": list(dict.fromkeys(t for _, t, _ in cells)),
+                     "scenes": list(dict.fromkeys(s for s, _, _ in cells)),
+                     "cells": [{"scene": s, "tier": t, "cell": c, "env_id": ENV_IDS[s], "env_kwargs": {}}
+                               for s, t, c in cells],
+                     "warmup_acts": 10, "timing_fields": [], "env_configs_sha256": sha},
+        "aggregates": [], "records": records, "summary": [], "run": {"command": "fake"},
+    }
+
+
+#: An agent with two runs, a planner, a partial agent (door only), an upper bound.
+AGENT = {("door", "default"): [10, 10], ("crossing", "default"): [8, 6], ("door", "two_doors"): [3, 5],
+         ("door", "noisy"): [10, 10], ("crossing", "traffic"): [0, 2]}
+PLANNER = {("door", "default"): [9], ("crossing", "default"): [10], ("door", "two_doors"): [1],
+           ("door", "noisy"): [4], ("crossing", "traffic"): [7]}
+PARTIAL = {("door", "default"): [5, 7], ("door", "two_doors"): [2, 2]}
+ORACLE = {key: [10] for key in AGENT}
+
+
+def fakes() -> list[dict]:
+    return [document("planner", PLANNER), document("partial", PARTIAL), document("oracle", ORACLE, upper_bound=True),
+            document("agent", AGENT)]
+
+
+def write_fakes(root: Path, docs: list[dict] | None = None) -> Path:
+    for doc in docs if docs is not None else fakes():
+        (root / doc["policy"]).mkdir(parents=True)
+        (root / doc["policy"] / "benchmark.json").write_text(json.dumps(doc), encoding="utf-8")
+    return root
+
+
+# ---------------------------------------------------------------- aggregates
+def test_iqm_and_optimality_gap_of_a_hand_worked_matrix():
+    scores = np.array([[0.0, 0.5, 0.9, 1.0],
+                       [0.2, 0.6, 0.8, 1.0]])
+    # Sorted: 0.0 0.2 | 0.5 0.6 0.8 0.9 | 1.0 1.0 -> IQM = mean of the middle half = 2.8 / 4.
+    # Gap: mean of max(0, 1 - s) = (1 + .5 + .1 + 0 + .8 + .4 + .2 + 0) / 8 = 3.0 / 8.
+    point, interval = lb.interval_estimates(scores, lb.iqm_and_gap, reps=200, seed=3)
+    assert point == pytest.approx([0.7, 0.375])
+    assert point[0] == pytest.approx(iqm_over_tasks(scores, reps=10)[0])
+    assert interval.shape == (2, 2)
+    assert np.all(interval[0] <= point + 1e-12) and np.all(point <= interval[1] + 1e-12)
+    assert interval[0, 0] < interval[1, 0]  # two runs that differ: a real interval
+    # Seeded: the same interval again, whatever the global generator did in between; and it is put back.
+    np.random.seed(123)
+    before = np.random.get_state()[1].copy()
+    again = lb.interval_estimates(scores, lb.iqm_and_gap, reps=200, seed=3)[1]
+    assert np.array_equal(np.random.get_state()[1], before)
+    assert np.array_equal(again, interval)
+    # The IQM's interval does not depend on what else is estimated with it (the same resamples).
+    iqm_only = lb.interval_estimates(scores, lambda x: lb.iqm_and_gap(x)[:1], reps=200, seed=3)[1]
+    assert np.array_equal(iqm_only[:, 0], interval[:, 0])
+
+
+def test_a_one_run_policy_has_its_point_as_interval():
+    scores = np.array([[0.0, 0.5, 0.9, 1.0]])
+    point, interval = lb.interval_estimates(scores, lb.iqm_and_gap, reps=REPS)
+    # IQM over 4 entries: the middle two, (0.5 + 0.9) / 2; gap (1 + .5 + .1 + 0) / 4.
+    assert point == pytest.approx([0.7, 0.4])
+    assert np.array_equal(interval, np.stack([point, point]))
+    curve, band = lb.profile_estimates(scores, reps=REPS)
+    assert np.array_equal(band[0], curve) and np.array_equal(band[1], curve)
+    assert curve[0] == pytest.approx(0.75) and curve[-1] == 0.0  # > 0: three of four; > 1: none
+
+
+def test_the_board_pairs_runs_and_marks_partial_and_upper_bound():
+    board = lb.build(fakes(), reps=REPS)
+    assert [p["policy"] for p in board["policies"]] == ["agent", "planner", "partial", "oracle"]
+    assert board["tiers"] == ["paper", "hard"] and board["scenes"] == ["door", "crossing"]
+    agg = {(a["policy"], a["tier"]): a for a in board["aggregates"]}
+    hard = agg[("agent", "hard")]
+    assert hard["scores"] == [[0.3, 1.0, 0.0], [0.5, 1.0, 0.2]]  # run k of each cell in row k
+    assert hard["iqm"] == pytest.approx((0.2 + 0.3 + 0.5 + 1.0) / 4)  # middle half of 0 .2 .3 .5 1 1
+    assert hard["optimality_gap"] == pytest.approx((0.7 + 0 + 1 + 0.5 + 0 + 0.8) / 6)
+    assert hard["runs"] == 2 and hard["covers_tier"]
+    planner = agg[("planner", "hard")]
+    assert planner["runs"] == 1 and planner["iqm_ci95"] == [planner["iqm"]] * 2
+    assert planner["optimality_gap_ci95"] == [planner["optimality_gap"]] * 2
+    partial = agg[("partial", "hard")]
+    assert not partial["covers_tier"] and partial["missing_cells"] == ["door/noisy", "crossing/traffic"]
+    shown, left_out = lb.in_figure(board, "hard")
+    assert [p["policy"] for p in shown] == ["agent", "planner", "oracle"]
+    assert [p["policy"] for p in left_out] == ["partial"]
+    head = lb.headline_markdown(board).splitlines()
+    assert head[0] == "| policy | runs | paper (2 cells) | hard (3 cells) |"
+    assert head[2].startswith("| agent | 2 | ") and head[3].startswith("| planner | 1 | ")
+    assert head[4].startswith("| partial (partial) | 2 | ") and head[4].endswith(" † |")
+    assert head[5].startswith("| *oracle (upper bound)* | 1 | 1.00 [1.00, 1.00] | 1.00 [1.00, 1.00] |")
+    assert f"{hard['iqm']:.2f} [{hard['iqm_ci95'][0]:.2f}, {hard['iqm_ci95'][1]:.2f}]" in head[2]
+
+
+def test_the_per_scene_table_from_fake_files():
+    board = lb.build(fakes(), reps=REPS)
+    rows = {(r["policy"], r["tier"], r["scene"]): r for r in board["per_scene"]}
+    door = rows[("agent", "hard", "door")]
+    # two_doors pooled over the runs (3 + 5) / 20, noisy 20 / 20: the mean over the two cells; Wilson of all 40.
+    assert door["success_mean"] == pytest.approx((0.4 + 1.0) / 2)
+    assert door["success_ci95"] == pytest.approx(list(wilson_interval(28, 40)))
+    assert door["episodes"] == 40 and door["cells"] == ["two_doors", "noisy"] and door["runs"] == 2
+    assert rows[("planner", "paper", "crossing")]["success_mean"] == 1.0
+    assert ("partial", "hard", "crossing") not in rows
+    table = lb.scene_markdown(board).splitlines()
+    assert table[0] == "| tier | scene | cells | agent | planner | partial | oracle (upper bound) |"
+    lo, hi = wilson_interval(28, 40)
+    assert table[4] == (f"| hard | door | 2 | 0.70 [{lo:.2f}, {hi:.2f}] | 0.25 [{wilson_interval(5, 20)[0]:.2f}, "
+                        f"{wilson_interval(5, 20)[1]:.2f}] | 0.20 [{wilson_interval(4, 20)[0]:.2f}, "
+                        f"{wilson_interval(4, 20)[1]:.2f}] (1/2 cells) | 1.00 [{wilson_interval(20, 20)[0]:.2f}, "
+                        "1.00] |")
+    assert table[5].split(" | ")[-2] == "–"  # the partial run has no crossing
+    text = lb.markdown(board)
+    assert "partial: partial run (scene door only)" in text
+    assert "left out: partial from paper (1 of 2 cells); partial from hard (1 of 3 cells)." in text
+
+
+# ---------------------------------------------------------------- the script
+def test_the_script_end_to_end(tmp_path, capsys):
+    script = load_script("make_leaderboard")
+    bench = write_fakes(tmp_path / "bench")
+    out = tmp_path / "board"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine", encoding="utf-8")
+    assert script.main([str(bench), "--out", str(out), "--reps", str(REPS)]) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("| policy | runs | paper (2 cells) | hard (3 cells) |")
+    names = {"leaderboard.md", "leaderboard.json", "iqm_optimality_gap.png", "iqm_optimality_gap_paper.png",
+             "iqm_optimality_gap_hard.png", "performance_profiles.png"}
+    assert {p.name for p in out.iterdir()} == names | {"notes.txt"}
+    assert (out / "notes.txt").read_text(encoding="utf-8") == "mine"
+    for name in names:
+        if name.endswith(".png"):
+            data = (out / name).read_bytes()
+            assert data.startswith(PNG) and len(data) > 1000, name
+    board = json.loads((out / "leaderboard.json").read_text(encoding="utf-8"))
+    assert board["bootstrap"]["reps"] == REPS and board["protocol"]["env_configs_sha256"] == SHA
+    fields = {"policy", "tier", "iqm", "iqm_ci95", "optimality_gap", "optimality_gap_ci95", "runs", "cells"}
+    assert all(fields <= set(a) for a in board["aggregates"]) and len(board["aggregates"]) == 8
+    assert lb.headline_markdown(board) in (out / "leaderboard.md").read_text(encoding="utf-8")
+    # A rerun replaces the leaderboard's files (the same JSON), keeps the user's, leaves no temporary folder.
+    assert script.main([str(bench / "agent"), str(bench / "planner" / "benchmark.json"), "--out", str(out),
+                        "--reps", str(REPS)]) == 0
+    again = json.loads((out / "leaderboard.json").read_text(encoding="utf-8"))
+    assert [p["policy"] for p in again["policies"]] == ["agent", "planner"]
+    assert {p.name for p in out.iterdir()} == names | {"notes.txt"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bench", "board"]
+
+
+def test_help_exits_0(capsys):
+    with pytest.raises(SystemExit) as exc:
+        load_script("make_leaderboard").main(["--help"])
+    assert exc.value.code == 0 and "--allow-mixed" in capsys.readouterr().out
+
+
+def _bad(tmp_path: Path, case: str) -> list[str]:
+    bench = tmp_path / "bench"
+    if case == "missing":
+        return [str(tmp_path / "nowhere")]
+    if case == "empty folder":
+        bench.mkdir()
+        (bench / "ppo").mkdir()
+        return [str(bench)]
+    if case == "other format":
+        bench.mkdir()
+        (bench / "benchmark.json").write_text(json.dumps({"results": []}), encoding="utf-8")
+        return [str(bench)]
+    if case == "not json":
+        bench.mkdir()
+        (bench / "benchmark.json").write_text("{", encoding="utf-8")
+        return [str(bench / "benchmark.json")]
+    if case == "protocol version":
+        write_fakes(bench, [document("agent", AGENT, version=2)])
+        return [str(bench)]
+    if case == "configs":
+        write_fakes(bench, [document("agent", AGENT), document("planner", PLANNER, sha="cd" * 32)])
+        return [str(bench)]
+    if case == "episodes":
+        write_fakes(bench, [document("agent", AGENT), document("planner", PLANNER, episodes=500)])
+        return [str(bench)]
+    if case == "twice":
+        write_fakes(bench, [document("agent", AGENT)])  # the same policy in two files (one file twice: read once)
+        (tmp_path / "copy.json").write_text(json.dumps(document("agent", AGENT)), encoding="utf-8")
+        return [str(bench), str(bench / "agent" / "benchmark.json"), str(tmp_path / "copy.json")]
+    if case == "out is a file":
+        write_fakes(bench)
+        (tmp_path / "board").write_text("", encoding="utf-8")
+        return [str(bench)]
+    raise AssertionError(case)
+
+
+@pytest.mark.parametrize("case, message", [
+    ("missing", "no such file or folder"), ("empty folder", "no benchmark.json"),
+    ("other format", "not a footstep_gym benchmark.json"), ("not json", "not a readable JSON file"),
+    ("protocol version", "protocol_version 2"), ("configs", "differ in protocol.env_configs_sha256"),
+    ("episodes", "differ in protocol.episodes_per_cell"), ("twice", "is in both"),
+    ("out is a file", "is a file, not a folder"),
+])
+def test_bad_input_is_refused_with_exit_2_and_nothing_written(tmp_path, capsys, case, message):
+    args = _bad(tmp_path, case)
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+    with pytest.raises(SystemExit) as exc:
+        load_script("make_leaderboard").main([*args, "--out", str(tmp_path / "board"), "--reps", str(REPS)])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "error: " in err[-1] and message in err[-1], err
+    assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before
+
+
+def test_allow_mixed_accepts_other_configs(tmp_path):
+    bench = write_fakes(tmp_path / "bench", [document("agent", AGENT), document("planner", PLANNER, sha="cd" * 32)])
+    assert load_script("make_leaderboard").main([str(bench), "--allow-mixed", "--out", str(tmp_path / "board"),
+                                                 "--reps", str(REPS)]) == 0
+    board = json.loads((tmp_path / "board" / "leaderboard.json").read_text(encoding="utf-8"))
+    assert board["protocol"]["env_configs_sha256"] == [SHA, "cd" * 32]
+
+
+def test_the_benchmarks_bootstrap_intervals_are_seeded_and_leave_numpys_generator_alone():
+    """rliable draws its resamples from NumPy's global generator whatever random_state it is given: the interval
+    must not depend on that generator's state, and the caller's stream must go on as if nothing had drawn."""
+    from footstep_gym.evaluation import stats
+
+    matrix = np.array([[0.2, 0.9, 0.5, 1.0], [0.6, 0.4, 0.7, 0.8], [0.1, 1.0, 0.3, 0.9]])
+    np.random.seed(1)
+    first = stats.iqm_over_tasks(matrix, reps=300)
+    after_first = np.random.random()
+    np.random.seed(2)
+    second = stats.iqm_over_tasks(matrix, reps=300)
+    assert first == second and first[1] < first[0] < first[2]
+    np.random.seed(1)
+    assert np.random.random() == after_first  # the global stream untouched by the bootstrap
+    assert stats.iqm_interval([0.2, 0.6, 0.9], reps=300) == stats.iqm_interval([0.2, 0.6, 0.9], reps=300)

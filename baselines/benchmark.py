@@ -1,9 +1,10 @@
-"""How fast footstep_gym is: env steps/s, LIPM checks/s, planning time per footstep, memory, PPO training.
+"""How fast footstep_gym is: env steps/s, LIPM checks/s, planning time per footstep, memory, PPO training, tiers.
 
     python baselines/benchmark.py            # quick, the default (a few minutes on 2 cores)
     python baselines/benchmark.py --full     # more repetitions, more episodes
     python baselines/benchmark.py --out runs/benchmark --sections env,lipm
     python baselines/benchmark.py --sections env --compare-with /tmp/before   # + the steady walk on another checkout
+    python baselines/benchmark.py --sections tiers --out runs/speed_tiers     # per benchmark tier only
 
 Prints markdown tables and writes ``<out>/benchmark.json``. Every rate is the median and
 spread (IQR and min/max) over repetitions measured in this one run, after a warm-up,
@@ -39,13 +40,21 @@ with ``time.perf_counter``. Measured:
 * **peak memory** of one env (make + reset + N near-nominal steps) and of the period-aware
   planner (M acts), on each env: the ``tracemalloc`` peak, and the peak RSS above the
   baseline (the kernel's ``VmHWM`` reset at the baseline; else sampled after every step;
-  C allocations included), each figure in a fresh subprocess.
+  C allocations included), each figure in a fresh subprocess;
+* **per tier** (``tiers``; ``footstep_gym.bench.tiers``): on every cell of every benchmark tier of every
+  scene (``gym.make(id, tier=TIER, tier_cell=CELL)``, ``configs/benchmark.yaml``), the period-aware
+  planner's time per footstep through the evaluation runner after its warm-up of the cell (median, p99,
+  pooled over a tier's cells), and env steps/s, one process, with its commands recorded once and replayed
+  from the same seeds (the env section's interleaved rounds; resets timed); a tier's rate is per round the
+  median over its cells, and its ratio to the scene's ``paper`` tier is paired per round.
 
 Targets (PASS/MISS in the output; in ``footstep_gym.bench.targets``, never in timed tests): FootstepDoor
 steps/s >= 2x BipedalWalker's on a steady walk (near-nominal commands; >= 1x with random
 commands, which mostly time reset, and with the planner's commands); batched LIPM >= 1e6 commands/s at batch 1024; period-aware
 planning median <= 1 % and p99 <= 5 % of the nominal period per footstep, and >= 10x
-faster than pso-only at no lower success rate.
+faster than pso-only at no lower success rate; the ``hard`` tier's steps/s >= 0.5x ``paper``'s per scene (the
+paper crowd is the scripted one; each ORCA crowd cell against it too), and the period-aware planner on
+``hard`` at a median <= 2 ms and a p99 <= 20 ms per footstep.
 
 The code is the package's ``footstep_gym.bench`` (one module per section; see its docstring);
 this file is its command line.
@@ -70,6 +79,7 @@ from footstep_gym.bench.ppo import bench_ppo
 from footstep_gym.bench.report import benchmark_report
 from footstep_gym.bench.settings import MODES, SECTIONS, log
 from footstep_gym.bench.targets import evaluate_targets
+from footstep_gym.bench.tiers import bench_tiers
 from footstep_gym.robot import load_robot
 
 
@@ -129,6 +139,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     if "ppo" in sections:
         log("ppo ...")
         res["ppo"] = bench_ppo(settings)
+    if "tiers" in sections:
+        log("tiers ...")
+        res["tiers"] = bench_tiers(settings, args.seed)
     res["meta"]["duration_s"] = time.perf_counter() - t0
     res["meta"]["torch_imported"] = "torch" in sys.modules  # the benchmarked paths are torch-free
     res["meta"]["load_average_end"] = loadavg()

@@ -300,6 +300,25 @@ def test_ppo_throughput_beside_cartpole(smoke):
     assert "FootstepDoor-v0 / CartPole-v1 (paired per round)" in stdout
 
 
+def test_tiers_section_one_cell_per_scene_and_tier(smoke):
+    """The tiers section in the smoke run (footstep_gym.bench.tiers; tests/test_bench_tiers.py tests it in depth):
+    smoke keeps the first cell of every scene and tier."""
+    from footstep_gym import tiers as tier_config
+
+    data, stdout, stderr = smoke
+    tiers = data["tiers"]
+    assert "tiers ..." in stderr
+    if "skipped" in tiers:  # the planners cannot be imported here
+        return
+    for scene in ("door", "crossing", "crowd"):
+        assert list(tiers["scenes"][scene]) == tier_config.tier_names()
+        for tier, agg in tiers["scenes"][scene].items():
+            assert len(agg["cells"]) == 1 and len(agg["rates"]) == SMOKE.repetitions, (scene, tier)
+            assert f"{scene}/{tier}/{agg['cells'][0]}" in tiers["cells"]
+    assert "## Tiers: env steps per second and planning time per tier" in stdout
+    assert sum("hard tier env steps/s" in t["target"] for t in data["targets"]) == 3
+
+
 # ------------------------------------------------------------------ in-process, no timing
 def _plan(median: float, p99: float, successes: int, episodes: int = 4) -> dict:
     return {"plan_time_s": {"median": median, "p95": p99, "p99": p99, "max": p99, "mean": median, "n": 50},

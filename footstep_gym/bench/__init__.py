@@ -15,6 +15,8 @@
 * :mod:`.lipm`: LIPM feasibility checks/s, one command and batched (``bench_lipm``);
 * :mod:`.planners`: planning time per footstep and success of each planner, timed through the
   evaluation runner's episode loop and warm-up (``bench_planners``);
+* :mod:`.tiers`: env steps/s and the period-aware planner's time per footstep on every cell of every
+  benchmark tier (configs/benchmark.yaml), beside the paper tier (``bench_tiers``);
 * :mod:`.ppo`: PPO training throughput beside CartPole (``bench_ppo``);
 * :mod:`.targets`: the targets' PASS / MISS and the ratios (``evaluate_targets``);
 * :mod:`.report`: the markdown of the benchmark's and the soak's results;

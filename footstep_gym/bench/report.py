@@ -152,6 +152,71 @@ def _ppo_section(ppo: dict[str, Any]) -> list[str]:
                   "interleaved round(s); median (IQR) over rounds.", ""]
 
 
+def _ms(s: dict[str, Any] | None, key: str) -> str:
+    return f"{s[key] * 1e3:.2f}" if s and s.get("n") else "n/a"
+
+
+def _tiers_section(res: dict[str, Any], tiers: dict[str, Any]) -> list[str]:
+    from .targets import tier_ratio_key
+
+    out = ["## Tiers: env steps per second and planning time per tier (configs/benchmark.yaml)", ""]
+    if "skipped" in tiers:
+        return out + [f"skipped: {tiers['skipped']}", ""]
+    ratios = res.get("ratios", {})
+    base = tiers.get("base_tier", "paper")
+
+    def ratio(key: str) -> str:
+        r = ratios.get(key)
+        return f"{r['median']:.2f} ({r['q1']:.2f}–{r['q3']:.2f})" if r else "—"
+
+    def success(r: dict[str, Any]) -> str:
+        return f"{r['successes']}/{r['episodes']}" if r.get("episodes") else "n/a"
+
+    rows = []
+    for scene, by_tier in tiers["scenes"].items():
+        for tier, agg in by_tier.items():
+            eplen = agg.get("mean_episode_steps")
+            rows.append([scene, tier, len(agg["cells"]), fmt_stat(agg["steps_per_s"]),
+                         ratio(tier_ratio_key(scene, tier)) if tier != base else "1",
+                         f"{eplen:.1f}" if isinstance(eplen, (int, float)) else "n/a",
+                         _ms(agg["plan_time_s"], "median"), _ms(agg["plan_time_s"], "p99"), agg["footsteps"],
+                         success(agg)])
+    out += [markdown_table(["scene", "tier", "cells", "env steps/s (median over cells)", f"× {base} (paired)",
+                            "steps/episode", "plan median ms", "plan p99 ms", "footsteps", "success"], rows), ""]
+    rows = []
+    for c in (tiers["cells"][f"{scene}/{tier}/{name}"] for scene, by_tier in tiers["scenes"].items()
+              for tier, agg in by_tier.items() for name in agg["cells"]):
+        env, pl = c.get("env", {}), c.get("planner", {})
+        eplen = env.get("mean_episode_steps")
+        rows.append([c["scene"], c["tier"], c["cell"] + (" (ORCA)" if c.get("orca") else ""),
+                     "skipped" if "skipped" in env else fmt_stat(env.get("steps_per_s")),
+                     ratio(tier_ratio_key(c["scene"], c["tier"], c["cell"])) if c["tier"] != base else "1",
+                     f"{eplen:.1f}" if isinstance(eplen, (int, float)) else "n/a",
+                     _ms(pl.get("plan_time_s"), "median"), _ms(pl.get("plan_time_s"), "p99"),
+                     pl.get("footsteps", "n/a"), success(pl) if "skipped" not in pl else "skipped"])
+    out += [markdown_table(["scene", "tier", "cell", "env steps/s", f"× {base} (paired)", "steps/episode",
+                            "plan median ms", "plan p99 ms", "footsteps", "success"], rows), ""]
+    seeds = tiers.get("seeds", [])
+    span = f"seed {seeds[0]}" if len(seeds) == 1 else f"seeds {seeds[0]}–{seeds[-1]}" if seeds else "no seeds"
+    out.append(f"- One process; each cell is `gym.make(id, tier=TIER, tier_cell=CELL)` with the {tiers['planner']} "
+               f"planner's commands recorded once ({span} per cell) and replayed from the same seeds, resets inside "
+               "the timed loop; the cells' "
+               "repetitions are interleaved round by round. A tier's rate is, per round, the median over its "
+               f"cells; × {base}: over the scene's {base} tier, paired per round, median (IQR) over rounds.")
+    out.append("- Planning time: `policy.act` per footstep through the evaluation runner after its warm-up of "
+               "each cell, pooled over a tier's cells.")
+    for label, c in tiers["cells"].items():
+        for part in ("env", "planner"):
+            if "skipped" in c.get(part, {}):
+                out.append(f"- {label} {part}: skipped ({c[part]['skipped'][:200]})")
+        if c.get("env", {}).get("replay_matches_recording") is False:
+            out.append(f"- {label}: replaying the planner's commands did NOT end the episodes as recorded")
+        if c.get("planner", {}).get("budget_exhausted"):
+            out.append(f"- {label}: the planner's time budget per cell ran out after "
+                       f"{len(c['planner']['seeds'])} of {len(c['planner']['seeds_planned'])} seeds")
+    return out + [""]
+
+
 def benchmark_report(res: dict[str, Any]) -> str:
     """The benchmark's markdown: the machine, then a table per section measured, then the targets."""
     m = res["meta"]
@@ -174,6 +239,8 @@ def benchmark_report(res: dict[str, Any]) -> str:
         out += _memory_section(res["memory"])
     if res.get("ppo"):
         out += _ppo_section(res["ppo"])
+    if res.get("tiers"):
+        out += _tiers_section(res, res["tiers"])
     if res.get("targets"):
         out += ["## Targets", "", markdown_table(["target", "threshold", "measured", "status"],
                                                  [[t["target"], t["threshold"], t["measured"], t["status"]]

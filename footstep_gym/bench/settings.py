@@ -8,7 +8,7 @@ import time
 from dataclasses import dataclass
 
 #: The benchmark's sections, in the order of ``--sections``' default.
-SECTIONS = ("env", "lipm", "planners", "memory", "ppo")
+SECTIONS = ("env", "lipm", "planners", "memory", "ppo", "tiers")
 
 
 @dataclass(frozen=True)
@@ -35,6 +35,10 @@ class Settings:
     action_pool: int  # distinct pre-sampled commands per env cell (cycled; sampling is outside the timing)
     ppo_timesteps: int  # env steps of each timed PPO.learn (after a warm-up of one rollout)
     ppo_rounds: int  # interleaved rounds of the PPO cells
+    #: the tiers section (footstep_gym.bench.tiers): at most this many cells per scene and tier, in the file's
+    #: order (None = every cell); the seeds per cell are planner_episodes, its env repetitions `repetitions`
+    tier_max_cells: int | None = None
+    tier_budget_s: float | None = None  # per tier cell: no new planner seed after this (>= 1 seed always runs)
 
 
 MODES = {
@@ -42,17 +46,17 @@ MODES = {
                       vec_repetitions=2, vec_rep_seconds=0.02, lipm_rep_seconds=0.01,
                       planner_episodes=1, planner_max_steps=2, planner_warmup_steps=1, planner_budget_s=None,
                       memory_steps=20, memory_acts=2, memory_budget_s=None, action_pool=64,
-                      ppo_timesteps=128, ppo_rounds=1),
+                      ppo_timesteps=128, ppo_rounds=1, tier_max_cells=1, tier_budget_s=None),
     "quick": Settings("quick", repetitions=7, rep_seconds=0.25, warmup_seconds=0.2, min_steps=50,
                       vec_repetitions=5, vec_rep_seconds=0.25, lipm_rep_seconds=0.1,
                       planner_episodes=4, planner_max_steps=None, planner_warmup_steps=10, planner_budget_s=45.0,
                       memory_steps=500, memory_acts=50, memory_budget_s=15.0, action_pool=1024,
-                      ppo_timesteps=2048, ppo_rounds=2),
+                      ppo_timesteps=2048, ppo_rounds=2, tier_max_cells=None, tier_budget_s=10.0),
     "full": Settings("full", repetitions=21, rep_seconds=0.5, warmup_seconds=0.5, min_steps=200,
                      vec_repetitions=11, vec_rep_seconds=0.5, lipm_rep_seconds=0.3,
                      planner_episodes=12, planner_max_steps=None, planner_warmup_steps=10, planner_budget_s=600.0,
                      memory_steps=2000, memory_acts=200, memory_budget_s=120.0, action_pool=4096,
-                     ppo_timesteps=8192, ppo_rounds=3),
+                     ppo_timesteps=8192, ppo_rounds=3, tier_max_cells=None, tier_budget_s=40.0),
 }
 
 _T0 = time.perf_counter()

@@ -4,7 +4,7 @@ they are read from (:func:`evaluate_targets`)."""
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -19,6 +19,12 @@ LIPM_TARGET_PER_S = 1_000_000
 PLAN_MEDIAN_FRACTION = 0.01  # of the nominal period
 PLAN_P99_FRACTION = 0.05
 PSO_SPEEDUP_TARGET = 10.0
+#: The tiers section (issue 19): the hard tier's env steps/s of each scene (and of each ORCA crowd cell) over the
+#: paper tier's scripted crowd (the slowest paper scene; the issue's yardstick), and the period-aware planner on
+#: hard. Each tier's rate over its own scene's paper tier is reported beside, as a ratio with no target.
+TIER_VS_PAPER = 0.5
+TIER_PLAN_MEDIAN_S = 0.002
+TIER_PLAN_P99_S = 0.020
 
 
 def evaluate_targets(res: dict[str, Any], nominal_period: float) -> tuple[list[dict[str, Any]], dict[str, Any]]:
@@ -98,4 +104,64 @@ def evaluate_targets(res: dict[str, Any], nominal_period: float) -> tuple[list[d
                     "pso-only's", f"n/a (pso-only: {pso.get('skipped', 'not measured')})"[:120], None)
     elif plans:
         add("period-aware planning", "runs", f"n/a ({plans['skipped']})"[:120], None)
+
+    tiers = res.get("tiers", {})
+    if tiers:
+        _tier_targets(tiers, add, ratios)
     return targets, ratios
+
+
+def tier_ratio_key(scene: str, tier: str, cell: str | None = None) -> str:
+    """The key in ``ratios`` of a tier's (or one of its cells') env steps/s over the scene's paper tier's."""
+    return f"tiers {scene}/{tier}{'/' + cell if cell else ''} / {scene}/paper"
+
+
+def _tier_targets(tiers: dict[str, Any], add: Callable[..., None], ratios: dict[str, Any]) -> None:
+    """The tiers section's ratios (every tier and cell over its scene's paper tier, paired per interleaved round)
+    and targets (hard >= TIER_VS_PAPER x paper per scene and per ORCA crowd cell; the planner on hard)."""
+    if "skipped" in tiers:
+        add("tiers section", "runs", f"n/a ({tiers['skipped']})"[:120], None)
+        return
+    base = tiers.get("base_tier", "paper")
+    cells = tiers.get("cells", {})
+
+    def paired(num: list[float] | None, den: list[float] | None) -> dict[str, float] | None:
+        return summary([a / b for a, b in zip(num, den)]) if num and den else None
+
+    for scene, by_tier in tiers.get("scenes", {}).items():
+        paper = by_tier.get(base, {}).get("rates")
+        for tier, agg in by_tier.items():
+            if tier != base:
+                ratios[tier_ratio_key(scene, tier)] = paired(agg.get("rates"), paper)
+        for c in cells.values():
+            if c["scene"] == scene and c["tier"] != base:
+                ratios[tier_ratio_key(scene, c["tier"], c["cell"])] = paired(c.get("env", {}).get("rates"), paper)
+        hard = by_tier.get("hard")
+        if hard is None:
+            continue
+        scripted = tiers.get("scenes", {}).get("crowd", {}).get(base, {}).get("rates")
+        key = f"tiers {scene}/hard / crowd/{base}"
+        ratios[key] = paired(hard.get("rates"), scripted)
+        checks = [(f"hard tier env steps/s >= {TIER_VS_PAPER:g}x the paper (scripted) crowd's, {scene} (1 process, "
+                   "planner commands; median over the cells per round)", key)]
+        checks += [(f"hard/{c['cell']} (ORCA crowd) env steps/s >= {TIER_VS_PAPER:g}x paper (scripted) crowd",
+                    tier_ratio_key(scene, "hard", c["cell"]))
+                   for c in cells.values() if c["scene"] == scene and c["tier"] == "hard" and c.get("orca")]
+        for name, key in checks:
+            r = ratios.get(key)
+            if r is None:
+                add(name, f"paired ratio >= {TIER_VS_PAPER:g}", "n/a (not measured)", None)
+            else:
+                add(name, f"paired ratio >= {TIER_VS_PAPER:g}",
+                    f"{r['median']:.2f} (IQR {r['q1']:.2f}–{r['q3']:.2f})", r["median"] >= TIER_VS_PAPER,
+                    value=r["median"])
+        p = hard.get("plan_time_s", {})
+        if p.get("n"):
+            add(f"period-aware median plan time, hard tier, {scene}", f"<= {TIER_PLAN_MEDIAN_S * 1e3:g} ms",
+                f"{p['median'] * 1e3:.2f} ms ({p['n']} footsteps)", p["median"] <= TIER_PLAN_MEDIAN_S,
+                value=p["median"])
+            add(f"period-aware p99 plan time, hard tier, {scene}", f"<= {TIER_PLAN_P99_S * 1e3:g} ms",
+                f"{p['p99'] * 1e3:.2f} ms ({p['n']} footsteps)", p["p99"] <= TIER_PLAN_P99_S, value=p["p99"])
+        else:
+            add(f"period-aware plan time, hard tier, {scene}", f"median <= {TIER_PLAN_MEDIAN_S * 1e3:g} ms, p99 <= "
+                f"{TIER_PLAN_P99_S * 1e3:g} ms", "n/a (not measured)", None)

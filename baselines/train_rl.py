@@ -7,10 +7,11 @@ Usage::
     python baselines/train_rl.py --algo ppo --env all --seeds 1 --ship            # ppo-all: FootstepMix-v0
     python baselines/train_rl.py --algo ppo sac --env door crowd --seeds 1 2 3 --backend ray   # a grid as Ray tasks
     python baselines/train_rl.py --algo sac --env door --seeds 1 --timesteps 20000 --eval-freq 5000
+    python baselines/train_rl.py --algo sac_sbx td3_sbx --env door --seeds 1 --eval-freq 10000 --eval-like-training
     python baselines/train_rl.py --ship runs/rl/seed1/ppo/FootstepDoor-v0_1 --wall-time 1500   # ship a finished run
     python baselines/train_rl.py --ship runs/rl-fixed/seed1/ppo/FootstepDoor-v0_1 --wall-time 267 \\
         --agent ppo-fixed-period                                         # ... as a registered agent of its own
-    python baselines/train_rl.py --curves                                # learning curves of every shipped agent
+    python baselines/train_rl.py --curves                                # learning curves (per agent, per scene), cost
     python baselines/train_rl.py --throughput                            # PPO env steps/s with 1 and 2 envs
 
 Each seed is one ``python -m rl_zoo3.train`` run (hyperparameters: ``configs/rl/<algo>.yml``,
@@ -42,6 +43,7 @@ from typing import Sequence
 
 import footstep_gym
 from footstep_gym.rl import AGENTS, training
+from footstep_gym.rl import report
 from footstep_gym.rl.jobs import (draw_curves, draw_run_curves, draw_shipped_curves, grid, run_jobs, shipped_longer,
                                   throughput_table)
 
@@ -67,12 +69,15 @@ def build_parser() -> argparse.ArgumentParser:
                       help="with training: ship each run to --agents-dir and redraw its learning curves "
                            "(without it, runs stay in --log-folder); with RUN: ship that finished zoo run "
                            "folder instead of training (needs --wall-time)")
-    mode.add_argument("--curves", action="store_true", help="only draw the learning curves of the shipped agents")
+    mode.add_argument("--curves", action="store_true", help="only draw the learning curves of the shipped agents (one per agent and env, "
+                           "one per env with every agent: scene_<EnvId>.png) and write their training cost "
+                           "(training_cost.md)")
     mode.add_argument("--throughput", action="store_true",
                       help="measure PPO's env steps/s inside learn() with 1 and 2 envs on each env, CartPole-v1 "
                            "as the ceiling; prints a markdown table (a measurement: run it on an idle machine)")
-    parser.add_argument("--algo", choices=("ppo", "sac"), nargs="+",
-                        help="algorithm(s) (configs/rl/<algo>.yml); several make a grid with --env and --seeds")
+    parser.add_argument("--algo", choices=("ppo", "sac", "sac_sbx", "td3_sbx"), nargs="+",
+                        help="algorithm(s) (configs/rl/<algo>.yml; sac_sbx, td3_sbx: sbx's JAX SAC and TD3 through "
+                             "footstep_gym.rl.zoo_sbx); several make a grid with --env and --seeds")
     parser.add_argument("--env", type=env_id_of, nargs="+",
                         help="door, crossing, crowd, all (FootstepMix-v0) or an env id; several make a grid")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1], metavar="S", help="training seeds (default 1)")
@@ -82,6 +87,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="env steps (all envs together) between the zoo's evaluations (default 25000); "
                              "a run shorter than this is evaluated once, at its end")
     parser.add_argument("--eval-episodes", type=int, default=20, metavar="N", help="episodes per evaluation")
+    parser.add_argument("--eval-like-training", action="store_true",
+                        help="the zoo's evaluation env gets the config's env_kwargs (--eval-env-kwargs; without it "
+                             "the zoo evaluates on the env's defaults)")
     parser.add_argument("--log-folder", type=Path, default=REPO / "runs" / "rl",
                         help="where the runs and their logs go (default runs/rl)")
     parser.add_argument("--agents-dir", type=Path, default=DEFAULT_AGENTS,
@@ -123,6 +131,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.curves:
         for path in draw_curves(args.agents_dir, args.curves_dir, args.reference):
             print(path)
+        for path in report.scene_curves(args.agents_dir, args.curves_dir):
+            print(path)
+        cost = args.curves_dir / "training_cost.md"
+        cost.write_text("# What training the shipped agents cost\n\n" + report.cost_table(args.agents_dir) + "\n\n"
+                        "Medians over each agent's training seeds, from their manifests (`baselines/agents/`); wall "
+                        "time on two shared cores, start-up and periodic evaluations included.\n", encoding="utf-8")
+        print(cost)
         return 0
     if args.throughput:
         print(throughput_table(args.timesteps or 8192))
@@ -168,6 +183,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     options = dict(log_folder=str(args.log_folder), agents_dir=str(args.agents_dir) if ship else None,
                    force=args.force, timesteps=args.timesteps, eval_freq=args.eval_freq,
                    eval_episodes=args.eval_episodes, progress=None if args.backend == "local" else False)
+    if args.eval_like_training:
+        options["eval_env_kwargs"] = "training"
     outcomes = run_jobs(jobs, options, args.backend, args.ray_address, args.workers)
     for path in (draw_shipped_curves(jobs, outcomes, args.agents_dir, args.curves_dir, args.reference) if ship
                  else draw_run_curves(jobs, outcomes, args.log_folder, args.reference)):

@@ -28,7 +28,8 @@ REPO = Path(__file__).resolve().parents[1]
 SHIPPED = REPO / "baselines" / "agents"
 #: The agents the project ships: (policy name, env id) -> at least this many training runs.
 EXPECTED = {("ppo", "FootstepDoor-v0"): 3, ("ppo", "FootstepCrossing-v0"): 3, ("ppo", "FootstepCrowd-v0"): 3,
-            ("ppo-all", "FootstepDoor-v0"): 1, ("sac", "FootstepDoor-v0"): 1,
+            ("ppo-all", "FootstepDoor-v0"): 1, ("sac-sb3", "FootstepDoor-v0"): 1, ("sac", "FootstepDoor-v0"): 1,
+            ("sac", "FootstepCrossing-v0"): 1, ("sac", "FootstepCrowd-v0"): 1,
             ("ppo-fixed-period", "FootstepDoor-v0"): 3, ("ppo-fixed-period", "FootstepCrossing-v0"): 3,
             ("ppo-fixed-period", "FootstepCrowd-v0"): 3}
 
@@ -186,13 +187,12 @@ def test_every_shipped_model_loads_with_the_env_it_trains_on(name, run):
     """Resuming training: ``<Algo>.load(zip, env=...)`` checks the spaces against the env's (finite observation
     bounds since the env got them; the models were re-saved with them), directly and through the zoo's
     ``VecNormalize`` (which keeps its own copy of the space)."""
-    import stable_baselines3
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-    from footstep_gym.rl.agents import ALGORITHMS, training_env
+    from footstep_gym.rl.agents import algorithm_class, training_env
 
     m = json.loads((run / "manifest.json").read_text())
-    cls = getattr(stable_baselines3, ALGORITHMS[m["algorithm"]])
+    cls = algorithm_class(m["algorithm"])  # SB3's, or sbx's for sac_sbx / td3_sbx
     zip_path = run / f"{m['env_id']}.zip"
     env = training_env(run)
     if m["env_id"] != footstep_gym.MIX_ENV_ID:

@@ -23,3 +23,41 @@ def test_ppo_fixed_period_is_ppo_with_the_period_fixed():
         entry = copy.deepcopy(fixed[env_id])
         assert entry["env_kwargs"].pop("fixed_period") is True, env_id
         assert entry == ppo[env_id], env_id
+
+
+def test_ppo_wide_is_ppo_on_wider_ranges():
+    """ppo-wide: ppo's hyperparameters; each scene's ranges contain the train tier's and reach the shifted tier's."""
+    from footstep_gym import tiers
+
+    ppo, wide = _load("ppo.yml"), _load("ppo-wide.yml")
+    scenes = {"FootstepDoor-v0": "door", "FootstepCrossing-v0": "crossing", "FootstepCrowd-v0": "crowd"}
+    assert sorted(k for k in wide if k.startswith("Footstep")) == sorted(scenes)
+    for env_id, scene in scenes.items():
+        entry, base = copy.deepcopy(wide[env_id]), copy.deepcopy(ppo[env_id])
+        kwargs, base_kwargs = entry.pop("env_kwargs"), base.pop("env_kwargs")
+        entry.pop("n_timesteps"), base.pop("n_timesteps"), entry.pop("callback")
+        assert entry == base, env_id
+        ranges = kwargs["randomize"]
+        for key, (lo, hi) in base_kwargs["randomize"].items():
+            assert ranges[key][0] <= lo and ranges[key][1] >= hi, (env_id, key)
+        for cell in tiers.cells(scene, "shifted"):
+            for key, value in tiers.plain(cell.kwargs).get("randomize", {}).items():
+                assert ranges[key][0] <= value[0] and ranges[key][1] >= value[1], (env_id, cell.name, key)
+
+
+def test_ppo_noisy_and_ppo_lstm_are_ppo_on_the_noisy_door():
+    """ppo-noisy: ppo's door hyperparameters on the train range sensed with the hard tier's noise profile;
+    ppo-lstm: the same with an LSTM policy (and nothing else changed)."""
+    from footstep_gym import tiers
+
+    ppo = _load("ppo.yml")["FootstepDoor-v0"]
+    noisy, lstm = _load("ppo-noisy.yml")["FootstepDoor-v0"], _load("ppo-lstm.yml")["FootstepDoor-v0"]
+    noise = {k: v for k, v in tiers.plain(next(c for c in tiers.cells("door", "hard") if c.name == "noisy").kwargs).items() if k.startswith("sensing_")}
+    assert noise and all(noisy["env_kwargs"][k] == v for k, v in noise.items())
+    assert noisy["env_kwargs"]["randomize"] == ppo["env_kwargs"]["randomize"]
+    strip = ("env_kwargs", "n_timesteps", "callback")
+    assert {k: v for k, v in noisy.items() if k not in strip} == {k: v for k, v in ppo.items() if k not in strip}
+    assert lstm.pop("policy") == "MlpLstmPolicy" and noisy.pop("policy") == "MlpPolicy"
+    assert lstm.pop("policy_kwargs").replace(", lstm_hidden_size=64, enable_critic_lstm=True", "") == \
+        noisy.pop("policy_kwargs")
+    assert lstm == noisy

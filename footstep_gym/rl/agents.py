@@ -19,7 +19,7 @@ when run from the checkout's root, as the README's commands are. The agents are 
 the installed package: a non-editable install finds none unless the argument or the variable
 points at a checkout's ``baselines/agents``.
 
-torch and stable-baselines3 are imported only when an agent is loaded.
+torch and stable-baselines3 (sbx and JAX for the sbx algorithms) are imported only when an agent is loaded.
 """
 
 from __future__ import annotations
@@ -37,8 +37,33 @@ from footstep_gym.policy import Policy
 from footstep_gym.robot import Robot
 from footstep_gym.rl.training import zoo_yaml
 
-#: rl_zoo3 algorithm names this loader knows, and the stable-baselines3 class of each.
-ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "a2c": "A2C", "ddpg": "DDPG"}
+#: rl_zoo3 algorithm names this loader knows, and the class of each: stable-baselines3's, or for the names
+#: in :data:`ALGORITHM_PACKAGES` that package's (sbx: the JAX implementations, trained through
+#: :mod:`footstep_gym.rl.zoo_sbx`).
+ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "a2c": "A2C", "ddpg": "DDPG",
+              "sac_sbx": "SAC", "td3_sbx": "TD3", "ppo_lstm": "RecurrentPPO"}
+#: The package of an algorithm's class when it is not ``stable_baselines3``.
+ALGORITHM_PACKAGES = {"sac_sbx": "sbx", "td3_sbx": "sbx", "ppo_lstm": "sb3_contrib"}
+
+
+def algorithm_class(algo: str) -> Any:
+    """The model class of rl_zoo3 algorithm ``algo`` (:data:`ALGORITHMS`), its package imported now.
+
+    sbx (``sac_sbx``, ``td3_sbx``) is imported only here, with JAX held to one thread
+    (:func:`footstep_gym.rl.zoo_sbx.import_sbx`); ``ImportError`` saying how to install it if it is missing.
+    """
+    if algo not in ALGORITHMS:
+        raise ValueError(f"algorithm {algo!r} not supported; one of {sorted(ALGORITHMS)}")
+    package = ALGORITHM_PACKAGES.get(algo, "stable_baselines3")
+    if package == "sbx":
+        from footstep_gym.rl.zoo_sbx import import_sbx
+
+        module = import_sbx()
+    else:
+        import importlib
+
+        module = importlib.import_module(package)
+    return getattr(module, ALGORITHMS[algo])
 
 
 # ---------------------------------------------------------------- the registry of shipped agents
@@ -67,10 +92,21 @@ AGENTS: dict[str, AgentEntry] = {
                              "training seed, summarised over seeds"),
     "ppo-all": AgentEntry("ppo", "one PPO trained across the three scenes (FootstepMix-v0)",
                           trained_on="FootstepMix-v0"),
-    "sac": AgentEntry("sac", "SAC (stable-baselines3, rl_zoo3) trained on the env evaluated"),
+    "sac": AgentEntry("sac_sbx", "SAC (sbx, the JAX implementation of stable-baselines3's; rl_zoo3-tuned, "
+                                 "configs/rl/sac_sbx.yml) trained on the env evaluated", folder="sac"),
     "ppo-fixed-period": AgentEntry("ppo", "PPO trained with the period held at nominal (action [S, L, theta], "
                                           "configs/rl/ppo-fixed-period.yml): the period ablation for agents",
                                    folder="ppo-fixed-period"),
+    "td3": AgentEntry("td3_sbx", "TD3 (sbx, the JAX implementation of stable-baselines3's; rl_zoo3-tuned, "
+                                 "configs/rl/td3_sbx.yml) trained on the env evaluated", folder="td3"),
+    "ppo-wide": AgentEntry("ppo", "PPO trained on a wider distribution, the train tier's ranges stretched over the "
+                                  "shifted tier's (configs/rl/ppo-wide.yml)", folder="ppo-wide"),
+    "ppo-noisy": AgentEntry("ppo", "PPO trained on the door sensed with the hard tier's noise (configs/rl/ppo-noisy.yml): "
+                                   "ppo-lstm's memoryless twin", folder="ppo-noisy"),
+    "ppo-lstm": AgentEntry("ppo_lstm", "RecurrentPPO (sb3-contrib, an LSTM policy) trained on the door sensed with the "
+                                       "hard tier's noise (configs/rl/ppo-lstm.yml)", folder="ppo-lstm"),
+    "sac-sb3": AgentEntry("sac", "the first SAC (stable-baselines3, configs/rl/sac.yml, hand-set, 60k steps on the "
+                                 "door): a straw man kept for reference", folder="sac-sb3"),
 }
 
 #: The environment variable naming the agents folder (:func:`default_agents_dir`).
@@ -217,14 +253,12 @@ def resave_with_env_spaces(path: str | Path) -> Path:
     state and the normalisation statistics are kept (check with ``model.policy.state_dict()``);
     the bounds do not enter an MLP policy. Returns the model's path.
     """
-    import stable_baselines3
 
     model_path, folder, algo = check_run(path)
     env = training_env(path)
     space = env.observation_space
     env.close()
-    model = getattr(stable_baselines3, ALGORITHMS[algo]).load(model_path, device="cpu",
-                                                                custom_objects={"observation_space": space})
+    model = algorithm_class(algo).load(model_path, device="cpu", custom_objects={"observation_space": space})
     partial = model_path.with_name(f".{model_path.stem}.partial.zip")
     norm_path = folder / "vecnormalize.pkl"
     norm_partial = folder / ".vecnormalize.partial.pkl"
@@ -287,13 +321,16 @@ class ZooAgent(Policy):
 
         torch.set_num_threads(1)  # one core per evaluation worker (PLATFORM: more threads are slower)
         model_path, folder, algo = check_run(path, algo)
-        import stable_baselines3
 
         self.algo = algo
         self.path = model_path
+        self._state: Any = None  # a recurrent policy's (LSTM) state, carried from act to act within an episode
+        self._episode_start = np.ones((1,), dtype=bool)
         run_folder = folder.parent if folder != model_path.parent else None  # <EnvId>_<k>/ of a zoo run
         self.name = name or f"agent:{run_folder.name if run_folder is not None else model_path.stem}"
-        self.model = getattr(stable_baselines3, ALGORITHMS[algo]).load(model_path, device="cpu")
+        self.model = algorithm_class(algo).load(model_path, device="cpu")
+        if ALGORITHM_PACKAGES.get(algo) == "sbx":  # JAX compiles the policy at its first call: here, not in act's time
+            self.model.predict(np.zeros((1, *self.model.observation_space.shape), np.float32), deterministic=True)
         norm_path = folder / "vecnormalize.pkl"
         self.normalizer = None
         if norm_path.is_file():
@@ -330,8 +367,11 @@ class ZooAgent(Policy):
             self._nominal_period = [float(v) for v in robot.nominal_command[3:]]  # T_SS, T_DS: float64, exact
 
     def reset(self, seed: int | None = None) -> None:
-        """Nothing to reset: the agent acts deterministically on the observation alone."""
+        """A new episode: a recurrent agent's state starts afresh (the others act on the observation alone);
+        the agent acts deterministically, so ``seed`` changes nothing."""
         self.last_info = {}
+        self._state = None
+        self._episode_start = np.ones((1,), dtype=bool)
 
     def act(self, obs: np.ndarray, snapshot: Any = None) -> np.ndarray:
         """The footstep command ``(5,)`` for observation ``obs``: float32 in the env's box, or for a
@@ -339,7 +379,9 @@ class ZooAgent(Policy):
         x = np.asarray(obs, dtype=np.float32).reshape(1, -1)
         if self.normalizer is not None:
             x = self.normalizer.normalize_obs(x)
-        action, _ = self.model.predict(x, deterministic=True)
+        action, self._state = self.model.predict(x, state=self._state, episode_start=self._episode_start,
+                                                 deterministic=True)
+        self._episode_start = np.zeros((1,), dtype=bool)
         action = np.asarray(action, dtype=np.float32).reshape(-1)
         command = self._to_command(action) if self._to_command is not None else action
         if self.fixed_period:

@@ -54,13 +54,13 @@ def draw_curves(agents_dir: Path, out_dir: Path, reference: Path, only: tuple[st
     for (folder, env_id), runs in sorted(groups.items()):
         if only is not None and (folder, env_id) != only:
             continue
-        runs = [r for r in runs if training.eval_curve(r)["success"]]
+        runs = [r for r in runs if training.success_curve(r)["success"]]
         if not runs:
             print(f"no evaluation recorded for {folder} on {env_id} (training shorter than --eval-freq): no curve",
                   file=sys.stderr)
             continue
         name = algos[folder].upper() + ("" if folder == algos[folder] else f" ({folder})")
-        title = f"{name} on {env_id}: success of the periodic evaluation ({len(runs)} training seed(s))"
+        title = f"{name} on {env_id}: success while training ({len(runs)} training seed(s))"
         written.append(training.learning_curves(runs, out_dir / f"{folder}_{env_id}.png", title,
                                                 planner_reference(reference, env_id)))
     return written
@@ -167,7 +167,7 @@ def draw_run_curves(jobs: list[Job], outcomes: list[dict[str, Any]], log_folder:
     written = []
     for algo, env_id in dict.fromkeys((j.algo, j.env_id) for j in jobs):
         runs = [Path(o["run"]) for j, o in zip(jobs, outcomes) if (j.algo, j.env_id) == (algo, env_id)]
-        runs = [r for r in runs if training.eval_curve(r)["success"]]
+        runs = [r for r in runs if training.success_curve(r)["success"]]
         if runs:
             title = f"{algo.upper()} on {env_id}: success of the periodic evaluation ({len(runs)} run(s))"
             written.append(training.learning_curves(runs, log_folder / "learning_curves" / f"{algo}_{env_id}.png",

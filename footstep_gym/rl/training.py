@@ -17,6 +17,7 @@ Nothing here imports torch: training runs in a subprocess (:func:`ppo_throughput
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import platform
@@ -43,6 +44,10 @@ SHIPPED_IN_ENV_FOLDER = ("config.yml", "args.yml", "command.txt", "vecnormalize.
 #: Algorithms that collect whole rollouts of ``n_steps`` per env between updates (SB3's defaults).
 ON_POLICY_N_STEPS = {"ppo": 2048, "a2c": 5}
 
+#: Algorithms that train through :mod:`footstep_gym.rl.zoo_sbx` (sbx's JAX classes registered in rl_zoo3) rather
+#: than ``rl_zoo3.train``: the same command line and saved layout, the run's ``args.yml`` names the algorithm.
+ZOO_MODULE = {"sac_sbx": "footstep_gym.rl.zoo_sbx", "td3_sbx": "footstep_gym.rl.zoo_sbx"}
+
 
 class ShipRefused(FootstepGymError):
     """Shipping would replace a shipped agent with a shorter or worse run (``force`` not given)."""
@@ -55,8 +60,16 @@ def conf_path(algo: str, conf_file: str | Path | None = None) -> Path:
 
 def zoo_command(algo: str, env_id: str, seed: int, log_folder: str | Path, *, conf_file: str | Path | None = None,
                 timesteps: int | None = None, eval_freq: int = 25_000, eval_episodes: int = 20,
-                threads: int = 1, log_interval: int | None = None, python: str = sys.executable) -> list[str]:
+                threads: int = 1, log_interval: int | None = None, python: str = sys.executable,
+                eval_env_kwargs: dict[str, Any] | str | None = None) -> list[str]:
     """The rl_zoo3 command line that trains ``algo`` on ``env_id`` with ``seed`` into ``log_folder``.
+
+    ``python -m rl_zoo3.train``, or for the sbx algorithms (:data:`ZOO_MODULE`) ``python -m
+    footstep_gym.rl.zoo_sbx`` with the same arguments. ``eval_env_kwargs``: the env options
+    of the zoo's evaluation env (``--eval-env-kwargs``), which otherwise gets none of the
+    config's ``env_kwargs`` (an rl_zoo3 quirk: it evaluates on the env's defaults);
+    ``"training"``: the config entry's own ``env_kwargs``, i.e. evaluate on the training
+    distribution.
 
     ``conf_file`` defaults to ``configs/rl/<algo>.yml``; ``eval_freq`` (env steps, all envs
     together; the zoo divides it by ``n_envs``) and ``eval_episodes`` set the zoo's
@@ -67,12 +80,19 @@ def zoo_command(algo: str, env_id: str, seed: int, log_folder: str | Path, *, co
     """
     if log_interval is None:
         log_interval = 1 if algo in ON_POLICY_N_STEPS else 10
-    cmd = [python, "-m", "rl_zoo3.train", "--algo", algo, "--env", env_id, "--gym-packages", "footstep_gym",
+    cmd = [python, "-m", ZOO_MODULE.get(algo, "rl_zoo3.train"), "--algo", algo, "--env", env_id, "--gym-packages", "footstep_gym",
            "--conf-file", str(conf_path(algo, conf_file)), "--num-threads", str(threads), "--seed", str(seed),
            "-f", str(log_folder), "--eval-freq", str(eval_freq), "--eval-episodes", str(eval_episodes),
            "--log-interval", str(log_interval)]
     if timesteps is not None:
         cmd += ["-n", str(timesteps)]
+    if eval_env_kwargs == "training":
+        eval_env_kwargs = dict(zoo_entry(algo, env_id, conf_file).get("env_kwargs") or {})
+    elif isinstance(eval_env_kwargs, str):
+        raise ValueError(f"eval_env_kwargs: a dict or 'training', not {eval_env_kwargs!r}")
+    if eval_env_kwargs:
+        # The zoo's StoreDict: key:value with the value evaluated as Python.
+        cmd += ["--eval-env-kwargs", *(f"{k}:{_plain(v)!r}" for k, v in eval_env_kwargs.items())]
     return cmd
 
 
@@ -213,6 +233,29 @@ def eval_curve(run: Path) -> dict[str, list[float]]:
     }
 
 
+#: The validation curve a run's ``ValidationCallback`` writes (footstep_gym/rl/callbacks.py), shipped with it.
+VALIDATION_CURVE = "validation.csv"
+
+
+def validation_curve(run: Path) -> dict[str, list[float]]:
+    """A run's success on the validation split as it trained (``validation.csv``; empty lists without one):
+    timesteps, training wall time [s] and success rate per evaluation."""
+    path = run / VALIDATION_CURVE
+    if not path.is_file():
+        return {"timesteps": [], "wall_time_s": [], "success": [], "episodes": 0}
+    with open(path, encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    return {"timesteps": [int(r["timesteps"]) for r in rows], "wall_time_s": [float(r["wall_time_s"]) for r in rows],
+            "success": [float(r["success_rate"]) for r in rows], "episodes": int(rows[-1]["episodes"]) if rows else 0}
+
+
+def success_curve(run: Path) -> dict[str, list[float]]:
+    """A run's learning curve, ``{"timesteps", "success"}``: its validation curve (:func:`validation_curve`) if it
+    has one, else the zoo's periodic evaluation (:func:`eval_curve`)."""
+    curve = validation_curve(run)
+    return curve if curve["success"] else eval_curve(run)
+
+
 def replace_problem(dest: str | Path, timesteps: int, success: float | None = None,
                     check_success: bool = True) -> str | None:
     """Why a run of ``timesteps`` env steps ending at evaluation success ``success`` must not
@@ -241,13 +284,26 @@ def replace_problem(dest: str | Path, timesteps: int, success: float | None = No
     return None
 
 
+def default_agent_folder(algo: str) -> str:
+    """The agents folder a run of ``algo`` ships to when no agent is named: the algorithm's own name if a
+    registered agent of that algorithm has it (``ppo``), else the one folder of its registered agents
+    (``sac_sbx`` -> ``sac``, SB3's ``sac`` -> ``sac-sb3``), else the algorithm's name."""
+    from footstep_gym.rl.agents import AGENTS  # agents imports this module
+
+    folders = {e.folder for e in AGENTS.values() if e.algo == algo}
+    if algo in folders or len(folders) != 1:
+        return algo
+    return folders.pop()
+
+
 def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int | None = None,
          force: bool = False, agent: str | None = None) -> Path:
     """Copy a finished zoo run's small files to ``<agents_dir>/<agent>/<EnvId>_<seed>/`` and write its manifest.
 
     ``agent``: the shipped folder, the agent's :attr:`AgentEntry.folder
     <footstep_gym.rl.agents.AgentEntry.folder>` (e.g. ``ppo-fixed-period`` for a PPO run of
-    ``configs/rl/ppo-fixed-period.yml``); default the run's algorithm (``ppo``, ``sac``).
+    ``configs/rl/ppo-fixed-period.yml``); default :func:`default_agent_folder` of the run's algorithm
+    (``ppo``; ``sac`` for an sbx ``sac_sbx`` run). A shipped agent of another algorithm is never replaced.
     The manifest records the agent's folder, the algorithm, env id and kwargs (the env
     options the agent was trained with, e.g. ``fixed_period``), timesteps, seed, ``n_envs``,
     the wall time and the training throughput (env steps per second of wall time, start-up
@@ -266,7 +322,7 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
     config = zoo_yaml(folder / "config.yml")
     algo = args["algo"]
     seed = int(args["seed"] if seed is None else seed)
-    agent = agent or algo
+    agent = agent or default_agent_folder(algo)
     if not agent or Path(agent).name != agent or agent.startswith("."):
         raise ValueError(f"agent folder {agent!r}: one plain folder name expected (e.g. {algo!r})")
     dest = Path(agents_dir) / agent / f"{env_id}_{seed}"
@@ -275,7 +331,17 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
         timesteps = int(float(config["n_timesteps"]))
     curve = eval_curve(run)
     final_success = curve["success"][-1] if curve["success"] else None
+    final_episodes, final_on = int(args.get("eval_episodes", 0)), "the zoo's eval env"
+    validation = validation_curve(run)
+    if validation["success"]:  # the validation split's seeds (callbacks.ValidationCallback) over the zoo's eval
+        final_success, final_episodes, final_on = validation["success"][-1], validation["episodes"], "validation split"
     problem = None if force else replace_problem(dest, timesteps, final_success)
+    old_manifest = dest / "manifest.json"
+    if old_manifest.is_file():  # not even with force: another algorithm's agent is another agent
+        old_algo = json.loads(old_manifest.read_text(encoding="utf-8")).get("algorithm")
+        if old_algo != algo:
+            raise ShipRefused(f"{dest} holds a {old_algo} agent, this run is {algo}: not replaced (ship it as "
+                              f"another agent, --agent)")
     if problem:
         raise ShipRefused(problem)
 
@@ -297,7 +363,8 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
         "env_steps_per_s": round(timesteps / wall_time_s, 1),
         "torch_threads": int(args.get("num_threads", -1)),
         "final_eval_success": final_success,
-        "final_eval_episodes": int(args.get("eval_episodes", 0)),
+        "final_eval_episodes": final_episodes,
+        "final_eval_on": final_on,
         "command": (folder / "command.txt").read_text(encoding="utf-8").strip()
         if (folder / "command.txt").is_file() else None,
         "versions": {d: version(d) for d in ("footstep_gym", "stable_baselines3", "rl_zoo3", "torch", "gymnasium")},
@@ -315,8 +382,9 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
         for name in SHIPPED_IN_ENV_FOLDER:
             if (folder / name).is_file():
                 shutil.copy2(folder / name, stage / env_id / name)
-        if (run / "evaluations.npz").is_file():
-            shutil.copy2(run / "evaluations.npz", stage / "evaluations.npz")
+        for name in ("evaluations.npz", VALIDATION_CURVE):
+            if (run / name).is_file():
+                shutil.copy2(run / name, stage / name)
         (stage / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
         if dest.exists():
             old = stage.with_suffix(".old")
@@ -332,7 +400,7 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
 
 def learning_curves(runs: Sequence[str | Path], out: str | Path, title: str,
                     reference: dict[str, float] | None = None) -> Path:
-    """A PNG of the evaluation success rate against env steps: each run thin, their mean thick.
+    """A PNG of the success rate against env steps (:func:`success_curve`): each run thin, their mean thick.
 
     ``reference``: horizontal lines (label -> success rate), e.g. the planners' success on
     the same env.
@@ -343,7 +411,7 @@ def learning_curves(runs: Sequence[str | Path], out: str | Path, title: str,
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
-    curves = [(Path(r), eval_curve(Path(r))) for r in runs]
+    curves = [(Path(r), success_curve(Path(r))) for r in runs]
     curves = [(r, c) for r, c in curves if c["success"]]
     if not curves:
         raise ValueError(f"no evaluation successes recorded in {[str(r) for r in runs]}")

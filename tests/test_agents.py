@@ -29,7 +29,7 @@ SHIPPED = REPO / "baselines" / "agents"
 #: The agents the project ships: (policy name, env id) -> at least this many training runs.
 EXPECTED = {("ppo", "FootstepDoor-v0"): 3, ("ppo", "FootstepCrossing-v0"): 3, ("ppo", "FootstepCrowd-v0"): 3,
             ("ppo-all", "FootstepDoor-v0"): 1, ("sac-sb3", "FootstepDoor-v0"): 1, ("sac", "FootstepDoor-v0"): 1,
-            ("sac", "FootstepCrossing-v0"): 1, ("sac", "FootstepCrowd-v0"): 1,
+            ("sac", "FootstepCrossing-v0"): 1, ("sac", "FootstepCrowd-v0"): 1, ("td3", "FootstepDoor-v0"): 1,
             ("ppo-fixed-period", "FootstepDoor-v0"): 3, ("ppo-fixed-period", "FootstepCrossing-v0"): 3,
             ("ppo-fixed-period", "FootstepCrowd-v0"): 3}
 
@@ -241,7 +241,7 @@ def test_the_fixed_period_agent_pins_float32_limits_as_the_env_does():
     fixed = gym.make("FootstepDoor-v0", fixed_period=True)
     pinned = 0
     for corner in (-1.0, 1.0):
-        agent.model.predict = lambda x, deterministic=True, c=corner: (np.full((1, 3), c, np.float32), None)
+        agent.model.predict = lambda x, c=corner, **kw: (np.full((1, 3), c, np.float32), None)
         command = agent.act(np.zeros(42, np.float32))
         limit = robot.command_high if corner > 0 else robot.command_low
         rescaled = agent._to_command(np.full(3, corner, np.float32))

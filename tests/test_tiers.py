@@ -210,8 +210,13 @@ def test_the_paper_tier_needs_no_file(tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------------------ the train tier and the shipped agents
+#: The shipped agents trained on the train tier (the others, e.g. ppo-wide or ppo-noisy, on distributions of their
+#: own: configs/rl/<agent>.yml says which).
+TRAIN_TIER_AGENTS = ("ppo", "ppo-fixed-period", "sac", "td3", "sac-sb3")
+
+
 def _manifests() -> list[Path]:
-    return sorted((ROOT / "baselines" / "agents").glob("*/*/manifest.json"))  # ppo, ppo-fixed-period, sac
+    return sorted(p for a in TRAIN_TIER_AGENTS for p in (ROOT / "baselines" / "agents" / a).glob("*/manifest.json"))
 
 
 def _train_kwargs(scene: str, fixed_period: bool = False) -> dict:
@@ -235,7 +240,7 @@ def test_the_train_tier_is_what_the_shipped_agents_trained_on():
 def test_the_rl_configs_train_on_the_train_tier():
     """configs/rl/*.yml write the train tier's ranges out (so a run's config.yml and manifest say what it trained
     on whatever benchmark.yaml later says): the same keys, ranges and order (the order of the draws)."""
-    for name in ("ppo.yml", "ppo-fixed-period.yml", "sac.yml"):
+    for name in ("ppo.yml", "ppo-fixed-period.yml", "sac.yml", "sac_sbx.yml", "td3_sbx.yml"):
         with open(config_dir() / "rl" / name, encoding="utf-8") as fh:
             zoo = yaml.load(fh, Loader=yaml.UnsafeLoader)
         for env_id, entry in zoo.items():

@@ -57,7 +57,8 @@ EVALUATIONS = (
                "planner was built, over a sweep of door and crowd speeds."),
     Evaluation("agents", "Agents against the planners",
                "`--profile agents`: the shipped agents (`ppo`: three training seeds, summarised over them; "
-               "`ppo-all`: one agent for the three scenes; `sac`: the door) against both planners, at settings "
+               "`ppo-fixed-period`: the period held at nominal; `ppo-wide`: trained on wider ranges; `ppo-all`: one agent "
+               "for the three scenes; `sac`: sbx's SAC, one seed per scene) against both planners, at settings "
                "each agent met only as part of its randomised training distribution, on test seeds disjoint "
                "from training."),
     Evaluation("ablation", "Ablation: what each addition buys",
@@ -67,7 +68,7 @@ EVALUATIONS = (
 )
 
 #: The evaluation and the policies of the README's headline table.
-HEADLINE = ("agents", ("period-aware", "fixed-period", "ppo", "ppo-all", "sac"))
+HEADLINE = ("agents", ("period-aware", "fixed-period", "ppo", "ppo-fixed-period", "ppo-wide", "ppo-all", "sac"))
 
 _BEGIN = re.compile(r"<!-- BEGIN GENERATED (?P<name>[a-z0-9_-]+)(?P<note>[^>]*)-->\n")
 
@@ -318,6 +319,24 @@ def headline_table(repo: Path) -> str:
     return _table(head, rows)
 
 
+#: The benchmark's leaderboard across policies (baselines/make_leaderboard.py), whose headline the README shows.
+LEADERBOARD = Path("baselines") / "results" / "benchmark" / "leaderboard.md"
+
+
+def leaderboard_block(repo: Path) -> str:
+    """The README's leaderboard: the "IQM success per tier" section of the committed ``leaderboard.md`` (its table
+    and notes, as ``baselines/make_leaderboard.py`` wrote them; the bootstrap is not redone here)."""
+    path = repo / LEADERBOARD
+    lines = path.read_text(encoding="utf-8").split("\n")
+    try:
+        start = lines.index("## IQM success per tier") + 1
+    except ValueError:
+        raise ValueError(f"{LEADERBOARD}: no '## IQM success per tier' section; regenerate it with "
+                         "python baselines/make_leaderboard.py") from None
+    end = next((i for i in range(start, len(lines)) if lines[i].startswith("## ")), len(lines))
+    return "\n".join(lines[start:end]).strip("\n") + "\n"
+
+
 def _include(path: Path, skip: Callable[[str], bool] = lambda line: False) -> str:
     """A generated markdown file's body (its title dropped, its headings one level down)."""
     lines = path.read_text(encoding="utf-8").rstrip("\n").split("\n")
@@ -360,7 +379,8 @@ def fill_blocks(text: str, blocks: dict[str, str], where: str = "") -> str:
 def render_docs(repo: Path) -> dict[Path, str]:
     """``{path relative to repo: the text it must have}`` for every page this module writes or fills."""
     pages = {RESULTS_DOC: results_markdown(repo)}
-    fills = {SPEED_DOC: speed_blocks(repo), README: {"headline": headline_table(repo)}}
+    fills = {SPEED_DOC: speed_blocks(repo),
+             README: {"headline": headline_table(repo), "leaderboard": leaderboard_block(repo)}}
     for rel, blocks in fills.items():
         path = repo / rel
         if path.is_file():

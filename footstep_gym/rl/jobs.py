@@ -105,8 +105,8 @@ def shipped_longer(jobs: list[Job], agents_dir: Path, timesteps: int | None) -> 
     """Why a job's run could not replace its shipped agent (a run with fewer timesteps), or None: checked before
     training (the success is checked when shipping)."""
     for job in jobs:
-        problem = training.replace_problem(agents_dir / job.algo / f"{job.env_id}_{job.seed}",
-                                           training.planned_timesteps(job.algo, job.env_id, timesteps),
+        shipped = agents_dir / training.default_agent_folder(job.algo) / f"{job.env_id}_{job.seed}"
+        problem = training.replace_problem(shipped, training.planned_timesteps(job.algo, job.env_id, timesteps),
                                            check_success=False)
         if problem:
             return problem

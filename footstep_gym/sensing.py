@@ -152,6 +152,21 @@ class Snapshot:
 Near = tuple[float, tuple[float, float], tuple[float, float], ObstacleView]
 
 
+def nearest_on_segment(px: float, py: float, ax: float, ay: float, dx: float, dy: float,
+                       L2: float) -> tuple[float, float]:
+    """The point of the segment from ``(ax, ay)`` along ``(dx, dy)`` (squared length ``L2``) nearest ``(px, py)``
+    [m]: the one arithmetic ``World.nearest`` and the sensed views share, operation for operation."""
+    if L2 == 0.0:
+        u = 0.0
+    else:  # min(max(u, 0), 1)
+        u = ((px - ax) * dx + (py - ay) * dy) / L2
+        if 0.0 > u:
+            u = 0.0
+        if 1.0 < u:
+            u = 1.0
+    return ax + u * dx, ay + u * dy
+
+
 def _centre_line(view: ObstacleView, px: float, py: float) -> tuple[float, float, float, float, float, float]:
     """``(gap, qx, qy, nx, ny, d)``: the point of the view's centre line nearest ``(px, py)`` [m], the offset
     from it to the point and its length, and the gap ``d - radius``: ``World.nearest``'s arithmetic, operation
@@ -166,16 +181,7 @@ def _centre_line(view: ObstacleView, px: float, py: float) -> tuple[float, float
         ax, ay = ox + c * la[0] - s * la[1], oy + s * la[0] + c * la[1]
         bx, by = ox + c * lb[0] - s * lb[1], oy + s * lb[0] + c * lb[1]
     dx, dy = bx - ax, by - ay
-    L2 = dx * dx + dy * dy
-    if L2 == 0.0:
-        u = 0.0
-    else:  # min(max(u, 0), 1)
-        u = ((px - ax) * dx + (py - ay) * dy) / L2
-        if 0.0 > u:
-            u = 0.0
-        if 1.0 < u:
-            u = 1.0
-    qx, qy = ax + u * dx, ay + u * dy
+    qx, qy = nearest_on_segment(px, py, ax, ay, dx, dy, dx * dx + dy * dy)
     nx, ny = px - qx, py - qy
     d = math.hypot(nx, ny)
     return d - view.radius, qx, qy, nx, ny, d

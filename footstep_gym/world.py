@@ -50,7 +50,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 import pymunk
 
-from footstep_gym.sensing import ObstacleView
+from footstep_gym.sensing import ObstacleView, nearest_on_segment
 
 _ROBOT = 0b01
 _OBSTACLE = 0b10
@@ -248,15 +248,7 @@ class World:
         # length); sorted by (gap, index): by gap, ties in the obstacles' order.
         near = []
         for i, o, ax, ay, dx, dy, L2, radius in statics:  # on the static body: the frame is the world's
-            if L2 == 0.0:
-                u = 0.0
-            else:  # min(max(u, 0), 1)
-                u = ((px - ax) * dx + (py - ay) * dy) / L2
-                if 0.0 > u:
-                    u = 0.0
-                if 1.0 < u:
-                    u = 1.0
-            qx, qy = ax + u * dx, ay + u * dy  # nearest point of the centre line
+            qx, qy = nearest_on_segment(px, py, ax, ay, dx, dy, L2)  # nearest point of the centre line
             nx, ny = px - qx, py - qy
             d = hypot(nx, ny)
             if not d - radius > max_distance:
@@ -270,16 +262,7 @@ class World:
             ax, ay = ox + c * o.local_a[0] - s * o.local_a[1], oy + s * o.local_a[0] + c * o.local_a[1]
             bx, by = ox + c * o.local_b[0] - s * o.local_b[1], oy + s * o.local_b[0] + c * o.local_b[1]
             dx, dy = bx - ax, by - ay
-            L2 = dx * dx + dy * dy
-            if L2 == 0.0:
-                u = 0.0
-            else:
-                u = ((px - ax) * dx + (py - ay) * dy) / L2
-                if 0.0 > u:
-                    u = 0.0
-                if 1.0 < u:
-                    u = 1.0
-            qx, qy = ax + u * dx, ay + u * dy
+            qx, qy = nearest_on_segment(px, py, ax, ay, dx, dy, dx * dx + dy * dy)
             nx, ny = px - qx, py - qy
             d = hypot(nx, ny)
             if not d - radius > max_distance:

@@ -8,6 +8,7 @@ what the agent learns.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -82,6 +83,29 @@ def test_a_trained_agent_loads_and_plays_an_episode(trained):
     result = run_episode(Task(0, Cell("FootstepDoor-v0", "door", "ppo", (("door_speed", 8.0),), run=str(run)), 3))
     assert result.outcome in ("goal", "collision", "fall", "timeout") and result.steps >= 1
     assert len(result.plan_ms) == result.steps
+
+
+def test_a_run_is_loaded_once_per_process_and_anew_when_its_files_change(trained, tmp_path):
+    """Agents of one run share its loaded model (an evaluation makes one per episode); a re-saved run is read again,
+    and an agent of the shared model acts as one loaded on its own."""
+    import shutil
+
+    from footstep_gym.rl import agents
+
+    run = tmp_path / "ppo" / "FootstepDoor-v0_7"
+    shutil.copytree(trained / "agents" / "ppo" / "FootstepDoor-v0_7", run)
+    robot = load_robot()
+    first, second = ZooAgent(run, robot), ZooAgent(run, robot)
+    assert second.model is first.model and second.normalizer is first.normalizer
+    obs, _ = gym.make("FootstepDoor-v0").reset(seed=3)
+    agents._load_run.cache_clear()
+    alone = ZooAgent(run, robot)
+    assert alone.model is not first.model
+    assert first.act(obs).tolist() == alone.act(obs).tolist()
+    model = run / "FootstepDoor-v0.zip"
+    stat = model.stat()
+    os.utime(model, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))  # as a re-save leaves it
+    assert ZooAgent(run, robot).model is not alone.model
 
 
 def test_agent_actions_at_the_box_corners_are_the_robot_limits(trained):
@@ -232,7 +256,7 @@ def test_the_fixed_period_agent_in_the_full_env_replays_the_fixed_period_env_exa
                     break
 
 
-def test_the_fixed_period_agent_pins_float32_limits_as_the_env_does():
+def test_the_fixed_period_agent_pins_float32_limits_as_the_env_does(monkeypatch):
     """At the corners of its [-1, 1] box the agent's S, L, theta are the robot's limits (float64; exactly where the
     rescaled float32 value is the float32-rounded limit, else the float32 value RescaleAction's rounding gave), as
     the fixed-period env reads the float32 values SB3 sends; T_SS, T_DS are the nominal ones."""
@@ -241,7 +265,8 @@ def test_the_fixed_period_agent_pins_float32_limits_as_the_env_does():
     fixed = gym.make("FootstepDoor-v0", fixed_period=True)
     pinned = 0
     for corner in (-1.0, 1.0):
-        agent.model.predict = lambda x, c=corner, **kw: (np.full((1, 3), c, np.float32), None)
+        # monkeypatch restores it: the model is the process's loaded run, shared with every agent of the run
+        monkeypatch.setattr(agent.model, "predict", lambda x, c=corner, **kw: (np.full((1, 3), c, np.float32), None))
         command = agent.act(np.zeros(42, np.float32))
         limit = robot.command_high if corner > 0 else robot.command_low
         rescaled = agent._to_command(np.full(3, corner, np.float32))

@@ -85,3 +85,18 @@ def test_the_report_reads_validation_curves_and_manifests(zoo_run, tmp_path):
     assert "| ppo | ppo | FootstepCrossing-v0 | 1 | 600 |" in report.cost_table(agents)
     (pngs,) = [report.scene_curves(agents, tmp_path / "curves")]
     assert [p.name for p in pngs] == ["scene_FootstepCrossing-v0.png"] and pngs[0].stat().st_size > 1000
+
+
+def test_a_run_without_a_monitor_file_warns_and_measures_nothing(tmp_path, monkeypatch):
+    """rl_zoo3's -optimize trials get the config's callbacks but no run folder: the callback must not fail the trial
+    (optuna would count it as pruned) and writes nothing."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+
+    monkeypatch.chdir(tmp_path)
+    venv = make_vec_env("FootstepCrossing-v0", n_envs=1, env_kwargs=KWARGS)  # a Monitor that writes no file
+    model = PPO("MlpPolicy", venv, n_steps=64, batch_size=64, seed=0, device="cpu")
+    callback = callbacks.ValidationCallback(eval_freq=32, episodes=2)
+    with pytest.warns(UserWarning, match="no validation curve"):
+        model.learn(128, callback=callback)
+    assert callback.path is None and model.num_timesteps == 128 and list(tmp_path.iterdir()) == []

@@ -27,6 +27,7 @@ from __future__ import annotations
 import os
 import pickle
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -296,6 +297,53 @@ def _pinned_limits(robot: Robot, n_fields: int) -> list[dict[float, float]]:
     return tables
 
 
+# ---------------------------------------------------------------- loading, once per process
+#: Loaded runs kept per process (:func:`load_run`): an evaluation makes a fresh policy per episode, and
+#: loading (for sbx, compiling the JAX policy) costs far more than an episode's acts.
+LOADED_RUNS_KEPT = 8
+
+
+@dataclass(frozen=True)
+class LoadedRun:
+    """A run's model, its ``VecNormalize`` (None without one, in evaluation mode) and ``config.yml``, shared by every
+    :class:`ZooAgent` of the run in a process. Read only: an agent's own state (an LSTM's) lives in the agent."""
+
+    model: Any
+    normalizer: Any
+    config: dict[str, Any]
+
+
+def load_run(model_path: Path, folder: Path, algo: str) -> LoadedRun:
+    """The run whose model is ``model_path`` (its zoo folder ``folder``), loaded once per process and kept while it
+    is among the :data:`LOADED_RUNS_KEPT` most recent; a file rewritten since (another size or modification time)
+    is loaded anew."""
+    files = [model_path, folder / "vecnormalize.pkl", folder / "config.yml"]
+    stamps = tuple((st.st_mtime_ns, st.st_size) if (st := _stat(f)) is not None else None for f in files)
+    return _load_run(str(model_path), str(folder), algo, stamps)
+
+
+def _stat(path: Path) -> os.stat_result | None:
+    try:
+        return path.stat()
+    except FileNotFoundError:
+        return None
+
+
+@lru_cache(maxsize=LOADED_RUNS_KEPT)
+def _load_run(model_path: str, folder: str, algo: str, stamps: tuple[Any, ...]) -> LoadedRun:
+    model = algorithm_class(algo).load(model_path, device="cpu")
+    if ALGORITHM_PACKAGES.get(algo) == "sbx":  # JAX compiles the policy at its first call: here, not in act's time
+        model.predict(np.zeros((1, *model.observation_space.shape), np.float32), deterministic=True)
+    normalizer = None
+    norm_path = Path(folder) / "vecnormalize.pkl"
+    if stamps[1] is not None:
+        with open(norm_path, "rb") as fh:
+            normalizer = pickle.load(fh)
+        normalizer.training = False
+    config = zoo_yaml(Path(folder) / "config.yml") if stamps[2] is not None else {}
+    return LoadedRun(model, normalizer, config)
+
+
 # ---------------------------------------------------------------- the policy
 class ZooAgent(Policy):
     """A trained agent as a footstep policy: ``reset(seed)``, ``act(obs, snapshot) -> command``.
@@ -328,17 +376,8 @@ class ZooAgent(Policy):
         self._episode_start = np.ones((1,), dtype=bool)
         run_folder = folder.parent if folder != model_path.parent else None  # <EnvId>_<k>/ of a zoo run
         self.name = name or f"agent:{run_folder.name if run_folder is not None else model_path.stem}"
-        self.model = algorithm_class(algo).load(model_path, device="cpu")
-        if ALGORITHM_PACKAGES.get(algo) == "sbx":  # JAX compiles the policy at its first call: here, not in act's time
-            self.model.predict(np.zeros((1, *self.model.observation_space.shape), np.float32), deterministic=True)
-        norm_path = folder / "vecnormalize.pkl"
-        self.normalizer = None
-        if norm_path.is_file():
-            with open(norm_path, "rb") as fh:
-                self.normalizer = pickle.load(fh)
-            self.normalizer.training = False
-        config_path = folder / "config.yml"
-        config = zoo_yaml(config_path) if config_path.is_file() else {}
+        loaded = load_run(model_path, folder, algo)
+        self.model, self.normalizer, config = loaded.model, loaded.normalizer, loaded.config
         #: The env options the agent was trained with (``config.yml``'s ``env_kwargs``).
         self.env_kwargs: dict[str, Any] = dict(config.get("env_kwargs") or {})
         #: Trained with the period held at nominal: the model's action is ``[S, L, θ]``.

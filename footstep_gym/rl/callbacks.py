@@ -17,13 +17,15 @@ Used from a zoo hyperparameter file (``configs/rl/*.yml``)::
           eval_freq: 25000
           episodes: 20
 
-A recurrent policy (sb3-contrib's ``RecurrentPPO``) gets its state carried over each episode.
+A recurrent policy (sb3-contrib's ``RecurrentPPO``) gets its state carried over each episode. In a run without
+a ``Monitor`` file (rl_zoo3's ``-optimize`` trials) the callback warns and measures nothing.
 """
 
 from __future__ import annotations
 
 import csv
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -37,15 +39,15 @@ from footstep_gym.rl.training import VALIDATION_CURVE as CURVE_FILE
 CURVE_FIELDS = ("timesteps", "wall_time_s", "success_rate", "episodes")
 
 
-def _monitor_dir(vec_env: Any) -> Path:
-    """The folder of the training env's ``Monitor`` file (the zoo's run folder)."""
+def _monitor_dir(vec_env: Any) -> Path | None:
+    """The folder of the training env's ``Monitor`` file (the zoo's run folder); None without one (the zoo's
+    hyperparameter trials: ``-optimize`` gives them the config's callbacks but no run folder)."""
     env = vec_env.envs[0]
     while env is not None:
         if isinstance(env, Monitor) and env.results_writer is not None:
             return Path(env.results_writer.file_handler.name).parent
         env = getattr(env, "env", None)
-    raise ValueError("ValidationCallback: the training env has no Monitor writing to a file; "
-                     "it writes validation.csv beside the zoo's monitor files")
+    return None
 
 
 def evaluation_env(training_env: Any, action_space: gym.spaces.Box) -> gym.Env:
@@ -101,7 +103,12 @@ class ValidationCallback(BaseCallback):
         self.path: Path | None = None
 
     def _init_callback(self) -> None:
-        self.path = _monitor_dir(self.training_env) / CURVE_FILE
+        folder = _monitor_dir(self.training_env)
+        if folder is None:  # no run folder, no curve to write: measuring it would only slow the trial down
+            warnings.warn("ValidationCallback: the training env has no Monitor writing to a file (an rl_zoo3 "
+                          "-optimize trial); no validation curve is measured", stacklevel=2)
+            return
+        self.path = folder / CURVE_FILE
         self._env = evaluation_env(self.training_env, self.model.action_space)
         with open(self.path, "w", newline="", encoding="utf-8") as fh:
             csv.writer(fh).writerow(CURVE_FIELDS)
@@ -121,7 +128,7 @@ class ValidationCallback(BaseCallback):
             print(f"validation: {self.num_timesteps} steps, success {rate:.2f} on {len(self.seeds)} seeds")
 
     def _on_step(self) -> bool:
-        if self.num_timesteps >= self._next:
+        if self.path is not None and self.num_timesteps >= self._next:
             self._evaluate()
             while self._next <= self.num_timesteps:
                 self._next += self.eval_freq

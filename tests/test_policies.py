@@ -70,7 +70,7 @@ def test_the_factory_takes_a_robot_profile_and_planner_options():
 @pytest.mark.parametrize("call, message", [
     (lambda: make_policy("teleport"), r"unknown policy 'teleport'; known: .*period-aware-no-waiting-walks.*"
                                       r"paper-period-aware-t0-0.3.*trained agents \(with run=\): ppo, ppo-all, sac, "
-                                      r"ppo-fixed-period, td3, ppo-wide, ppo-noisy, ppo-lstm, sac-sb3, "
+                                      r"ppo-fixed-period, td3, ppo-wide, ppo-noisy, ppo-lstm, sac-sb3, td3-b2048, "
                                       r"or agent:NAME with run=PATH"),
     (lambda: make_policy("ppo"), r"policy 'ppo' is a trained agent: pass run= .*agent_runs\('ppo', env_id\)"),
     (lambda: make_policy("agent:mine"), r"policy 'agent:mine' is a trained agent: pass run="),

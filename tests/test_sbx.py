@@ -106,6 +106,8 @@ def test_ship_never_replaces_an_agent_of_another_algorithm(sbx_run, tmp_path):
 def test_the_sb3_sac_ships_to_its_own_folder_and_the_loader_says_how_to_get_sbx(monkeypatch):
     assert training.default_agent_folder("sac") == "sac-sb3" and AGENTS["sac-sb3"].algo == "sac"
     assert training.default_agent_folder("ppo") == "ppo"
+    # Two registered TD3 agents: runs go to `td3`; `td3-b2048` takes one only when named.
+    assert training.default_agent_folder("td3_sbx") == "td3" and AGENTS["td3-b2048"].algo == "td3_sbx"
     assert set(SBX) <= set(ALGORITHMS)
     monkeypatch.setitem(sys.modules, "sbx", None)  # as if not installed
     with pytest.raises(ImportError, match=r"pip install 'footstep_gym\[sbx\]'"):

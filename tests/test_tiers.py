@@ -212,7 +212,7 @@ def test_the_paper_tier_needs_no_file(tmp_path, monkeypatch):
 # ------------------------------------------------------------------ the train tier and the shipped agents
 #: The shipped agents trained on the train tier (the others, e.g. ppo-wide or ppo-noisy, on distributions of their
 #: own: configs/rl/<agent>.yml says which).
-TRAIN_TIER_AGENTS = ("ppo", "ppo-fixed-period", "sac", "td3", "sac-sb3")
+TRAIN_TIER_AGENTS = ("ppo", "ppo-fixed-period", "sac", "td3", "td3-b2048", "sac-sb3")
 
 
 def _manifests() -> list[Path]:

@@ -61,7 +61,7 @@ PROFILES = {
                       sweeps={"door": {"door_speed": (8.0, 11.0, 14.0, 17.0, 20.0)},
                               "crowd": {"crowd_speed": (0.16, 0.2)}},
                       policies=("period-aware", "fixed-period", "ppo", "ppo-fixed-period", "ppo-wide", "ppo-all",
-                                "sac")),
+                                "sac", "td3")),
 }
 
 

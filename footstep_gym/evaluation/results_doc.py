@@ -58,7 +58,7 @@ EVALUATIONS = (
     Evaluation("agents", "Agents against the planners",
                "`--profile agents`: the shipped agents (`ppo`: three training seeds, summarised over them; "
                "`ppo-fixed-period`: the period held at nominal; `ppo-wide`: trained on wider ranges; `ppo-all`: one agent "
-               "for the three scenes; `sac`: sbx's SAC, one seed per scene) against both planners, at settings "
+               "for the three scenes; `sac`, `td3`: sbx's SAC and TD3, three seeds per scene) against both planners, at settings "
                "each agent met only as part of its randomised training distribution, on test seeds disjoint "
                "from training."),
     Evaluation("ablation", "Ablation: what each addition buys",
@@ -68,7 +68,8 @@ EVALUATIONS = (
 )
 
 #: The evaluation and the policies of the README's headline table.
-HEADLINE = ("agents", ("period-aware", "fixed-period", "ppo", "ppo-fixed-period", "ppo-wide", "ppo-all", "sac"))
+HEADLINE = ("agents", ("period-aware", "fixed-period", "ppo", "ppo-fixed-period", "ppo-wide", "ppo-all", "sac",
+                       "td3"))
 
 _BEGIN = re.compile(r"<!-- BEGIN GENERATED (?P<name>[a-z0-9_-]+)(?P<note>[^>]*)-->\n")
 

@@ -75,13 +75,16 @@ class AgentEntry:
     ``algo``: its rl_zoo3 / stable-baselines3 algorithm (``ppo``, ``sac``); ``description``:
     one line (``eval_planner.py --help``); ``trained_on``: the env id it was trained on
     (None: the env being evaluated, one agent per env); ``folder``: its folder under the
-    agents folder (default ``algo``; several agents of one algorithm need their own).
+    agents folder (default ``algo``; several agents of one algorithm need their own);
+    ``default_folder``: a run of ``algo`` shipped without naming an agent goes here (False for a
+    second agent of an algorithm, e.g. one kept for reference, which takes a run only when named).
     """
 
     algo: str
     description: str
     trained_on: str | None = None
     folder: str = ""
+    default_folder: bool = True
 
     def __post_init__(self) -> None:
         if not self.folder:
@@ -108,6 +111,9 @@ AGENTS: dict[str, AgentEntry] = {
                                        "hard tier's noise (configs/rl/ppo-lstm.yml)", folder="ppo-lstm"),
     "sac-sb3": AgentEntry("sac", "the first SAC (stable-baselines3, configs/rl/sac.yml, hand-set, 60k steps on the "
                                  "door): a straw man kept for reference", folder="sac-sb3"),
+    "td3-b2048": AgentEntry("td3_sbx", "TD3 (sbx) with the tuner's top trial (batch 2048; ~20x td3's wall time), one "
+                                       "seed on the door: kept for reference", folder="td3-b2048",
+                            default_folder=False),
 }
 
 #: The environment variable naming the agents folder (:func:`default_agents_dir`).

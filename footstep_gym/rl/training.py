@@ -287,10 +287,11 @@ def replace_problem(dest: str | Path, timesteps: int, success: float | None = No
 def default_agent_folder(algo: str) -> str:
     """The agents folder a run of ``algo`` ships to when no agent is named: the algorithm's own name if a
     registered agent of that algorithm has it (``ppo``), else the one folder of its registered agents
-    (``sac_sbx`` -> ``sac``, SB3's ``sac`` -> ``sac-sb3``), else the algorithm's name."""
+    (``sac_sbx`` -> ``sac``, SB3's ``sac`` -> ``sac-sb3``; agents marked ``default_folder=False`` left
+    out), else the algorithm's name."""
     from footstep_gym.rl.agents import AGENTS  # agents imports this module
 
-    folders = {e.folder for e in AGENTS.values() if e.algo == algo}
+    folders = {e.folder for e in AGENTS.values() if e.algo == algo and e.default_folder}
     if algo in folders or len(folders) != 1:
         return algo
     return folders.pop()

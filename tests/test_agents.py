@@ -33,7 +33,11 @@ EXPECTED = {("ppo", "FootstepDoor-v0"): 3, ("ppo", "FootstepCrossing-v0"): 3, ("
             ("sac", "FootstepCrossing-v0"): 3, ("sac", "FootstepCrowd-v0"): 3, ("td3", "FootstepDoor-v0"): 3,
             ("td3", "FootstepCrossing-v0"): 3, ("td3", "FootstepCrowd-v0"): 3, ("td3-b2048", "FootstepDoor-v0"): 1,
             ("ppo-fixed-period", "FootstepDoor-v0"): 3, ("ppo-fixed-period", "FootstepCrossing-v0"): 3,
-            ("ppo-fixed-period", "FootstepCrowd-v0"): 3}
+            ("ppo-fixed-period", "FootstepCrowd-v0"): 3, ("ppo-wide", "FootstepDoor-v0"): 3,
+            ("ppo-wide", "FootstepCrossing-v0"): 3, ("ppo-wide", "FootstepCrowd-v0"): 3,
+            ("ppo-noisy", "FootstepDoor-v0"): 3, ("ppo-noisy", "FootstepCrossing-v0"): 3,
+            ("ppo-noisy", "FootstepCrowd-v0"): 3, ("ppo-lstm", "FootstepDoor-v0"): 3,
+            ("ppo-lstm", "FootstepCrossing-v0"): 3, ("ppo-lstm", "FootstepCrowd-v0"): 3}
 
 
 @pytest.fixture(scope="module")

@@ -35,7 +35,7 @@ def test_ppo_wide_is_ppo_on_wider_ranges():
     for env_id, scene in scenes.items():
         entry, base = copy.deepcopy(wide[env_id]), copy.deepcopy(ppo[env_id])
         kwargs, base_kwargs = entry.pop("env_kwargs"), base.pop("env_kwargs")
-        entry.pop("n_timesteps"), base.pop("n_timesteps"), entry.pop("callback")
+        entry.pop("n_timesteps"), base.pop("n_timesteps")
         assert entry == base, env_id
         ranges = kwargs["randomize"]
         for key, (lo, hi) in base_kwargs["randomize"].items():
@@ -45,19 +45,25 @@ def test_ppo_wide_is_ppo_on_wider_ranges():
                 assert ranges[key][0] <= value[0] and ranges[key][1] >= value[1], (env_id, cell.name, key)
 
 
-def test_ppo_noisy_and_ppo_lstm_are_ppo_on_the_noisy_door():
-    """ppo-noisy: ppo's door hyperparameters on the train range sensed with the hard tier's noise profile;
-    ppo-lstm: the same with an LSTM policy (and nothing else changed)."""
+def test_ppo_noisy_and_ppo_lstm_are_ppo_on_the_noisy_scenes():
+    """ppo-noisy: ppo's hyperparameters on each scene's train range sensed with the hard tier's noise profile (its
+    "noisy" cell's); ppo-lstm: the same with an LSTM policy (and nothing else changed)."""
     from footstep_gym import tiers
 
-    ppo = _load("ppo.yml")["FootstepDoor-v0"]
-    noisy, lstm = _load("ppo-noisy.yml")["FootstepDoor-v0"], _load("ppo-lstm.yml")["FootstepDoor-v0"]
-    noise = {k: v for k, v in tiers.plain(next(c for c in tiers.cells("door", "hard") if c.name == "noisy").kwargs).items() if k.startswith("sensing_")}
-    assert noise and all(noisy["env_kwargs"][k] == v for k, v in noise.items())
-    assert noisy["env_kwargs"]["randomize"] == ppo["env_kwargs"]["randomize"]
-    strip = ("env_kwargs", "n_timesteps", "callback")
-    assert {k: v for k, v in noisy.items() if k not in strip} == {k: v for k, v in ppo.items() if k not in strip}
-    assert lstm.pop("policy") == "MlpLstmPolicy" and noisy.pop("policy") == "MlpPolicy"
-    assert lstm.pop("policy_kwargs").replace(", lstm_hidden_size=64, enable_critic_lstm=True", "") == \
-        noisy.pop("policy_kwargs")
-    assert lstm == noisy
+    scenes = {"FootstepDoor-v0": "door", "FootstepCrossing-v0": "crossing", "FootstepCrowd-v0": "crowd"}
+    noisy_file, lstm_file, ppo_file = _load("ppo-noisy.yml"), _load("ppo-lstm.yml"), _load("ppo.yml")
+    for data in (noisy_file, lstm_file):
+        assert sorted(k for k in data if k.startswith("Footstep")) == sorted(scenes)
+    for env_id, scene in scenes.items():
+        ppo, noisy, lstm = ppo_file[env_id], copy.deepcopy(noisy_file[env_id]), copy.deepcopy(lstm_file[env_id])
+        cell = next(c for c in tiers.cells(scene, "hard") if c.name == "noisy")
+        noise = {k: v for k, v in tiers.plain(cell.kwargs).items() if k.startswith("sensing_")}
+        assert noise and {k: v for k, v in noisy["env_kwargs"].items() if k.startswith("sensing_")} == noise, env_id
+        assert noisy["env_kwargs"]["randomize"] == ppo["env_kwargs"]["randomize"], env_id
+        assert set(noisy["env_kwargs"]) == {"randomize", *noise}, env_id
+        strip = ("env_kwargs", "n_timesteps", "callback")
+        assert {k: v for k, v in noisy.items() if k not in strip} == {k: v for k, v in ppo.items() if k not in strip}
+        assert lstm.pop("policy") == "MlpLstmPolicy" and noisy.pop("policy") == "MlpPolicy"
+        assert lstm.pop("policy_kwargs").replace(", lstm_hidden_size=64, enable_critic_lstm=True", "") == \
+            noisy.pop("policy_kwargs")
+        assert lstm == noisy, env_id

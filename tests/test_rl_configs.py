@@ -61,7 +61,7 @@ def test_ppo_noisy_and_ppo_lstm_are_ppo_on_the_noisy_scenes():
         assert noise and {k: v for k, v in noisy["env_kwargs"].items() if k.startswith("sensing_")} == noise, env_id
         assert noisy["env_kwargs"]["randomize"] == ppo["env_kwargs"]["randomize"], env_id
         assert set(noisy["env_kwargs"]) == {"randomize", *noise}, env_id
-        strip = ("env_kwargs", "n_timesteps", "callback")
+        strip = ("env_kwargs", "n_timesteps")
         assert {k: v for k, v in noisy.items() if k not in strip} == {k: v for k, v in ppo.items() if k not in strip}
         assert lstm.pop("policy") == "MlpLstmPolicy" and noisy.pop("policy") == "MlpPolicy"
         assert lstm.pop("policy_kwargs").replace(", lstm_hidden_size=64, enable_critic_lstm=True", "") == \

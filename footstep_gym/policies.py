@@ -50,7 +50,7 @@ __all__ = ["AGENTS", "AGENTS_DIR_ENV_VAR", "USER_AGENT_PREFIX", "agent_runs", "d
 
 def planner_names() -> tuple[str, ...]:
     """The registered planners (their variants not listed: see :func:`is_policy`)."""
-    from footstep_gym.planners.reference import POLICIES
+    from footstep_gym.planners.registry import POLICIES
 
     return tuple(POLICIES)
 
@@ -69,7 +69,7 @@ def is_policy(name: str) -> bool:
     """A registered name, or a planner variant ``<planner>-no-<switch>`` / ``paper-period-aware-t0-<s>``."""
     if name in AGENTS:
         return True
-    from footstep_gym.planners.reference import policy_spec
+    from footstep_gym.planners.registry import policy_spec
 
     try:
         policy_spec(name)
@@ -97,7 +97,7 @@ def describe(name: str) -> str:
 
 def _planner_spec(name: str) -> Any:
     """The planner's :class:`~footstep_gym.planners.PolicySpec`; an unknown name's error lists every kind of name."""
-    from footstep_gym.planners.reference import policy_spec
+    from footstep_gym.planners.registry import policy_spec
 
     try:
         return policy_spec(name)

@@ -123,7 +123,7 @@ def test_overrides_apply_on_top_of_a_policys_own_switches():
 # ====================================================================== the paper's readings (docs/model.md §5.3)
 def test_paper_policies_follow_the_paper_where_it_differs_from_our_defaults():
     """``paper-*``: the yaml, every addition off, and :data:`PAPER_READINGS` on top; our planners: the yaml as is."""
-    from footstep_gym.planners.reference import PAPER_READINGS
+    from footstep_gym.planners.registry import PAPER_READINGS
 
     yaml_cfg = load_planner_config()
     assert PAPER_READINGS == {"period_search": {"iterations": 6}, "rrt": {"batch_size": 1},
@@ -209,7 +209,7 @@ def test_reachable_t0_is_the_shortest_period_one_step_can_reach(reachable):
     """From the steady gait of the env's start, the LIPM reaches T_SS 0.17 s (T = 0.37 s) in one step, not 0.1 s: the
     text's T0 is the first period of the floor grid at or above that (0.4 s); the fixed reading stays at 0.3 s."""
     from footstep_gym.planners.period_search import PeriodSearch, shortest_feasible_period
-    from footstep_gym.planners.reference import PAPER
+    from footstep_gym.planners.registry import PAPER
     from footstep_gym.planners.walks import walk_start
 
     robot, snap = _door_start()
@@ -231,7 +231,7 @@ def test_one_step_check_asks_about_the_node_now_and_after_t_or_the_body_path(che
     """The paper's fan (long look-ahead off): ``prediction.check: node`` asks about each next node at 0 and at T only;
     ``path`` about the body's path at ``edge_samples`` instants over [0, T]."""
     from footstep_gym.planners.period_search import PeriodSearch
-    from footstep_gym.planners.reference import PAPER
+    from footstep_gym.planners.registry import PAPER
     from footstep_gym.planners.walks import walk_start
 
     robot, snap = _door_start()

@@ -17,7 +17,7 @@ import pytest
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym.planners.params import load_planner_config
 from footstep_gym.planners.period_search import PeriodSearch, centred_free_period, longest_free_period, stride_windows
-from footstep_gym.planners.reference import PAPER
+from footstep_gym.planners.registry import PAPER
 from footstep_gym.planners.walks import walk_start
 from planner_helpers import EPS, ZMP_TIE_MARGIN, zmp_edge_gaps
 

@@ -4,8 +4,8 @@ The maths here never imports pygame or torch. One module per stage, each with a 
 that returns a small record: :class:`PeriodSearch` -> :class:`PeriodChoice` (stage 1,
 :mod:`.period_search` over the walks of :mod:`.rollouts`), :class:`PathSearch` ->
 :class:`PathChoice` (stage 2, :mod:`.rrt`), :class:`CommandRepair` ->
-:class:`RepairChoice` (stage 3, :mod:`.pso`). :mod:`.reference` holds the planners and
-their registry :data:`POLICIES` (``period-aware``, ``fixed-period``, ``pso-only``,
+:class:`RepairChoice` (stage 3, :mod:`.pso`). :mod:`.staged` holds the planners, :mod:`.oracle` the
+upper bound, and :mod:`.registry` their registry :data:`POLICIES` (``period-aware``, ``fixed-period``, ``pso-only``,
 ``paper-period-aware``, ``paper-fixed-period``, and ``paper-period-aware-t0-<s>`` with T0
 fixed; the paper's planners follow :data:`PAPER_READINGS` where the paper differs from our
 defaults, docs/model.md §5.3); :mod:`.ablation` names the variants with one of our
@@ -44,28 +44,28 @@ from footstep_gym.planners.pso import (
     minimise,
     repair_command,
 )
-from footstep_gym.planners.reference import (
+from footstep_gym.planners.oracle import OraclePlanner
+from footstep_gym.planners.registry import (
     PAPER,
     PAPER_READINGS,
     POLICIES,
-    FixedPeriodPlanner,
-    PeriodAwarePlanner,
     PolicySpec,
-    PSOOnlyPlanner,
     policy_spec,
     variant_name,
+    with_name,
 )
 from footstep_gym.planners.rollouts import GoalRollouts, NextNodeFan
 from footstep_gym.planners.rrt import ModifiedRRT, PathChoice, PathSearch, RRTPath
+from footstep_gym.planners.staged import FixedPeriodPlanner, PeriodAwarePlanner, PSOOnlyPlanner
 from footstep_gym.planners.walks import WalkStart, node_of_foot, walk_start
 
 __all__ = [
     "PAPER", "PAPER_READINGS", "POLICIES", "AdditionsParams", "BodyModel", "CommandRepair", "FixedPeriodPlanner",
-    "GoalRollouts", "ModifiedRRT", "NextNodeFan", "ObstaclePredictor", "PSOOnlyParams", "PSOOnlyPlanner",
+    "GoalRollouts", "ModifiedRRT", "NextNodeFan", "ObstaclePredictor", "OraclePlanner", "PSOOnlyParams", "PSOOnlyPlanner",
     "PSOParams", "PSOResult", "PathChoice", "PathSearch", "PeriodAwarePlanner", "PeriodChoice", "PeriodSearch",
     "PeriodSearchParams", "PeriodSearchResult", "PlannerConfig", "PolicySpec", "PredictionParams",
     "RRTParams", "RRTPath", "RepairChoice", "RepairResult", "WalkStart", "ablation_variants", "body_path_points",
     "clip_command", "feasibility_objective", "increment_bounds", "load_planner_config", "longest_free_period",
     "minimise", "node_of_foot", "policy_spec", "repair_command", "shortest_feasible_period",
-    "stride_window", "variant_name", "walk_start",
+    "stride_window", "variant_name", "walk_start", "with_name",
 ]

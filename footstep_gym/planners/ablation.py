@@ -7,7 +7,7 @@ two variants, named with the switch's underscores as hyphens:
 * ``period-aware-no-<switch>``: our planner with that addition off. What it loses shows
   whether the addition is *necessary* (given all the others);
 * ``paper-period-aware-with-<switch>``: the paper's planner (every addition off, the paper's
-  readings of :data:`~.reference.PAPER_READINGS`) with that addition on. What it gains shows
+  readings of :data:`~.registry.PAPER_READINGS`) with that addition on. What it gains shows
   whether the addition alone is *sufficient* to rescue the paper's planner.
 
 :func:`footstep_gym.make_policy` builds any of them::
@@ -25,7 +25,7 @@ from __future__ import annotations
 import dataclasses
 
 from footstep_gym.planners.params import AdditionsParams
-from footstep_gym.planners.reference import variant_name, with_name
+from footstep_gym.planners.registry import variant_name, with_name
 
 #: The policy the additions are taken from, one at a time.
 BASE = "period-aware"

@@ -70,7 +70,7 @@ import numpy as np
 
 from footstep_gym.planners.params import PlannerConfig
 from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor, centre_line_gap2
-from footstep_gym.planners.reference import PeriodAwarePlanner
+from footstep_gym.planners.staged import PeriodAwarePlanner
 from footstep_gym.planners.walks import WalkStart
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import ObstacleView, Snapshot

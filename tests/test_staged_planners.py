@@ -1,4 +1,4 @@
-"""The policies of :mod:`footstep_gym.planners.reference` end to end, and their registry.
+"""The staged planners of :mod:`footstep_gym.planners.staged` end to end, and their registry.
 
 The episodes' outcomes are discrete and compared exactly. On another CPU numpy's SIMD kernels (and libm's code
 path) round some of the planners' floats an ulp otherwise; an outcome could change only through a decision

@@ -181,6 +181,35 @@ class PSOOnlyParams:
 
 
 @dataclass(frozen=True)
+class LatticeParams:
+    """The ``lattice`` planner: A* over strides x side strides x turns x periods (:mod:`.lattice`)."""
+
+    strides: tuple[float, ...] = plain()  # S values [m]
+    side_strides: tuple[float, ...] = plain()  # L values [m]
+    turns: tuple[float, ...] = plain()  # theta values [rad]; a side skips those outside its turn limits
+    periods: tuple[float, ...] = plain()  # T = T_SS + T_DS values [s]; T_DS nominal
+    heuristic_weight: float = positive()  # f = g + w h; 1: A* (optimal in time up to the duplicate grid)
+    max_expansions: int = positive()  # nodes expanded per footstep at most
+    max_depth: int = positive()  # footsteps planned ahead at most
+    xy_resolution_m: float = positive()  # [m] stances closer than this (and as below) are one state
+    yaw_resolution_rad: float = positive()  # [rad]
+    time_resolution_s: float = positive()  # [s]
+
+    def __post_init__(self) -> None:
+        for name in ("strides", "side_strides", "turns", "periods"):
+            value = getattr(self, name)
+            if not isinstance(value, (list, tuple)) or not value:
+                raise ConfigError(f"planner.yaml:lattice.{name} must be a non-empty list of numbers, got {value!r}")
+            object.__setattr__(self, name, tuple(config.number(f"planner.yaml:lattice.{name}", v) for v in value))
+
+    def validate(self) -> None:
+        if self.heuristic_weight < 1:
+            raise ConfigError(f"planner.yaml:lattice.heuristic_weight must be >= 1, got {self.heuristic_weight!r}")
+        if min(self.periods) <= 0:
+            raise ConfigError(f"planner.yaml:lattice.periods must be > 0, got {list(self.periods)}")
+
+
+@dataclass(frozen=True)
 class KernelsParams:
     """Which of the planners' twin implementations runs: the same answers either way, at another cost."""
 
@@ -197,6 +226,7 @@ class PlannerConfig:
     rrt: RRTParams
     pso: PSOParams
     pso_only: PSOOnlyParams
+    lattice: LatticeParams
     kernels: KernelsParams
 
 
@@ -207,6 +237,7 @@ _SECTION_TYPES = {
     "rrt": RRTParams,
     "pso": PSOParams,
     "pso_only": PSOOnlyParams,
+    "lattice": LatticeParams,
     "kernels": KernelsParams,
 }
 

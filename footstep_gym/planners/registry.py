@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from footstep_gym.planners.oracle import DESCRIPTION as ORACLE_DESCRIPTION
+from footstep_gym.planners.lattice import LatticePlanner
 from footstep_gym.planners.oracle import OraclePlanner
 from footstep_gym.planners.params import AdditionsParams, PlannerConfig, load_planner_config
 from footstep_gym.planners.staged import FixedPeriodPlanner, PeriodAwarePlanner, PSOOnlyPlanner, SnapshotPlanner
@@ -87,6 +88,8 @@ POLICIES: dict[str, PolicySpec] = {
                                                  "infeasible, none of our additions"),
     "paper-fixed-period": PolicySpec(FixedPeriodPlanner, PAPER, PAPER_READINGS,
                                      description="the paper's planner as written, the period held at T_n"),
+    "lattice": PolicySpec(LatticePlanner, description="A* over a discrete footstep set x walking periods in space "
+                                                       "and time (the discrete search the paper argues against)"),
     # An upper bound, not a baseline: period-aware told the truth (reads_truth; tables mark it "(upper bound)").
     "oracle": PolicySpec(OraclePlanner, readings={"kernels": {"compiled": False}}, description=ORACLE_DESCRIPTION),
 }

@@ -242,7 +242,7 @@ def memory_server(specs: list[dict[str, Any]], workers: int) -> list[dict[str, A
     make_policy_fn()  # import the planners once, here
     workers = max(1, int(workers))
     results: list[dict[str, Any] | None] = [None] * len(specs)
-    with tempfile.TemporaryDirectory(prefix="footstep-bench-mem-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="footstep-speed-mem-") as tmp:
         running: dict[int, int] = {}
         nxt = 0
         while nxt < len(specs) or running:

@@ -403,6 +403,22 @@ def test_stats_and_formatting():
     assert fmt.markdown_table(["x", "y"], [[1, 2]]) == "| x | y |\n|---|---|\n| 1 | 2 |"
 
 
+def test_speedlib_lives_beside_the_scripts_and_shadows_no_package_module():
+    """The speed tooling is not in the installed package (``tests/test_install.py`` checks the install), and none
+    of its modules takes the name of a ``footstep_gym`` module (``lipm``, ``tiers``, ``stats``, ``planners``, ...)."""
+    import speedlib
+
+    import footstep_gym
+
+    lib = Path(speedlib.__file__).resolve().parent
+    assert lib == ROOT / "baselines" / "speedlib"
+    package = Path(footstep_gym.__file__).resolve().parent
+    ours = {p.stem for p in lib.glob("*.py")} - {"__init__"}
+    theirs = {p.stem for p in package.rglob("*.py")} | {p.name for p in package.rglob("*") if p.is_dir()}
+    assert {"env_rates", "lipm_rates", "planner_times", "tier_rates", "timing", "soak"} <= ours
+    assert not ours & theirs, f"speedlib modules named as footstep_gym modules: {sorted(ours & theirs)}"
+
+
 def test_call_fresh_returns_the_value_or_says_why():
     """The memory probes, the PPO child and the soak's env processes run through ``fresh.call_fresh``."""
     from speedlib.fresh import ChildFailed, call_fresh

@@ -6,7 +6,8 @@ with :func:`soak_env`, with a tqdm progress bar on stderr, and keeps **one env i
 whole run (made with random ``randomize=`` settings drawn from the scenario's fuzz ranges,
 :meth:`footstep_gym.scenarios.Scenario.fuzz_ranges`, reset at every episode's end), as a training
 run does: a leak tied to the env instance (pymunk keeping the shapes removed at reset, say) shows
-only there. ``remake_every=N`` makes a fresh env every N episodes instead, which hides such a leak. Every ``env.step`` call counts as a step. The fuzz, drawn from one seeded generator:
+only there. ``remake_every=N`` makes a fresh env every N episodes instead, which hides such a leak.
+Every ``env.step`` call counts as a step. The fuzz, drawn from one seeded generator:
 
 * three episodes in four are "fuzz" episodes: commands uniform **inside** the box, **at its
   bounds** (each field at its low or high end, or inside), **outside** it (finite; the env
@@ -30,9 +31,8 @@ the end, sampled ``RSS_SAMPLES`` times in between (``rss.samples``: ``[step, byt
 least-squares slope in bytes per step), and the peak since the warm-up (``VmHWM``). "Flat"
 means the end RSS, and the peak, exceed the start by at most ``--rss-tolerance-mib``
 (default :data:`DEFAULT_RSS_TOLERANCE_MIB`: over 10^6 steps a leak of 10 B per step exceeds it, while a
-leak-free env's RSS grows only in the allocators' one-off steps after the warm-up; the committed soak's
-``soak.md`` shows both); an env whose RSS is not flat FAILs. If
-the env cannot be made ``MAX_MAKE_FAILURES`` times in a row, the run ends there and fails.
+leak-free env's RSS grows only in the allocators' one-off steps after the warm-up); an env whose RSS is
+not flat FAILs. If the env cannot be made ``MAX_MAKE_FAILURES`` times in a row, the run ends there and fails.
 
 :func:`run` returns the summary (steps/s, outcomes, exceptions by type, RSS figures, and each
 env's verdict with why it failed); the command writes it as ``<out>/soak.json`` and

@@ -3,6 +3,13 @@
 Every number the simulation uses comes from a YAML file; keyword arguments of
 ``gymnasium.make`` override single keys. Unknown keys, wrong types and values outside
 their allowed range raise :class:`ConfigError` naming the key and the value.
+
+A config is a frozen dataclass; each field's type (resolved from its annotation) picks its
+converter in :data:`CONVERTERS`, and its constraint (:func:`positive`, :func:`interval`, ...) the
+range the value must lie in. Typed converters rather than pydantic, because the configs stay plain
+dataclasses that plugins declare with one-line fields, and every error stays the one line that names
+the file, the key and the value (with a "did you mean" for an unknown key) without translating
+pydantic's multi-line reports.
 """
 
 from __future__ import annotations
@@ -12,7 +19,8 @@ import difflib
 import math
 import os
 from pathlib import Path
-from typing import Any, Mapping, TypeVar
+import typing
+from typing import Any, Callable, Mapping, TypeVar
 
 import yaml
 
@@ -52,9 +60,9 @@ def read_yaml(relative: str) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------- field constraints
-def positive(**kw: Any) -> Any:
-    """A float field that must be > 0."""
-    return dataclasses.field(metadata={"check": "positive", **kw})
+def positive(allow_inf: bool = False, **kw: Any) -> Any:
+    """A number field that must be > 0 (and finite, unless ``allow_inf``: then ``.inf`` means no limit)."""
+    return dataclasses.field(metadata={"check": "positive_or_inf" if allow_inf else "positive", **kw})
 
 
 def nonnegative(**kw: Any) -> Any:
@@ -91,46 +99,88 @@ def unknown_keys_message(where: str, unknown: list[str], known: list[str]) -> st
     return f"{where}: unknown key(s) {', '.join(parts)}; known keys: {', '.join(sorted(known))}"
 
 
-def _coerce(where: str, name: str, value: Any, typ: Any, check: str | None) -> Any:
-    label = f"{where}.{name}"
-    if check in ("interval", "pair"):
-        if not isinstance(value, (list, tuple)) or len(value) != 2:
-            raise ConfigError(f"{label} must be a pair [{'lo, hi' if check == 'interval' else 'x, y'}], got {value!r}")
-        lo, hi = (number(label, v) for v in value)
-        if check == "interval" and lo > hi:
-            raise ConfigError(f"{label} must have lo <= hi, got {value!r}")
-        return (lo, hi)
-    if typ in ("int",):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
-            raise ConfigError(f"{label} must be an integer, got {value!r}")
-        value = int(value)
-        if check == "positive" and value <= 0:
-            raise ConfigError(f"{label} must be > 0, got {value!r}")
-        if check == "nonnegative" and value < 0:
-            raise ConfigError(f"{label} must be >= 0, got {value!r}")
-        return value
-    if typ in ("bool",):
-        if not isinstance(value, bool):
-            raise ConfigError(f"{label} must be true or false, got {value!r}")
-        return value
-    if typ in ("str",):
-        if not isinstance(value, str):
-            raise ConfigError(f"{label} must be a string, got {value!r}")
-        return value
-    if typ in ("float",):
-        value = number(label, value)
-        if check == "positive" and not value > 0:
-            raise ConfigError(f"{label} must be > 0, got {value!r}")
-        if check == "nonnegative" and not value >= 0:
-            raise ConfigError(f"{label} must be >= 0, got {value!r}")
-        if check == "fraction" and not 0 < value <= 1:
-            raise ConfigError(f"{label} must be in (0, 1], got {value!r}")
-        return value
-    if typ.startswith("dict"):
-        if not isinstance(value, Mapping):
-            raise ConfigError(f"{label} must be a mapping, got {value!r}")
-        return dict(value)
+def _to_int(label: str, value: Any, check: str | None) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or int(value) != value:
+        raise ConfigError(f"{label} must be an integer, got {value!r}")
+    value = int(value)
+    if check == "positive" and value <= 0:
+        raise ConfigError(f"{label} must be > 0, got {value!r}")
+    if check == "nonnegative" and value < 0:
+        raise ConfigError(f"{label} must be >= 0, got {value!r}")
     return value
+
+
+def _to_float(label: str, value: Any, check: str | None) -> float:
+    if check == "positive_or_inf":
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+            raise ConfigError(f"{label} must be a number > 0 (.inf: no limit), got {value!r}")
+        return float(value)
+    value = number(label, value)
+    if check == "positive" and not value > 0:
+        raise ConfigError(f"{label} must be > 0, got {value!r}")
+    if check == "nonnegative" and not value >= 0:
+        raise ConfigError(f"{label} must be >= 0, got {value!r}")
+    if check == "fraction" and not 0 < value <= 1:
+        raise ConfigError(f"{label} must be in (0, 1], got {value!r}")
+    return value
+
+
+def _to_bool(label: str, value: Any, check: str | None) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(f"{label} must be true or false, got {value!r}")
+    return value
+
+
+def _to_str(label: str, value: Any, check: str | None) -> str:
+    if not isinstance(value, str):
+        raise ConfigError(f"{label} must be a string, got {value!r}")
+    return value
+
+
+def _to_mapping(label: str, value: Any, check: str | None) -> dict:
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{label} must be a mapping, got {value!r}")
+    return dict(value)
+
+
+def _to_pair(label: str, value: Any, check: str | None) -> tuple[float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ConfigError(f"{label} must be a pair [{'lo, hi' if check == 'interval' else 'x, y'}], got {value!r}")
+    lo, hi = (number(label, v) for v in value)
+    if check == "interval" and lo > hi:
+        raise ConfigError(f"{label} must have lo <= hi, got {value!r}")
+    return (lo, hi)
+
+
+def _to_list(label: str, value: Any, check: str | None) -> Any:
+    return value  # its class's validate() checks its items
+
+
+#: The converter of each field type a config may declare: ``(label, value, check) -> value``, raising
+#: :class:`ConfigError` naming ``label``; ``check`` is the field's constraint (:func:`positive`, ...).
+CONVERTERS: dict[Any, Callable[[str, Any, "str | None"], Any]] = {
+    int: _to_int, float: _to_float, bool: _to_bool, str: _to_str, dict: _to_mapping, list: _to_list,
+    tuple[float, float]: _to_pair,
+}
+_FIELD_TYPES: dict[type, dict[str, Any]] = {}
+
+
+def field_types(cls: type) -> dict[str, Any]:
+    """``{field: type}`` of config dataclass ``cls``, the annotations resolved to types (``tuple[float, float]``)."""
+    types = _FIELD_TYPES.get(cls)
+    if types is None:
+        hints = typing.get_type_hints(cls)
+        types = _FIELD_TYPES[cls] = {f.name: hints[f.name] for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+        unsupported = {name: t for name, t in types.items() if t not in CONVERTERS}
+        if unsupported:
+            raise TypeError(f"{cls.__name__}: no config converter for field type(s) {unsupported}; "
+                            f"config fields are one of {list(CONVERTERS)}")
+    return types
+
+
+def numeric_fields(cls: type) -> list[str]:
+    """The fields of config dataclass ``cls`` declared ``float``."""
+    return [name for name, t in field_types(cls).items() if t is float]
 
 
 def number(label: str, value: Any) -> float:
@@ -152,10 +202,9 @@ def build(cls: type[T], data: Mapping[str, Any], where: str) -> T:
     missing = [k for k in fields if k not in data]
     if missing:
         raise ConfigError(f"{where}: missing key(s) {', '.join(missing)}")
-    values = {
-        name: _coerce(where, name, data[name], str(f.type), f.metadata.get("check"))
-        for name, f in fields.items()
-    }
+    types = field_types(cls)
+    values = {name: CONVERTERS[types[name]](f"{where}.{name}", data[name], f.metadata.get("check"))
+              for name, f in fields.items()}
     obj = cls(**values)
     validate = getattr(obj, "validate", None)
     if validate is not None:

@@ -1,94 +1,34 @@
-"""``FootstepEnv``: one Gymnasium environment class, three scenarios (door, crossing, crowd)."""
+"""``FootstepEnv``: one Gymnasium environment class, one env per scenario (door, crossing, crowd, ...)."""
 
 from __future__ import annotations
 
 import cmath
 import dataclasses
 import math
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 from gymnasium.envs.registration import EnvSpec
 
 from footstep_gym import config, footstep, lipm, tiers
-from footstep_gym.config import nonnegative, plain, positive
-from footstep_gym.errors import ActionError, ConfigError
+from footstep_gym.action import ActionReader, action_limits, action_space
+from footstep_gym.env_config import EnvConfig
+from footstep_gym.errors import ConfigError
 from footstep_gym.footstep import LEFT, RIGHT, SIDE_NAMES
-from footstep_gym.robot import COMMAND_FIELDS, Robot
+from footstep_gym.observation import ObservationScales, command_to_unit, observation, observation_space
+from footstep_gym.robot import Robot
 from footstep_gym.scenarios import SCENARIOS, Scenario
 from footstep_gym.scenarios.base import RobotMotion
 from footstep_gym.sensing import ObstacleView, Snapshot, nearest_views, sense
 from footstep_gym.world import World
 
+__all__ = ["FootstepEnv", "EnvConfig", "TERMINATIONS", "FALL_REASONS", "with_step_limit"]
+
 TERMINATIONS = ("goal", "collision", "fall")
-#: A float field that may be ``.inf`` (``sensing_max_range``): ``config.build`` coerces ``float`` fields and
-#: refuses non-finite ones, so a field of this name is passed as read and :meth:`EnvConfig.validate` checks it.
-_RangeOrInf = float
-_FLOAT_DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
-
-
-@dataclass(frozen=True)
-class EnvConfig:
-    """Settings shared by the three envs (``configs/env.yaml``)."""
-
-    n_obstacles_observed: int = positive()
-    sensing_range: float = positive()  # [m]
-    observation_position_scale: float = positive()  # [m]
-    observation_velocity_scale: float = positive()  # [m/s]
-    observation_com_scale: float = positive()  # [m]
-    collision_slop: float = positive()  # [m]
-    max_check_interval: float = positive()  # [s]
-    collision_motion_fraction: float = positive()
-    compiled_sweep: bool = plain()  # the sweep's checks compiled (numba) or asked of pymunk one by one; same answers
-    fixed_period: bool = plain()  # the action is [S, L, theta]; T_SS and T_DS are held at the robot's nominal ones
-    max_sweep_checks: int = positive()  # collision checks per footstep at most (bounds a step's cost)
-    reward_progress: float = plain()  # per m
-    reward_time: float = plain()  # per s
-    reward_step: float = plain()  # per footstep
-    reward_goal: float = plain()
-    reward_collision: float = plain()
-    reward_fall: float = plain()
-    render_pixels_per_metre: float = positive()
-    render_size: tuple[float, float] = config.pair()  # [px] width, height
-    video_fps: float = positive()  # [frames per simulated second] of render_mode="rgb_array_list"
-    # What the robot senses of the moving obstacles (all off by default; see the class's "Sensing" paragraph).
-    sensing_noise_position: float = nonnegative()  # [m] std of the noise on each axis of a moving body's position
-    sensing_noise_velocity: float = nonnegative()  # [m/s] std of the noise on each axis of its velocity
-    sensing_noise_angle: float = nonnegative()  # [rad] std of the noise on a moving rod's angle
-    sensing_noise_angular_velocity: float = nonnegative()  # [rad/s] std of the noise on a moving rod's turn rate
-    sensing_max_range: _RangeOrInf = plain()  # [m] moving obstacles farther than this are not sensed; .inf: no limit
-    sensing_fov: float = plain()  # [deg] full field of view centred on the support foot's yaw; 360: all around
-
-    def validate(self) -> None:
-        if not all(v >= 1 and float(v).is_integer() for v in self.render_size):
-            raise ConfigError(f"env.yaml.render_size must be two whole numbers of pixels >= 1, got {self.render_size}")
-        max_range = self.sensing_max_range  # not coerced by config.build (which refuses .inf): checked here
-        if isinstance(max_range, bool) or not isinstance(max_range, (int, float)) or not max_range > 0:
-            raise ConfigError(f"env.yaml.sensing_max_range must be a number > 0 [m] (.inf: no limit), "
-                              f"got {max_range!r}")
-        object.__setattr__(self, "sensing_max_range", float(max_range))
-        if not 0.0 < self.sensing_fov <= 360.0:
-            raise ConfigError(f"env.yaml.sensing_fov must be in (0, 360] [deg] (360: all around), "
-                              f"got {self.sensing_fov!r}")
-
-    @property
-    def sensing_noise(self) -> bool:
-        """Whether any of the sensing noises is on."""
-        return (self.sensing_noise_position > 0.0 or self.sensing_noise_velocity > 0.0
-                or self.sensing_noise_angle > 0.0 or self.sensing_noise_angular_velocity > 0.0)
-
-    @property
-    def sensing_limited(self) -> bool:
-        """Whether the robot senses anything other than the truth (noise, a range or a field of view)."""
-        return self.sensing_noise or self.sensing_max_range < math.inf or self.sensing_fov < 360.0
-
-
-def _world_to_local(origin: tuple[float, float, float], z: complex) -> complex:
-    """Point ``z`` (complex, world) in the frame of pose ``origin``."""
-    return (z - complex(origin[0], origin[1])) * cmath.exp(-1j * origin[2])
+#: Why a step is a fall (``info["fall"]``), in the order they are checked: outside the command box (never from
+#: the env, which clips to it), outside the swinging side's turn limits, feet overlapping, ZMP outside the region.
+FALL_REASONS = footstep.KINEMATIC_VIOLATIONS + ("zmp",)
 
 
 def _pair(z: complex) -> tuple[float, float]:
@@ -103,6 +43,23 @@ def with_step_limit(spec: EnvSpec | None, max_steps: int) -> EnvSpec | None:
     return dataclasses.replace(spec, max_episode_steps=max_steps)
 
 
+class Footstep(NamedTuple):
+    """What :meth:`FootstepEnv._simulate` made of one command (world frame, SI units)."""
+
+    command: list[float]  # [S, L, θ, T_SS, T_DS] applied, after clipping
+    clipped: bool  # the action lay outside the box
+    fall: str | None  # why the step is infeasible (FALL_REASONS), None when feasible
+    zmp_offset: complex  # [m] single-support ZMP in the support foot's frame
+    zmp: complex  # [m] the same, world
+    zmp_margin: float  # [m] signed per-axis margin of the ZMP in the stable region
+    foot: tuple[float, float, float]  # the pose the command places the swing foot at
+    elapsed: float  # [s] simulated (0 on a fall; the time of contact on a collision)
+    clearance: float | None  # [m] smallest gap to an obstacle at the step's checks; None on a fall
+    collided: bool  # the body circle touched an obstacle
+    obstacle: str | None  # the shape hit, None without a collision
+    progress: float  # [m] how much closer the robot centre got to the goal
+
+
 class FootstepEnv(gym.Env):
     r"""Humanoid footstep planning among moving obstacles, with the walking period in the action.
 
@@ -114,15 +71,17 @@ class FootstepEnv(gym.Env):
     (CoM) follows the linear inverted pendulum (LIPM) and its state is carried from step to
     step, so an abrupt change of period or stride can be infeasible because of the CoM's
     momentum. The robot's body is a circle that follows the CoM through single and double
-    support; touching an obstacle at any instant of the step is a collision.
+    support; touching an obstacle at any instant of the step is a collision. docs/model.md
+    is the reference (§2 the command, §3 the LIPM, §4 the world and scenes, §7 this interface).
 
-    Three scenarios are registered: ``FootstepDoor-v0`` (a revolving door, paper §3.1),
-    ``FootstepCrossing-v0`` (an obstacle crossing the path, §3.2) and ``FootstepCrowd-v0``
-    (an encircling crowd, §3.3). Their numbers are in ``configs/scenarios/*.yaml``.
+    One env per scenario of ``footstep_gym.scenarios.SCENARIOS``: ``FootstepDoor-v0`` (a
+    revolving door, paper §3.1), ``FootstepCrossing-v0`` (an obstacle crossing the path, §3.2)
+    and ``FootstepCrowd-v0`` (an encircling crowd, §3.3). Their numbers are in
+    ``configs/scenarios/*.yaml``.
 
     ## Action Space
     ``Box(5,)`` float32, the footstep command in SI units (paper eq. 5), bounds from
-    ``configs/robot.yaml``:
+    ``configs/robot.yaml`` (:mod:`footstep_gym.action`):
 
     | index | field | meaning | unit | range (``robot.yaml`` key) |
     |---|---|---|---|---|
@@ -133,18 +92,18 @@ class FootstepEnv(gym.Env):
     | 4 | T_DS | double-support time | s | ``t_ds`` |
 
     θ's limits depend on the swinging foot: turning away from the support foot is allowed
-    up to ``turn_outer``, towards it up to ``turn_inner``. An action is read
-    in its own dtype: a float32 action at a float32-rounded limit (the box's bounds, the
-    turn limits) is that limit exactly, so what SB3 sends at the box's edge is the command
-    it rounds from. A finite command outside the box is clipped (``info["clipped"]``);
-    NaN/inf or a wrong shape raises :class:`~footstep_gym.errors.ActionError` (a ``ValueError``)
-    naming the env and the bad field. A command outside the turn limits, with overlapping feet, or whose ZMP
-    leaves the stable region ends the episode as a fall.
+    up to ``turn_outer``, towards it up to ``turn_inner``. An action is read in its own dtype:
+    a float32 action at a float32-rounded limit (the box's bounds, the turn limits) is that
+    limit exactly. A finite command outside the box is clipped (``info["clipped"]``); NaN/inf
+    or a wrong shape raises :class:`~footstep_gym.errors.ActionError` (a ``ValueError``) naming
+    the env and the bad field. A command outside the turn limits, with overlapping feet, or
+    whose ZMP leaves the stable region ends the episode as a fall (``info["fall"]`` says which).
+    With ``fixed_period=True`` the action is ``Box(3,)``, the first three rows.
 
     ## Observation Space
-    ``Box(12 + 5K,)`` float32 (K = ``n_obstacles_observed``), the same layout for the three
-    envs. "Local" means in the support foot's frame (x forward, y left). Scales and ranges
-    are keys of ``configs/env.yaml``; bounds are inclusive.
+    ``Box(12 + 5K,)`` float32 (K = ``n_obstacles_observed``), the same layout for every scene
+    (:mod:`footstep_gym.observation`). "Local" means in the support foot's frame (x forward,
+    y left). Scales and ranges are keys of ``configs/env.yaml``; bounds are inclusive.
 
     | index | meaning | unit / scaling | bounds |
     |---|---|---|---|
@@ -158,45 +117,22 @@ class FootstepEnv(gym.Env):
     | 12 + 5k + 4 | 1 if this slot holds a shape, 0 if padding (then the slot is all zeros) | - | [0, 1] |
 
     Shapes (walls included) are sorted nearest first and limited to those within
-    ``sensing_range`` of the CoM, so a shape's closest point is at most that far from it:
-    R = ``sensing_range`` / ``observation_position_scale``. (A CoM inside a shape, in practice
-    only from a start placed in an obstacle, sees the closest point at most the shape's
-    half-thickness away: within R too unless the shape is thicker than 2 ``sensing_range``.)
-    Commands are clipped to the action box before they are mapped; the one after ``reset``
-    is the nominal one, in the box unless ``robot.stride_front`` leaves out S = 0, and then
-    slot 7's bound widens to hold it. The other slots have no bound by construction: the
-    goal is any point of the floor and the robot may walk anywhere in ``max_steps``
-    footsteps; the CoM's offset and velocity follow the LIPM from step to step, whose
-    feasibility check limits the ZMP, not the CoM (and a collision stops the CoM mid-step);
-    an obstacle's speed is limited only per scene, by the scenario's ``max_*`` keys, and one
-    space serves the three scenes and every setting. Gymnasium's ``check_env`` warns about
-    those infinite bounds.
-
-    **Sensing** (keys of ``configs/env.yaml``, all off by default, when the slots hold the
-    truth read off the bodies): ``sensing_noise_position`` [m] and ``sensing_noise_velocity``
-    [m/s] are the stds of zero-mean Gaussian noise on each axis of every moving body's sensed
-    position and velocity, ``sensing_noise_angle`` [rad] and ``sensing_noise_angular_velocity``
-    [rad/s] on a moving rod's angle and angular velocity (a circle's are not sensed: its outline
-    has none); a moving obstacle whose sensed closest point lies farther than
-    ``sensing_max_range`` [m] from the CoM, or outside the field of view of ``sensing_fov`` [deg]
-    (the full angle, centred on the support foot's yaw), is not sensed. Walls are always sensed
-    exactly (the robot's map). The noise is drawn once per step and at reset, after the world's
-    state is final, from the env's generator (so a seed replays it; only when some noise is
-    on, so default episodes draw what they always did), and the observation's slots and
-    :meth:`sensing` are built from the same sensed state: the slots hold the sensed shapes'
-    closest points and their velocities (:func:`footstep_gym.sensing.nearest_views`), and
-    ``info["sensed_obstacles"]`` counts the moving obstacles sensed (present only when an option is on).
+    ``sensing_range`` of the CoM: R = ``sensing_range`` / ``observation_position_scale``.
+    After ``reset`` the previous command is the nominal one (slot 7's bound widens to hold
+    it if ``robot.stride_front`` leaves out S = 0). The other slots have no bound by
+    construction (docs/model.md §7), so Gymnasium's ``check_env`` warns about them. By
+    default the slots hold the truth; the ``sensing_*`` keys add noise, a range and a field
+    of view (docs/model.md §4.6).
 
     ## Rewards
-    Each term is reported in ``info["rewards"]``; the reward is their sum. Weights are
-    keys of ``configs/env.yaml``:
+    The sum of these terms, each reported in ``info["rewards"]`` (weights: keys of ``configs/env.yaml``):
 
-    * ``progress``: ``reward_progress`` × metres the robot centre (midpoint of the feet)
-      got closer to the goal;
-    * ``time``: ``reward_time`` × seconds simulated in the step;
-    * ``step``: ``reward_step`` per footstep;
-    * ``goal`` / ``collision`` / ``fall``: ``reward_goal``, ``reward_collision``,
-      ``reward_fall`` on those terminations.
+    | term | value |
+    |---|---|
+    | ``progress`` | ``reward_progress`` × metres the robot centre (midpoint of the feet) got closer to the goal |
+    | ``time`` | ``reward_time`` × seconds simulated in the step |
+    | ``step`` | ``reward_step`` per footstep |
+    | ``goal`` / ``collision`` / ``fall`` | ``reward_goal`` / ``reward_collision`` / ``reward_fall`` on those terminations |
 
     ## Starting State
     The robot stands at the scenario's ``start`` (jittered by ``start_jitter``) facing
@@ -205,82 +141,54 @@ class FootstepEnv(gym.Env):
     with the per-episode draws of ``reset(seed=...)``'s generator.
 
     ## Episode End
-    Terminated on ``"goal"`` (robot centre within ``goal_tolerance``), ``"collision"`` (the
-    body circle touches an obstacle at any time of a step) or ``"fall"`` (infeasible step).
-    Truncated after ``max_steps`` footsteps or ``time_limit`` simulated seconds (keys of the
-    scenario's YAML, e.g. ``gymnasium.make(..., max_steps=500)``). The env truncates by
-    itself, the one place that holds its step limit: ``env.spec.max_episode_steps`` reports
-    ``max_steps`` (filled in when ``gymnasium.make`` gives the env its spec), while the
-    registry's ``gymnasium.spec(id).max_episode_steps`` stays ``None`` so that
-    ``gymnasium.make`` adds no ``TimeLimit`` wrapper: a second limit would cut a raised
-    ``max_steps`` short and flag a termination on the last step as truncated too.
-    ``gymnasium.make(id, max_episode_steps=N)`` still adds one (its spec then reports N):
-    episodes end at the smaller of N and ``max_steps``, so raise the limit with
-    ``max_steps``; ``gymnasium.make(env.spec)`` adds one at the env's own limit. ``step``
-    after the episode ended (terminated or truncated) raises ``gymnasium.error.ResetNeeded``
-    naming how and when it ended; call ``reset()`` first (vector envs and SB3 do).
+    | ends | when | ``info`` |
+    |---|---|---|
+    | terminated, ``"goal"`` | the robot centre is within ``goal_tolerance`` of the goal | ``is_success`` |
+    | terminated, ``"collision"`` | the body circle touches an obstacle at any instant of the step | ``obstacle`` |
+    | terminated, ``"fall"`` | the step is infeasible; the robot does not move and no time passes | ``fall`` |
+    | truncated | after ``max_steps`` footsteps or ``time_limit`` simulated seconds (scenario keys) | |
+
+    The env truncates by itself: ``env.spec.max_episode_steps`` reports ``max_steps`` and
+    ``gymnasium.make`` adds no ``TimeLimit`` (docs/model.md §7 says why, and what
+    ``max_episode_steps=`` does). ``step`` after the episode ended raises
+    ``gymnasium.error.ResetNeeded`` naming how and when it ended.
 
     ## Info
-    Every step: ``is_success``, ``termination`` (one of ``"goal"``, ``"collision"``,
-    ``"fall"`` or ``None``), ``feasible``, ``collision``, ``clipped``, ``time`` (s),
-    ``period`` (s), ``support_foot`` (``"left"``/``"right"`` after the step),
-    ``foot_pose`` (x, y, yaw of the foot just placed), ``zmp`` (world x, y of the
-    single-support ZMP), ``com``/``com_vel`` (world, end of the step), ``rewards``,
-    ``command`` (the command applied, after clipping), ``zmp_offset`` (local, m),
-    ``zmp_margin`` (m: the signed per-axis margin of the single-support ZMP in the stable
-    region, ``min`` over the two axes of (half extent - |offset|): inside, the distance to the
-    nearest edge; negative when the ZMP is outside, and outside in both axes it is minus the
-    larger per-axis overshoot, not the Euclidean distance to the region), ``clearance`` (m:
-    the smallest gap between the body circle and any obstacle at the step's collision checks,
-    negative on a collision, ``inf`` where no obstacle came within reach in the step, ``None``
-    on a fall),
-    ``obstacle`` (name of the shape hit, or ``None``), ``steps``.
-    ``reset`` returns ``com``, ``com_vel``, ``support_foot``, ``foot_pose`` and ``time``.
+    Every step:
+
+    | key | meaning |
+    |---|---|
+    | ``termination`` | ``"goal"``, ``"collision"``, ``"fall"`` or ``None`` |
+    | ``fall`` | on a fall, why (the first that fails): ``"turn_limit"`` (θ outside the swinging side's turn limits), ``"overlap"`` (the feet, grown by ``foot_clearance``, overlap) or ``"zmp"`` (the ZMP leaves the stable region); ``None`` otherwise |
+    | ``is_success``, ``feasible``, ``collision``, ``clipped`` | bools |
+    | ``command`` | the command applied, after clipping |
+    | ``time``, ``period`` | s: simulated time since reset, this step's ``T_SS + T_DS`` |
+    | ``steps`` | footsteps since reset |
+    | ``support_foot``, ``foot_pose`` | ``"left"``/``"right"`` after the step; x, y, yaw of the foot the command places |
+    | ``zmp``, ``zmp_offset`` | m: the single-support ZMP, world; the same in the support foot's frame |
+    | ``zmp_margin`` | m: ``min`` over the two axes of (half extent - abs(offset)): the distance to the nearest edge inside the region, negative outside (then minus the larger per-axis overshoot); a kinematic fall may have a margin >= 0 |
+    | ``clearance`` | m: the smallest gap between the body circle and any obstacle at the step's collision checks; negative on a collision, ``inf`` where nothing came within reach, ``None`` on a fall |
+    | ``obstacle`` | the name of the shape hit, or ``None`` |
+    | ``com``, ``com_vel`` | world, end of the step |
+    | ``rewards`` | the reward's terms |
+    | ``sensed_obstacles`` | moving obstacles sensed (only with a ``sensing_*`` option on) |
+
+    ``reset`` returns ``com``, ``com_vel``, ``support_foot``, ``foot_pose``, ``time`` (and
+    ``tier_cell`` outside the default tier, ``sensed_obstacles`` as above).
 
     ## Arguments
-    ``gymnasium.make("FootstepDoor-v0", render_mode=None, **overrides)``: any key of the
-    scenario's YAML (e.g. ``door_speed=14.0``, ``obstacle_speed``, ``crowd_size``,
-    ``crowd_speed``, ``goal``, ``randomize={"door_speed": [8, 17]}``), any key of
-    ``configs/env.yaml`` (e.g. ``reward_time=-0.2``), and ``robot={...}`` for keys of
-    ``configs/robot.yaml``. Unknown keys raise ``ValueError`` naming them.
-    ``fixed_period=True`` (a key of ``configs/env.yaml``) makes the action ``[S, L, θ]``
-    (``Box(3,)``, the first three rows of the table above) and holds ``T_SS`` and ``T_DS`` at the
-    robot's nominal ones (``robot.yaml``: 0.6 s and 0.2 s); the observation is unchanged.
-    Speeds and scales the collision sweep's cost grows with have upper bounds, keys of the
-    scenario's YAML: ``door_speed <= max_door_speed`` (deg/s), ``door_radius <=
-    max_door_radius`` (m), ``obstacle_speed <= max_obstacle_speed`` (m/s),
-    ``arrival_speed <= max_arrival_speed`` (m/s), ``crowd_speed <= max_crowd_speed``
-    (m/s), ``2 pi breathing_amplitude / breathing_period[0] <= max_breathing_speed``
-    (m/s); a value or ``randomize`` range above its bound raises ``ConfigError`` naming
-    both keys. Whatever the settings, a footstep makes at most ``max_sweep_checks``
-    (``configs/env.yaml``) collision checks.
-    ``render_mode``: ``"rgb_array"`` (an ``(H, W, 3)`` uint8 frame of the present),
-    ``"rgb_array_list"`` (every frame since the last ``render()``, drawn inside the steps at
-    ``video_fps`` frames per simulated second, so a video at ``metadata["render_fps"]`` plays
-    in real time; :class:`footstep_gym.wrappers.RecordVideo` records them all) or ``"human"``.
+    ``gymnasium.make("FootstepDoor-v0", render_mode=None, tier="paper", tier_cell=None, **overrides)``:
 
-    ``tier``: a benchmark tier of ``configs/benchmark.yaml`` (:mod:`footstep_gym.tiers`): ``"paper"``
-    (the default: the settings above, the paper's scenes, bit for bit what the env was before
-    tiers), ``"train"`` (the distribution the shipped agents trained on), ``"shifted"`` (the same
-    layouts beyond the training ranges) or ``"hard"`` (a second door, two-way traffic, a reactive
-    crowd, sensing noise); an unknown name raises ``ConfigError`` naming the known tiers. Each
-    tier holds, per scene, named cells, each a set of the keywords above (``randomize`` ranges
-    included): a tier of several cells draws one per episode, uniformly, from the env's seeded
-    generator, before the episode's other draws (``reset(seed=s)`` fixes both; a tier of one cell
-    draws nothing); ``tier_cell="fast"`` takes that cell for every episode. ``env.unwrapped.tier``,
-    ``tier_cells`` and ``tier_cell`` (the episode's) say which; outside the default tier, ``reset``'s
-    info holds ``tier_cell``. Other keywords given with a tier apply on top of its cells, but one
-    that a cell sets (as a value or as a ``randomize`` range) raises ``ConfigError`` naming it: a
-    tier is a fixed distribution whose results stay comparable (use ``tier="paper"``, where every
-    key is free, for your own settings).
+    | argument | meaning |
+    |---|---|
+    | any key of the scenario's YAML | ``door_speed=14.0``, ``goal``, ``max_steps``, ``randomize={"door_speed": [8, 17]}`` (per-episode draws); speeds and scales have upper bounds, the ``max_*`` keys |
+    | any key of ``configs/env.yaml`` | ``reward_time=-0.2``, ``fixed_period=True`` (the action is ``[S, L, θ]``, T_SS and T_DS held at the robot's nominal ones), the ``sensing_*`` keys |
+    | ``robot`` | keys of ``configs/robot.yaml`` as a mapping, or a profile's name (``"darwin-op"``) |
+    | ``render_mode`` | ``"rgb_array"`` (the present), ``"rgb_array_list"`` (frames inside the steps at ``video_fps`` per simulated second) or ``"human"`` |
+    | ``tier``, ``tier_cell`` | a benchmark tier of ``configs/benchmark.yaml`` (``"paper"``, ``"train"``, ``"shifted"``, ``"hard"``), one cell drawn per episode, or one cell for all (docs/model.md §4.7) |
 
-    A planner reads :meth:`sensing`: a read-only snapshot of what a robot could sense now.
-    ``sensing_noise_position`` [m], ``sensing_noise_velocity`` [m/s], ``sensing_noise_angle``
-    [rad], ``sensing_noise_angular_velocity`` [rad/s] (stds, >= 0), ``sensing_max_range`` [m]
-    (> 0, ``math.inf``: no limit) and ``sensing_fov`` [deg] (in (0, 360]) set what it and the
-    observation sense of the moving obstacles (see "Observation Space"); a value outside its
-    range raises ``ConfigError`` naming the key. ``sensing_range`` only limits the observation's
-    slots.
+    Unknown keys and bad values raise :class:`~footstep_gym.errors.ConfigError` (a ``ValueError``)
+    naming them. A planner reads :meth:`sensing`: a read-only snapshot of what a robot could sense now.
 
     ## Version History
     * v0: initial release.
@@ -297,9 +205,9 @@ class FootstepEnv(gym.Env):
             raise ConfigError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.scenario_name = scenario
         self._scenario_cls: type[Scenario] = SCENARIOS[scenario]
-        # The tier's cells (configs/benchmark.yaml, footstep_gym.tiers; "Arguments" above), each with the overrides
-        # on top, built here (a bad value fails now): one (scenario config, env config) per cell. The default tier
-        # has one cell that sets nothing: the overrides alone, as without tiers.
+        # The tier's cells (configs/benchmark.yaml, footstep_gym.tiers), each with the overrides on top, built here
+        # (a bad value fails now): one (scenario config, env config) per cell. The default tier has one cell that
+        # sets nothing: the overrides alone.
         self.tier: str = tiers.DEFAULT_TIER if tier is None else tier
         #: The cells episodes are drawn from (one: no draw), and the one of the episode under way (:attr:`tier_cell`).
         self.tier_cells: list[tiers.TierCell] = tiers.cells(scenario, self.tier, tier_cell)
@@ -310,9 +218,9 @@ class FootstepEnv(gym.Env):
                 ("robot", Robot), ("scenario", self._scenario_cls.Config), ("env", EnvConfig)
             )
             if leftover:
-                known = [f for _, cls in (("s", self._scenario_cls.Config), ("e", EnvConfig))
-                         for f in cls.__dataclass_fields__] + ["robot", "tier", "tier_cell"]
-                raise ConfigError(config.unknown_keys_message(f"FootstepEnv({scenario})", list(leftover), known))
+                known = [f.name for cls in (self._scenario_cls.Config, EnvConfig) for f in dataclasses.fields(cls)]
+                raise ConfigError(config.unknown_keys_message(f"FootstepEnv({scenario})", list(leftover),
+                                                              known + ["robot", "tier", "tier_cell"]))
             if not self._cell_configs:  # cells set no robot key: one robot
                 self.robot: Robot = config.load(Robot, "robot.yaml", groups["robot"])
             self._cell_configs.append((self._scenario_cls.load_config(groups["scenario"]),
@@ -325,43 +233,16 @@ class FootstepEnv(gym.Env):
         #: Overrides :attr:`env_name` (an owner such as ``FootstepMixEnv`` names its scene envs).
         self.display_name: str | None = None
 
+        limits = action_limits(self.robot, self.config.fixed_period)
         #: Fields of the action: all five, or ``[S, L, theta]`` with the period fixed (``fixed_period``).
-        self.action_fields = COMMAND_FIELDS[:3] if self.config.fixed_period else COMMAND_FIELDS
-        n_act = len(self.action_fields)
-        self.action_space = spaces.Box(
-            self.robot.command_low[:n_act].astype(np.float32), self.robot.command_high[:n_act].astype(np.float32),
-            dtype=np.float32
-        )
-        # What the fixed-period form appends to each action: the nominal T_SS, T_DS (float64, exact).
-        self._fixed_tail = self.robot.nominal_command[n_act:].tolist()
-        # The robot's limits exactly (float64); the float32 box's bounds round them.
-        self._low64 = self.robot.command_low
-        self._high64 = self.robot.command_high
-        # Every value a field can be pinned at: box bounds and, for theta, the side-dependent turn limits.
-        turns = (-self.robot.turn_outer, -self.robot.turn_inner, self.robot.turn_inner, self.robot.turn_outer)
-        self._limits64 = [np.array(sorted({lo, hi, *(turns if i == 2 else ())}))
-                          for i, (lo, hi) in enumerate(zip(self._low64, self._high64))]
-        self._limits_rounded: dict[np.dtype, list[dict[float, float]]] = {}  # per action dtype, see _validate_action
-        self._low_list, self._high_list = self._low64.tolist(), self._high64.tolist()
-        self._span_list = (self._high64 - self._low64).tolist()
-        # Bounds per slot (docstring, "Observation Space"): finite where the layout has them, inclusive. Each
-        # is the float64 bound cast to float32 as _observation casts its values; float32 rounding is monotone,
-        # so every value within its bound in float64 lies within it in float32.
-        inf = math.inf
-        # The previous command after reset, the nominal one, mapped as _set_previous_command maps it: it lies in
-        # [-1, 1] unless robot.stride_front leaves out S = 0 (every command applied after it is clipped to the box).
-        nominal = [2.0 * (c - lo) / span - 1.0
-                   for c, lo, span in zip(self.robot.nominal_command.tolist(), self._low_list, self._span_list)]
-        # A listed shape's closest point lies within sensing_range of the CoM (World.nearest); the relative slack
-        # covers float64's rounding of that point (a few ulps of the world coordinates), not float32's.
-        reach = self.config.sensing_range / self.config.observation_position_scale * (1.0 + 1e-9)
-        low = [-inf, -inf, -1.0, -inf, -inf, -inf, -inf, *(min(-1.0, v) for v in nominal)]
-        high = [inf, inf, 1.0, inf, inf, inf, inf, *(max(1.0, v) for v in nominal)]
-        low += [-reach, -reach, -inf, -inf, 0.0] * self.config.n_obstacles_observed
-        high += [reach, reach, inf, inf, 1.0] * self.config.n_obstacles_observed
-        self.observation_space = spaces.Box(np.array(low, dtype=np.float32), np.array(high, dtype=np.float32),
-                                            dtype=np.float32)
-
+        self.action_fields = list(limits.fields)
+        self.action_space = action_space(limits)
+        self._read_action = ActionReader(limits)
+        self._low_list = limits.low.tolist()
+        self._span_list = (limits.high - limits.low).tolist()
+        self.observation_space = observation_space(limits.low, limits.high, self.robot.nominal_command,
+                                                   self.config.sensing_range, self.config.observation_position_scale,
+                                                   self.config.n_obstacles_observed)
         self.world: World | None = None
         self._static_key = None  # what the world's walls were built for (Scenario.static_key)
         self.scenario: Scenario | None = None
@@ -411,22 +292,21 @@ class FootstepEnv(gym.Env):
         return spec.id if spec is not None else f"FootstepEnv(scenario={self.scenario_name!r})"
 
     def _local_com(self) -> tuple[complex, complex]:
+        """The CoM's position and velocity relative to the support foot, in its frame (complex)."""
         support = self.feet[self.support_side]
         rot = cmath.exp(-1j * support[2])
-        return _world_to_local(support, self.com), self.com_vel * rot
-
-    def _centre(self) -> complex:
-        a, b = self.feet[LEFT], self.feet[RIGHT]
-        return complex(0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))
+        return (self.com - complex(support[0], support[1])) * rot, self.com_vel * rot
 
     def _goal_distance(self) -> float:
-        return abs(self._centre() - complex(*self.episode_config.goal))
+        """[m] from the robot centre (the feet's midpoint) to the goal."""
+        a, b = self.feet[LEFT], self.feet[RIGHT]
+        centre = complex(0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))
+        return abs(centre - complex(*self.episode_config.goal))
 
     def _set_previous_command(self, command: list[float]) -> None:
-        """The last command applied and, for the observation, it mapped to [-1, 1] field by field (what
-        numpy's array expression gave, bit for bit)."""
+        """The last command applied and, for the observation, it mapped to [-1, 1] field by field."""
         self._previous = command
-        self._previous_scaled = [2.0 * (c - lo) / span - 1.0
+        self._previous_scaled = [command_to_unit(c, lo, span)
                                  for c, lo, span in zip(command, self._low_list, self._span_list)]
 
     @property
@@ -478,7 +358,7 @@ class FootstepEnv(gym.Env):
             "com": _pair(self.com), "com_vel": _pair(self.com_vel), "time": 0.0,
             "support_foot": SIDE_NAMES[self.support_side], "foot_pose": self.feet[self.support_side],
         }
-        if self.tier != tiers.DEFAULT_TIER:  # the default tier's reset info stays what it always was
+        if self.tier != tiers.DEFAULT_TIER:
             info["tier_cell"] = self.tier_cell
         self._sensed = None
         if env_cfg.sensing_limited:
@@ -490,58 +370,41 @@ class FootstepEnv(gym.Env):
         return self._observation(), info
 
     def _validate_action(self, action: Any) -> tuple[list[float], bool]:
-        """The command (5 floats) an action stands for, and whether it lay outside the box.
-
-        An action is read in its own precision: a float32 action equal to a limit rounded to
-        float32 (``float32(0.6) = 0.6000000238``, what SB3 sends at the box's upper T_SS
-        bound) is that limit, not a hair beyond it. Each field is then clipped to the box.
-        Plain Python after the conversion: numpy's per-call cost on 5 numbers was a tenth
-        of a step.
-        """
-        fields = self.action_fields
-        if type(action) is np.ndarray and action.shape == (len(fields),) and action.dtype in _FLOAT_DTYPES:
-            raw, values = action, action.tolist()  # float32 and float64 convert to Python floats exactly
-        else:
-            try:
-                raw = np.asarray(action)
-                a = raw.astype(np.float64)
-            except (TypeError, ValueError) as exc:
-                raise ActionError(f"{self.env_name}: action must be {len(fields)} numbers [{', '.join(fields)}], "
-                                  f"got {action!r}") from exc
-            if a.shape != (len(fields),):
-                raise ActionError(f"{self.env_name}: action shape={a.shape} but expected ({len(fields)},) = "
-                                  f"[{', '.join(fields)}]")
-            values = a.tolist()
-        if not all(map(math.isfinite, values)):
-            bad = [f"{name}={v}" for name, v in zip(fields, values) if not math.isfinite(v)]
-            raise ActionError(f"{self.env_name}: action has non-finite field(s): {', '.join(bad)}")
-        dtype = raw.dtype
-        if dtype.kind == "f" and dtype.itemsize < 8:
-            # Each limit rounded to the action's dtype, back in float64 (exactly): equal to the
-            # action's field (exact in float64 too) exactly when equal in that dtype.
-            rounded = self._limits_rounded.get(dtype)
-            if rounded is None:  # per field {limit rounded: limit}; of limits that round alike, the lowest
-                rounded = []
-                for limits in self._limits64:
-                    table: dict[float, float] = {}
-                    for r, exact in zip(limits.astype(dtype).astype(np.float64).tolist(), limits.tolist()):
-                        table.setdefault(r, exact)
-                    rounded.append(table)
-                self._limits_rounded[dtype] = rounded
-            values = [table.get(v, v) for table, v in zip(rounded, values)]
-        if self._fixed_tail:
-            values += self._fixed_tail
-        command = [lo if v < lo else hi if v > hi else v for v, lo, hi in zip(values, self._low_list, self._high_list)]
-        return command, command != values
+        """The command (5 floats) an action stands for, and whether it lay outside the box
+        (:mod:`footstep_gym.action`'s rules; :class:`~footstep_gym.errors.ActionError` on a bad action)."""
+        return self._read_action(action, self.env_name)
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        self._check_running()
+        command, clipped = self._validate_action(action)
+        step = self._simulate(command, clipped)
+        sensed = self._sense() if self.config.sensing_limited else None
+        obs = self._observation()
+        termination = self._termination(step)
+        rewards = self._rewards(step, termination)
+        terminated = termination is not None
+        truncated = not terminated and self._truncated()
+        self._end_episode(termination, truncated)
+        info = self._info(step, termination, rewards)
+        if sensed is not None:
+            info["sensed_obstacles"] = sensed
+        if self.render_mode == "human":
+            self.render()
+        return obs, float(sum(rewards.values())), terminated, truncated, info
+
+    def _check_running(self) -> None:
+        """Raise ``ResetNeeded`` before the first ``reset`` and after the episode ended (saying how and when)."""
         if self.world is None:
             raise gym.error.ResetNeeded(f"{self.env_name}: call reset() before step()")
         if self.ended is not None:
             raise gym.error.ResetNeeded(
                 f"{self.env_name}: episode ended ({self.ended}) at step {self.steps}; call reset() before step()")
-        command, clipped = self._validate_action(action)
-        robot, env_cfg, cfg = self.robot, self.config, self.episode_config
+
+    # ------------------------------------------------------------------ one footstep
+    def _simulate(self, command: list[float], clipped: bool) -> Footstep:
+        """Walk one footstep of ``command``: the LIPM's verdict, then (if feasible) the collision sweep of the step
+        with the obstacles moving; the robot's state, the clock and the history advance."""
+        robot = self.robot
         S, L, theta, t_ss, t_ds = command
         period = t_ss + t_ds
         support = self.feet[self.support_side]
@@ -552,23 +415,14 @@ class FootstepEnv(gym.Env):
         origin = complex(support[0], support[1])
         zmp_world = origin + p * rot
         new_foot = footstep.place_foot_scalar(support, self.support_side, S, L, theta)
-        d_before = self._goal_dist
-        rewards = {"progress": 0.0, "time": 0.0, "step": env_cfg.reward_step,
-                   "goal": 0.0, "collision": 0.0, "fall": 0.0}
-        termination = None
-        collided, hit = False, None
-        clearance = None  # not measured: on a fall the robot does not move
-        feasible = kin_ok and zmp_ok
         zmp_hx, zmp_hy = robot.zmp_half_extent
         zmp_margin = min(zmp_hx - abs(p.real), zmp_hy - abs(p.imag))
-        if not feasible:
-            termination = "fall"
-            rewards["fall"] = env_cfg.reward_fall
-            elapsed = 0.0
-        else:
+        d_before = self._goal_dist
+        fall = None if kin_ok and zmp_ok else self._fall_reason(command, kin_ok)
+        elapsed, clearance, collided, hit = 0.0, None, False, None  # on a fall the robot does not move
+        if fall is None:
             swing = -self.support_side
-            q = complex(S, swing * L)
-            traj = lipm.StepTrajectory(robot.omega, com_local, vel_local, p, q, t_ss, t_ds)
+            traj = lipm.StepTrajectory(robot.omega, com_local, vel_local, p, complex(S, swing * L), t_ss, t_ds)
             chord = (origin + traj.state(period)[0] * rot - self.com) / period  # the CoM's mean velocity over the step
             self.scenario.before_step(self.world, self.time, period, RobotMotion(_pair(self.com), _pair(chord)))
             result = self.world.sweep(traj.world_path(origin, rot), period, traj.speed_bound())
@@ -578,8 +432,6 @@ class FootstepEnv(gym.Env):
             self.history["zmp"].append(_pair(zmp_world))
             if result.collided:
                 collided, hit = True, result.obstacle
-                termination = "collision"
-                rewards["collision"] = env_cfg.reward_collision
                 c, v = traj.state(elapsed)
                 self.com, self.com_vel = origin + c * rot, v * rot
             else:
@@ -593,46 +445,72 @@ class FootstepEnv(gym.Env):
         self.time += elapsed
         self.steps += 1
         self._set_previous_command(command)
-        rewards["time"] = env_cfg.reward_time * elapsed
         d_after = self._goal_dist = self._goal_distance()
-        rewards["progress"] = env_cfg.reward_progress * (d_before - d_after)
-        if termination is None and d_after <= cfg.goal_tolerance:
-            termination = "goal"
-            rewards["goal"] = env_cfg.reward_goal
-        terminated = termination is not None
-        truncated = not terminated and (self.steps >= cfg.max_steps or self.time >= cfg.time_limit)
-        self.terminated = terminated
-        if terminated:
+        return Footstep(command, clipped, fall, p, zmp_world, zmp_margin, new_foot, elapsed, clearance, collided,
+                        hit, d_before - d_after)
+
+    def _fall_reason(self, command: list[float], kinematic_ok: bool) -> str:
+        """Why an infeasible ``command`` falls: the kinematic limit it fails first, else ``"zmp"``."""
+        reason = None if kinematic_ok else footstep.kinematic_violation(self.robot, *command, self.support_side)
+        return reason or "zmp"
+
+    def _termination(self, step: Footstep) -> str | None:
+        """``"fall"``, ``"collision"``, ``"goal"`` (the robot centre within ``goal_tolerance``) or ``None``."""
+        if step.fall is not None:
+            return "fall"
+        if step.collided:
+            return "collision"
+        if self._goal_dist <= self.episode_config.goal_tolerance:
+            return "goal"
+        return None
+
+    def _rewards(self, step: Footstep, termination: str | None) -> dict[str, float]:
+        """The reward's terms (docstring, "Rewards"), in the order they are summed."""
+        cfg = self.config
+        return {"progress": cfg.reward_progress * step.progress, "time": cfg.reward_time * step.elapsed,
+                "step": cfg.reward_step, "goal": cfg.reward_goal if termination == "goal" else 0.0,
+                "collision": cfg.reward_collision if termination == "collision" else 0.0,
+                "fall": cfg.reward_fall if termination == "fall" else 0.0}
+
+    def _truncated(self) -> bool:
+        """Whether the episode ran out of footsteps (``max_steps``) or simulated time (``time_limit``)."""
+        cfg = self.episode_config
+        return self.steps >= cfg.max_steps or self.time >= cfg.time_limit
+
+    def _end_episode(self, termination: str | None, truncated: bool) -> None:
+        """Record how the episode ended, if it did (``step`` then raises ``ResetNeeded`` saying so)."""
+        cfg = self.episode_config
+        self.terminated = termination is not None
+        if termination is not None:
             self.ended = termination
         elif truncated:
             self.ended = (f"truncated: max_steps={cfg.max_steps} reached" if self.steps >= cfg.max_steps
                           else f"truncated: time_limit={cfg.time_limit} s reached")
-        info = {
+
+    def _info(self, step: Footstep, termination: str | None, rewards: dict[str, float]) -> dict[str, Any]:
+        """The step's ``info`` (docstring, "Info")."""
+        return {
             "is_success": termination == "goal",
             "termination": termination,
-            "feasible": feasible,
-            "collision": collided,
-            "obstacle": hit,
-            "clipped": clipped,
-            "command": tuple(command),
+            "fall": step.fall,
+            "feasible": step.fall is None,
+            "collision": step.collided,
+            "obstacle": step.obstacle,
+            "clipped": step.clipped,
+            "command": tuple(step.command),
             "time": self.time,
-            "period": period,
+            "period": step.command[3] + step.command[4],
             "steps": self.steps,
             "support_foot": SIDE_NAMES[self.support_side],
-            "foot_pose": new_foot,
-            "zmp": _pair(zmp_world),
-            "zmp_offset": _pair(p),
-            "zmp_margin": zmp_margin,
-            "clearance": clearance,
+            "foot_pose": step.foot,
+            "zmp": _pair(step.zmp),
+            "zmp_offset": _pair(step.zmp_offset),
+            "zmp_margin": step.zmp_margin,
+            "clearance": step.clearance,
             "com": _pair(self.com),
             "com_vel": _pair(self.com_vel),
             "rewards": rewards,
         }
-        if env_cfg.sensing_limited:
-            info["sensed_obstacles"] = self._sense()
-        if self.render_mode == "human":
-            self.render()
-        return self._observation(), float(sum(rewards.values())), terminated, truncated, info
 
     # ------------------------------------------------------------------ observation
     def _sense(self) -> int:
@@ -670,29 +548,17 @@ class FootstepEnv(gym.Env):
         return sum(1 for v in self._sensed if not v.static)
 
     def _observation(self) -> np.ndarray:
+        """The observation of the state now (:func:`footstep_gym.observation.observation`): the truth read off the
+        bodies, or what :meth:`_sense` kept when a sensing option is on."""
         cfg = self.config
-        ps, vs = cfg.observation_position_scale, cfg.observation_velocity_scale
-        support = self.feet[self.support_side]
-        rot = cmath.exp(-1j * support[2])  # world -> the support foot's frame (_world_to_local, computed once)
-        origin = complex(support[0], support[1])
         com = self.com
-        com_local, vel_local = (com - origin) * rot, self.com_vel * rot
-        goal = (complex(*self.episode_config.goal) - origin) * rot / ps
-        com_scale = cfg.observation_com_scale
-        obs = [goal.real, goal.imag, float(self.support_side), com_local.real / com_scale, com_local.imag / com_scale,
-               vel_local.real / vs, vel_local.imag / vs, *self._previous_scaled]
         k = cfg.n_obstacles_observed
-        if self._sensed is None:  # the truth, read off the bodies
+        if self._sensed is None:
             near = self.world.nearest((com.real, com.imag), k, cfg.sensing_range)
-        else:  # what _sense kept (noisy, within range and field of view)
+        else:
             near = nearest_views(self._sensed, (com.real, com.imag), k, cfg.sensing_range)
-        for _, (x, y), (vx, vy), _ in near:
-            rel = (complex(x, y) - com) * rot / ps
-            v = complex(vx, vy) * rot / vs
-            obs += (rel.real, rel.imag, v.real, v.imag, 1.0)
-        if len(near) < k:
-            obs += [0.0] * (5 * (k - len(near)))
-        return np.array(obs, dtype=np.float32)
+        return observation(self.feet[self.support_side], self.support_side, com, self.com_vel,
+                           self.episode_config.goal, self._previous_scaled, near, k, ObservationScales.of(cfg))
 
     def sensing(self) -> Snapshot:
         """What a robot could sense now (read-only): feet, CoM, goal, obstacles' shapes and velocities."""

@@ -113,6 +113,43 @@ def feet_overlap(S: Any, L: Any, theta: Any, support_side: Any, robot: Robot) ->
     return ~(sep_x | sep_y | sep_u | sep_v)
 
 
+#: The kinematic limits a command can fail, in the order :func:`kinematic_violation` checks them: outside the
+#: command box, outside the swinging side's turn limits, the two soles (grown by ``foot_clearance``) overlapping.
+KINEMATIC_VIOLATIONS = ("limits", "turn_limit", "overlap")
+
+
+def kinematic_violation(robot: Robot, S: float, L: float, theta: float, t_ss: float, t_ds: float,
+                        support_side: int) -> str | None:
+    """The first of :data:`KINEMATIC_VIOLATIONS` one command fails (NaN: ``"limits"``), or None.
+
+    :func:`kinematically_feasible`'s limits and tolerance for one command, in plain Python (the env's step
+    and :func:`footstep_gym.lipm.check_step` call it one command at a time, where numpy's per-call cost counts).
+    """
+    eps = 1e-9
+    turn = robot.turn_limit
+    if not (S >= robot.stride_front[0] - eps and S <= robot.stride_front[1] + eps  # NaN fails here too
+            and L >= robot.stride_side[0] - eps and L <= robot.stride_side[1] + eps
+            and theta >= -turn - eps and theta <= turn + eps
+            and t_ss >= robot.t_ss[0] - eps and t_ss <= robot.t_ss[1] + eps
+            and t_ds >= robot.t_ds[0] - eps and t_ds <= robot.t_ds[1] + eps):
+        return "limits"
+    lo, hi = turn_bounds(support_side, robot)
+    if not (theta >= lo - eps and theta <= hi + eps):
+        return "turn_limit"
+    # feet_overlap, one command: separating-axis test of the two foot rectangles.
+    hx = 0.5 * (robot.foot_length + robot.foot_clearance)
+    hy = 0.5 * (robot.foot_width + robot.foot_clearance)
+    t = -support_side * theta
+    c, s = math.cos(t), math.sin(t)
+    ac, as_ = abs(c), abs(s)
+    if (abs(S) > hx + hx * ac + hy * as_
+            or abs(L) > hy + hx * as_ + hy * ac
+            or abs(c * S + s * L) > hx * ac + hy * as_ + hx
+            or abs(-s * S + c * L) > hx * as_ + hy * ac + hy):
+        return None
+    return "overlap"
+
+
 def kinematically_feasible(commands: np.ndarray, support_side: Any, robot: Robot) -> np.ndarray:
     """Batch verdict of the kinematic limits for commands ``(N, 5)`` ``[S, L, theta, T_SS, T_DS]``.
 

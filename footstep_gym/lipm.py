@@ -167,37 +167,6 @@ def check_steps(robot: Robot, com: Any, vel: Any, commands: Any, support_side: A
     )
 
 
-def _kinematically_feasible_scalar(robot: Robot, S: float, L: float, theta: float, t_ss: float, t_ds: float,
-                                   support_side: int) -> bool:
-    """Plain-Python twin of :func:`footstep.kinematically_feasible` for one command (same arithmetic).
-
-    On the env's per-step path, one command at a time, numpy's per-call overhead dominated that
-    check; plain Python floats avoid it. ``tests/test_lipm.py`` checks that
-    :func:`check_step` and :func:`check_steps` agree (this function vs the numpy one).
-    """
-    eps = 1e-9
-    turn = robot.turn_limit
-    if not (S >= robot.stride_front[0] - eps and S <= robot.stride_front[1] + eps  # NaN fails here too
-            and L >= robot.stride_side[0] - eps and L <= robot.stride_side[1] + eps
-            and theta >= -turn - eps and theta <= turn + eps
-            and t_ss >= robot.t_ss[0] - eps and t_ss <= robot.t_ss[1] + eps
-            and t_ds >= robot.t_ds[0] - eps and t_ds <= robot.t_ds[1] + eps):
-        return False
-    lo, hi = footstep.turn_bounds(support_side, robot)
-    if not (theta >= lo - eps and theta <= hi + eps):
-        return False
-    # footstep.feet_overlap, one command: separating-axis test of the two foot rectangles.
-    hx = 0.5 * (robot.foot_length + robot.foot_clearance)
-    hy = 0.5 * (robot.foot_width + robot.foot_clearance)
-    t = -support_side * theta
-    c, s = math.cos(t), math.sin(t)
-    ac, as_ = abs(c), abs(s)
-    return (abs(S) > hx + hx * ac + hy * as_
-            or abs(L) > hy + hx * as_ + hy * ac
-            or abs(c * S + s * L) > hx * ac + hy * as_ + hx
-            or abs(-s * S + c * L) > hx * as_ + hy * ac + hy)
-
-
 def check_step(robot: Robot, com: complex, vel: complex, command: tuple[float, ...],
                support_side: int) -> tuple[bool, bool, complex, complex, complex]:
     """Scalar twin of :func:`check_steps` for one command (plain Python, no numpy).
@@ -207,7 +176,7 @@ def check_step(robot: Robot, com: complex, vel: complex, command: tuple[float, .
     the new foot in its frame.
     """
     S, L, theta, t_ss, t_ds = command
-    kin_ok = _kinematically_feasible_scalar(robot, S, L, theta, t_ss, t_ds, support_side)
+    kin_ok = footstep.kinematic_violation(robot, S, L, theta, t_ss, t_ds, support_side) is None
     if not kin_ok and not (t_ss > 0 and t_ds > 0):
         nan = complex(math.nan, math.nan)
         return False, False, nan, nan, nan  # outside the box: no pattern to generate

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from footstep_gym import config
+from footstep_gym.env_config import EnvConfig
 from footstep_gym.errors import ConfigError
 
 #: The file, relative to ``configs/``.
@@ -91,8 +92,6 @@ def plain(value: Any) -> Any:
 
 def cell_env_keys() -> list[str]:
     """The keys of ``configs/env.yaml`` a cell may set (sensing keys that leave the spaces alone)."""
-    from footstep_gym.env import EnvConfig  # env imports this module
-
     return [f.name for f in dataclasses.fields(EnvConfig)
             if f.name.startswith(CELL_ENV_PREFIXES) and f.name not in SHAPING_ENV_KEYS]
 

@@ -35,7 +35,7 @@ class ScenarioConfig:
     def numeric_keys(cls) -> list[str]:
         """The float keys ``randomize`` (and a scenario's ``fuzz`` and ``sweep_axes``) may name: no ``max_*`` bound."""
         bound_keys = set(cls.upper_bounds().values())
-        return [f.name for f in dataclasses.fields(cls) if str(f.type) == "float" and f.name not in bound_keys]
+        return [name for name in config.numeric_fields(cls) if name not in bound_keys]
 
     def validate(self) -> None:
         numeric = self.numeric_keys()

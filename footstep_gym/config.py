@@ -303,8 +303,7 @@ def load(cls: type[T], relative: str, overrides: Mapping[str, Any] | str | None 
 
 def replace(obj: T, **changes: Any) -> T:
     """A validated copy of config ``obj`` with ``changes``."""
-    # Field by field (nested configs as mappings): dataclasses.asdict's deep copy of every list and
-    # dict was a third of a reset with a randomised scenario.
+    # Field by field, nested configs as mappings: no deep copy of the lists and dicts that stay as they are.
     values = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}  # type: ignore[arg-type]
     data = {k: dataclasses.asdict(v) if dataclasses.is_dataclass(v) else v for k, v in values.items()}
     data.update(changes)

@@ -137,3 +137,75 @@ def test_plain_list_action_is_accepted():
     env.reset(seed=0)
     _, _, terminated, _, info = env.unwrapped.step([0.0, 0.08, 0.0, 0.6, 0.2])
     assert not terminated and info["feasible"]
+
+
+# ------------------------------------------------------------------ footstep_gym.action: batched and one at a time
+def random_actions(rng: np.random.Generator, low: np.ndarray, high: np.ndarray, n: int, dtype) -> np.ndarray:
+    """Uniform in a box 20 % wider than [low, high], a quarter of the fields set to a limit cast to ``dtype``."""
+    span = high - low
+    actions = rng.uniform(low - 0.2 * span, high + 0.2 * span, (n, len(low)))
+    at_limit = rng.random(actions.shape) < 0.25
+    limits = np.where(rng.random(actions.shape) < 0.5, low, high)
+    return np.where(at_limit, limits.astype(dtype), actions).astype(dtype)
+
+
+@pytest.mark.parametrize("fixed_period", [False, True])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.float16])
+def test_batched_actions_are_read_as_the_env_reads_each(fixed_period, dtype):
+    """``action.to_commands`` on a batch equals the env's reading of each action (``info["command"]``,
+    ``info["clipped"]``), float32/float16 limits pinned, the fixed period's tail appended."""
+    from footstep_gym import action as act
+
+    env = gym.make("FootstepCrossing-v0", fixed_period=fixed_period, **FREE).unwrapped
+    limits = act.action_limits(env.robot, fixed_period)
+    n = len(limits.fields)
+    robot = read_yaml("robot.yaml")
+    low, high = robot_limits(robot)
+    batch = random_actions(np.random.default_rng(3), low[:n], high[:n], 200, dtype)
+    commands, clipped = act.to_commands(batch, limits)
+    assert commands.shape == (200, 5) and commands.dtype == np.float64 and clipped.shape == (200,)
+    assert 20 < clipped.sum() < 180
+    if fixed_period:
+        assert np.all(commands[:, 3:] == [robot["nominal_t_ss"], robot["nominal_t_ds"]])
+    for a, command, was_clipped in zip(batch, commands, clipped):
+        env.reset(seed=0)
+        *_, info = env.step(a)
+        assert info["command"] == tuple(command.tolist()) and info["clipped"] == bool(was_clipped)
+    # A field at a limit rounded to the dtype is the limit exactly; in float64 nothing is pinned.
+    edges = np.array([high[:n], low[:n]], dtype=dtype)
+    assert np.all(act.to_commands(edges, limits)[0][:, :n] == np.array([high[:n], low[:n]]))
+    assert (dtype == np.float64) == np.all(edges.astype(np.float64) == [high[:n], low[:n]])  # rounded: pinned back
+
+
+def test_inner_turn_limit_is_pinned_in_a_batch_too():
+    from footstep_gym import action as act
+    from footstep_gym.robot import load_robot
+
+    robot = read_yaml("robot.yaml")
+    limits = act.action_limits(load_robot())
+    a = np.array([[0.0, 0.1, -robot["turn_inner"], 0.5, 0.2], [0.0, 0.1, robot["turn_inner"], 0.5, 0.2]],
+                 dtype=np.float32)
+    commands, clipped = act.to_commands(a, limits)
+    assert commands[:, 2].tolist() == [-robot["turn_inner"], robot["turn_inner"]] and not clipped.any()
+
+
+@pytest.mark.parametrize("bad, match", [(np.zeros((3, 4)), "last axis of 5"), (np.float32(1.0), "last axis"),
+                                        (np.array([[0.0, 0.08, np.nan, 0.6, 0.2]]), "non-finite")])
+def test_batched_bad_actions_raise_naming_the_problem(bad, match):
+    from footstep_gym import action as act
+    from footstep_gym.robot import load_robot
+
+    with pytest.raises(footstep_gym.ActionError, match=match):
+        act.to_commands(bad, act.action_limits(load_robot()))
+
+
+def test_action_space_is_the_robot_box_in_float32():
+    from footstep_gym import action as act
+    from footstep_gym.robot import load_robot
+
+    low, high = robot_limits(read_yaml("robot.yaml"))
+    for fixed, n in ((False, 5), (True, 3)):
+        box = act.action_space(act.action_limits(load_robot(), fixed))
+        assert box.dtype == np.float32 and box.shape == (n,)
+        assert np.array_equal(box.low, low[:n].astype(np.float32))
+        assert np.array_equal(box.high, high[:n].astype(np.float32))

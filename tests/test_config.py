@@ -456,3 +456,70 @@ def test_config_rejects_non_finite(key, value):
     with pytest.raises(ConfigError) as exc:
         load_robot({key: value})
     assert key in str(exc.value)
+
+
+# ------------------------------------------------------------------ what is no keyword, and the modules' order
+@pytest.mark.parametrize("env_id, kwargs", [
+    ("FootstepDoor-v0", {"SIDE_SECTIONS": 5}), ("FootstepDoor-v0", {"Config": 1}),
+    ("FootstepMix-v0", {"door": {"SIDE_SECTIONS": 5}}),
+])
+def test_class_constants_are_no_keywords(env_id, kwargs):
+    """A config class's constants (``ScenarioConfig.SIDE_SECTIONS``) are neither accepted nor offered."""
+    with pytest.raises(ConfigError) as exc:
+        gym.make(env_id, **kwargs)
+    message = str(exc.value)
+    assert "unknown key(s) 'SIDE_SECTIONS'" in message or "unknown key(s) 'Config'" in message
+    assert "did you mean" not in message
+    known = message.split("known keys: ")[1].split(", ")
+    assert "SIDE_SECTIONS" not in known and "door_speed" in known
+
+
+def test_env_config_sits_below_the_env_and_the_tiers():
+    """``tiers`` reads ``EnvConfig``'s fields from ``env_config``, which imports neither ``env`` nor ``tiers``."""
+    import ast
+
+    import footstep_gym.env_config
+    import footstep_gym.tiers
+
+    def imported(module) -> set[str]:
+        tree = ast.parse(open(module.__file__, encoding="utf-8").read())
+        names = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+        names |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
+        names |= {f"{node.module}.{alias.name}" for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+                  for alias in node.names}
+        return names
+
+    assert not {"footstep_gym.env", "footstep_gym.tiers"} & imported(footstep_gym.env_config)
+    assert "footstep_gym.env" not in imported(footstep_gym.tiers)
+    assert "footstep_gym.env_config" in imported(footstep_gym.tiers)
+
+
+def test_fields_are_converted_by_their_declared_types():
+    """Every config class resolves its fields to types with a converter; ``float`` fields are the numeric ones."""
+    from footstep_gym.env_config import EnvConfig
+    from footstep_gym.scenarios import SCENARIOS
+
+    types = config.field_types(EnvConfig)
+    assert types["n_obstacles_observed"] is int and types["sensing_max_range"] is float
+    assert types["render_size"] == tuple[float, float] and types["compiled_sweep"] is bool
+    for cls in [Robot, EnvConfig, *(s.Config for s in SCENARIOS.values())]:
+        assert set(config.field_types(cls)) == {f.name for f in dataclasses.fields(cls)}
+    door = SCENARIOS["door"].Config
+    assert "door_speed" in door.numeric_keys() and "max_steps" not in door.numeric_keys()
+    assert "goal" not in door.numeric_keys() and "max_door_speed" not in door.numeric_keys()
+
+
+def test_a_field_type_without_a_converter_is_refused_by_name():
+    @dataclasses.dataclass(frozen=True)
+    class Odd:
+        when: complex = config.plain()
+
+    with pytest.raises(TypeError, match="Odd: no config converter.*when"):
+        config.build(Odd, {"when": 1j}, "odd.yaml")
+
+
+@pytest.mark.parametrize("value", [0.0, -1.0, math.nan, -math.inf, "far", True])
+def test_a_range_that_may_be_infinite_still_names_bad_values(value):
+    with pytest.raises(ConfigError, match="sensing_max_range must be a number > 0"):
+        gym.make("FootstepCrowd-v0", sensing_max_range=value)
+    assert gym.make("FootstepCrowd-v0", sensing_max_range=math.inf).unwrapped.config.sensing_max_range == math.inf

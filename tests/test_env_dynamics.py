@@ -13,7 +13,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from env_helpers import FREE, LEFT, NOMINAL, RIGHT, strides
+from env_helpers import FREE, LEFT, NOMINAL, RIGHT, read_yaml, strides
 from footstep_gym import footstep
 
 
@@ -92,3 +92,81 @@ def test_foot_pose_follows_the_footstep_convention():
         side = -side
         assert info["support_foot"] == {LEFT: "left", RIGHT: "right"}[side]
         support = new
+
+
+# ------------------------------------------------------------------ why a step is a fall: info["fall"]
+def first_step(action, env_id="FootstepCrossing-v0", **kwargs):
+    env = gym.make(env_id, **{**FREE, **kwargs})
+    _, info = env.reset(seed=0)
+    assert info["support_foot"] == "right"  # the left foot swings: theta > 0 turns it away (outer)
+    return env.step(np.array(action))[-1]
+
+
+@pytest.mark.parametrize("action, reason", [
+    ([0.0, 0.10, -0.3, 0.6, 0.2], "turn_limit"),  # towards the support foot, beyond turn_inner = 0.2
+    ([0.0, 0.07, 0.3, 0.6, 0.2], "overlap"),      # a legal outward turn, but the turned sole's corner meets the other
+    ([0.10, 0.12, 0.0, 0.1, 0.02], "zmp"),        # from standing, the longest stride at the shortest period
+    ([0.0, 0.08, 0.0, 0.6, 0.2], None),           # stepping in place
+])
+def test_info_says_why_a_step_is_a_fall(action, reason):
+    info = first_step(action)
+    assert info["fall"] == reason
+    assert info["feasible"] == (reason is None) and (info["termination"] == "fall") == (reason is not None)
+    if reason == "zmp":
+        assert info["zmp_margin"] < 0
+    elif reason is not None:  # a kinematic fall says nothing of the ZMP: here it lies inside the region
+        assert info["zmp_margin"] > 0 and info["clearance"] is None and info["time"] == 0.0
+
+
+def test_fall_after_an_abrupt_period_cut_is_a_zmp_fall():
+    env = gym.make("FootstepCrossing-v0", **FREE)
+    env.reset(seed=0)
+    for action in strides(0.02, 0.035, 0.05, 0.05, 0.05):
+        env.step(action)
+    *_, info = env.step(np.array([0.05, 0.08, 0.0, 0.1, 0.2]))
+    assert info["fall"] == "zmp" and info["zmp_margin"] < 0
+
+
+def test_fall_reasons_match_the_limits_read_off_robot_yaml():
+    """200 random first steps: ``info["fall"]`` is the first limit the command breaks, each worked out here from
+    robot.yaml (the turn interval of the swinging side, the soles' separating-axis test, the ZMP region)."""
+    robot = read_yaml("robot.yaml")
+    hx, hy = (robot["foot_length"] + robot["foot_clearance"]) / 2, (robot["foot_width"] + robot["foot_clearance"]) / 2
+    zx, zy = robot["zmp_region_scale"] * robot["foot_length"] / 2, robot["zmp_region_scale"] * robot["foot_width"] / 2
+    env = gym.make("FootstepCrossing-v0", **FREE)
+    low, high = env.action_space.low.astype(float), env.action_space.high.astype(float)
+    rng = np.random.default_rng(11)
+    seen = set()
+    for _ in range(200):
+        env.reset(seed=0)
+        action = rng.uniform(low, high)
+        *_, info = env.step(action)
+        S, L, theta = action[:3]
+        support = [(u, v) for u in (-hx, hx) for v in (-hy, hy)]  # the right sole's corners, its own frame
+        swing = [(S + u * math.cos(theta) - v * math.sin(theta), L + u * math.sin(theta) + v * math.cos(theta))
+                 for u, v in support]  # the left sole's, in the right one's frame
+        axes = [(1.0, 0.0), (0.0, 1.0), (math.cos(theta), math.sin(theta)), (-math.sin(theta), math.cos(theta))]
+        # Two convex rectangles overlap iff no axis of either separates their projections.
+        overlap = True
+        for ax, ay in axes:
+            a = [x * ax + y * ay for x, y in support]
+            b = [x * ax + y * ay for x, y in swing]
+            if max(a) < min(b) or max(b) < min(a):
+                overlap = False
+        px, py = info["zmp_offset"]
+        expected = ("turn_limit" if not -robot["turn_inner"] <= theta <= robot["turn_outer"]
+                    else "overlap" if overlap else "zmp" if abs(px) > zx or abs(py) > zy else None)
+        assert info["fall"] == expected, (action, info["fall"], expected)
+        seen.add(expected)
+    assert seen == {None, "turn_limit", "overlap", "zmp"}
+
+
+@pytest.mark.parametrize("command", [(0.2, 0.08, 0.0, 0.6, 0.2), (0.0, 0.08, 0.0, 0.6, 0.0), (math.nan, 0.08, 0, 0.6, 0.2)])
+def test_a_command_outside_the_box_breaks_the_limits_first(command):
+    """``footstep.kinematic_violation`` names the box first; the env clips to the box, so never reports it."""
+    from footstep_gym.robot import load_robot
+
+    assert footstep.kinematic_violation(load_robot(), *command, RIGHT) == "limits"
+    if not math.isnan(command[0]):
+        info = first_step(command)
+        assert info["clipped"] and info["fall"] is None

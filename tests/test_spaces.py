@@ -274,3 +274,48 @@ def test_make_max_episode_steps_adds_a_time_limit_that_can_only_shorten():
     assert env.spec.max_episode_steps == 4 and _steps_to_truncation(env) == 4
     longer = gym.make("FootstepCrossing-v0", max_episode_steps=20, max_steps=6, **FREE)
     assert _steps_to_truncation(longer) == 6  # the env's own max_steps still holds (docstring, "Episode End")
+
+
+# ------------------------------------------------------------------ footstep_gym.observation: the batched builder
+@pytest.mark.parametrize("env_id", list(SCENE_IDS.values()))
+def test_batched_observations_equal_the_envs_to_a_few_ulps(env_id):
+    """``observation.observations`` on the env's states, stacked over an episode, is what ``step`` returned
+    (within a few float32 ulps: it computes with numpy's cos and sin, the env with libm's)."""
+    from footstep_gym import observation as ob
+
+    sensing_range = {"FootstepDoor-v0": 0.8, "FootstepCrossing-v0": 1.2, "FootstepCrowd-v0": 0.3}[env_id]  # [m]: some
+    # slots hold shapes, some are padding
+    env = gym.make(env_id, sensing_range=sensing_range).unwrapped
+    env_cfg, robot = read_yaml("env.yaml"), read_yaml("robot.yaml")
+    k = env_cfg["n_obstacles_observed"]
+    scales = ob.ObservationScales(env_cfg["observation_position_scale"], env_cfg["observation_velocity_scale"],
+                                  env_cfg["observation_com_scale"])
+    turn = max(robot["turn_inner"], robot["turn_outer"])
+    low = np.array([robot["stride_front"][0], robot["stride_side"][0], -turn, robot["t_ss"][0], robot["t_ds"][0]])
+    high = np.array([robot["stride_front"][1], robot["stride_side"][1], turn, robot["t_ss"][1], robot["t_ds"][1]])
+    rng = np.random.default_rng(0)
+    got, rows = [], []
+    obs, _ = env.reset(seed=1)
+    for i in range(60):
+        com = (env.com.real, env.com.imag)
+        near = env.world.nearest(com, k, sensing_range)
+        points = np.zeros((k, 2))
+        velocities = np.zeros((k, 2))
+        for j, (_, point, velocity, _) in enumerate(near):
+            points[j], velocities[j] = point, velocity
+        rows.append(dict(support=env.feet[env.support_side], side=env.support_side, com=com,
+                         com_vel=(env.com_vel.real, env.com_vel.imag), goal=env.episode_config.goal,
+                         previous_unit=ob.command_to_unit(env.previous_command, low, high - low),
+                         points=points, velocities=velocities, present=np.arange(k) < len(near)))
+        got.append(obs)
+        action = NOMINAL + rng.uniform(-1, 1, 5) * [0.03, 0.01, 0.1, 0.05, 0.02] * (i % 3 != 0)
+        obs, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            obs, _ = env.reset()
+    batch = {key: np.array([row[key] for row in rows]) for key in rows[0]}
+    built = ob.observations(scales=scales, **batch)
+    assert built.dtype == np.float32 and built.shape == (60, ob.observation_size(k)) == (60, len(got[0]))
+    present = np.array([row["present"] for row in rows])
+    assert present.any() and not present.all()
+    eps = float(np.finfo(np.float32).eps)
+    np.testing.assert_allclose(built, np.array(got), rtol=4 * eps, atol=4 * eps)

@@ -255,6 +255,7 @@ class FootstepEnv(gym.Env):
         """Make tier cell ``index`` the current one: its scenario config and env config (sensing keys)."""
         self.tier_cell: str = self.tier_cells[index].name
         self.scenario_config, self.config = self._cell_configs[index]
+        self._scales = ObservationScales.of(self.config)
 
     @property
     def step_limit(self) -> int:
@@ -558,7 +559,7 @@ class FootstepEnv(gym.Env):
         else:
             near = nearest_views(self._sensed, (com.real, com.imag), k, cfg.sensing_range)
         return observation(self.feet[self.support_side], self.support_side, com, self.com_vel,
-                           self.episode_config.goal, self._previous_scaled, near, k, ObservationScales.of(cfg))
+                           self.episode_config.goal, self._previous_scaled, near, k, self._scales)
 
     def sensing(self) -> Snapshot:
         """What a robot could sense now (read-only): feet, CoM, goal, obstacles' shapes and velocities."""

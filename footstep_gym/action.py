@@ -43,7 +43,7 @@ class ActionLimits:
 
 def action_limits(robot: Robot, fixed_period: bool = False) -> ActionLimits:
     """The :class:`ActionLimits` of ``robot``'s command box; ``fixed_period``: the action is ``[S, L, θ]``."""
-    fields = tuple(COMMAND_FIELDS[:3] if fixed_period else COMMAND_FIELDS)
+    fields = COMMAND_FIELDS[:3] if fixed_period else COMMAND_FIELDS
     low, high = robot.command_low, robot.command_high
     turns = (-robot.turn_outer, -robot.turn_inner, robot.turn_inner, robot.turn_outer)
     pins = tuple(np.array(sorted({lo, hi, *(turns if i == 2 else ())}))

@@ -43,7 +43,7 @@ def with_step_limit(spec: EnvSpec | None, max_steps: int) -> EnvSpec | None:
     return dataclasses.replace(spec, max_episode_steps=max_steps)
 
 
-class Footstep(NamedTuple):
+class StepOutcome(NamedTuple):
     """What :meth:`FootstepEnv._simulate` made of one command (world frame, SI units)."""
 
     command: list[float]  # [S, L, θ, T_SS, T_DS] applied, after clipping
@@ -235,7 +235,7 @@ class FootstepEnv(gym.Env):
 
         limits = action_limits(self.robot, self.config.fixed_period)
         #: Fields of the action: all five, or ``[S, L, theta]`` with the period fixed (``fixed_period``).
-        self.action_fields = list(limits.fields)
+        self.action_fields = limits.fields
         self.action_space = action_space(limits)
         self._read_action = ActionReader(limits)
         self._low_list = limits.low.tolist()
@@ -378,15 +378,15 @@ class FootstepEnv(gym.Env):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         self._check_running()
         command, clipped = self._validate_action(action)
-        step = self._simulate(command, clipped)
+        outcome = self._simulate(command, clipped)
         sensed = self._sense() if self.config.sensing_limited else None
         obs = self._observation()
-        termination = self._termination(step)
-        rewards = self._rewards(step, termination)
+        termination = self._termination(outcome)
+        rewards = self._rewards(outcome, termination)
         terminated = termination is not None
         truncated = not terminated and self._truncated()
         self._end_episode(termination, truncated)
-        info = self._info(step, termination, rewards)
+        info = self._info(outcome, termination, rewards)
         if sensed is not None:
             info["sensed_obstacles"] = sensed
         if self.render_mode == "human":
@@ -402,7 +402,7 @@ class FootstepEnv(gym.Env):
                 f"{self.env_name}: episode ended ({self.ended}) at step {self.steps}; call reset() before step()")
 
     # ------------------------------------------------------------------ one footstep
-    def _simulate(self, command: list[float], clipped: bool) -> Footstep:
+    def _simulate(self, command: list[float], clipped: bool) -> StepOutcome:
         """Walk one footstep of ``command``: the LIPM's verdict, then (if feasible) the collision sweep of the step
         with the obstacles moving; the robot's state, the clock and the history advance."""
         robot = self.robot
@@ -447,28 +447,28 @@ class FootstepEnv(gym.Env):
         self.steps += 1
         self._set_previous_command(command)
         d_after = self._goal_dist = self._goal_distance()
-        return Footstep(command, clipped, fall, p, zmp_world, zmp_margin, new_foot, elapsed, clearance, collided,
-                        hit, d_before - d_after)
+        return StepOutcome(command, clipped, fall, p, zmp_world, zmp_margin, new_foot, elapsed, clearance,
+                           collided, hit, d_before - d_after)
 
     def _fall_reason(self, command: list[float], kinematic_ok: bool) -> str:
         """Why an infeasible ``command`` falls: the kinematic limit it fails first, else ``"zmp"``."""
         reason = None if kinematic_ok else footstep.kinematic_violation(self.robot, *command, self.support_side)
         return reason or "zmp"
 
-    def _termination(self, step: Footstep) -> str | None:
+    def _termination(self, outcome: StepOutcome) -> str | None:
         """``"fall"``, ``"collision"``, ``"goal"`` (the robot centre within ``goal_tolerance``) or ``None``."""
-        if step.fall is not None:
+        if outcome.fall is not None:
             return "fall"
-        if step.collided:
+        if outcome.collided:
             return "collision"
         if self._goal_dist <= self.episode_config.goal_tolerance:
             return "goal"
         return None
 
-    def _rewards(self, step: Footstep, termination: str | None) -> dict[str, float]:
+    def _rewards(self, outcome: StepOutcome, termination: str | None) -> dict[str, float]:
         """The reward's terms (docstring, "Rewards"), in the order they are summed."""
         cfg = self.config
-        return {"progress": cfg.reward_progress * step.progress, "time": cfg.reward_time * step.elapsed,
+        return {"progress": cfg.reward_progress * outcome.progress, "time": cfg.reward_time * outcome.elapsed,
                 "step": cfg.reward_step, "goal": cfg.reward_goal if termination == "goal" else 0.0,
                 "collision": cfg.reward_collision if termination == "collision" else 0.0,
                 "fall": cfg.reward_fall if termination == "fall" else 0.0}
@@ -488,26 +488,26 @@ class FootstepEnv(gym.Env):
             self.ended = (f"truncated: max_steps={cfg.max_steps} reached" if self.steps >= cfg.max_steps
                           else f"truncated: time_limit={cfg.time_limit} s reached")
 
-    def _info(self, step: Footstep, termination: str | None, rewards: dict[str, float]) -> dict[str, Any]:
+    def _info(self, outcome: StepOutcome, termination: str | None, rewards: dict[str, float]) -> dict[str, Any]:
         """The step's ``info`` (docstring, "Info")."""
         return {
             "is_success": termination == "goal",
             "termination": termination,
-            "fall": step.fall,
-            "feasible": step.fall is None,
-            "collision": step.collided,
-            "obstacle": step.obstacle,
-            "clipped": step.clipped,
-            "command": tuple(step.command),
+            "fall": outcome.fall,
+            "feasible": outcome.fall is None,
+            "collision": outcome.collided,
+            "obstacle": outcome.obstacle,
+            "clipped": outcome.clipped,
+            "command": tuple(outcome.command),
             "time": self.time,
-            "period": step.command[3] + step.command[4],
+            "period": outcome.command[3] + outcome.command[4],
             "steps": self.steps,
             "support_foot": SIDE_NAMES[self.support_side],
-            "foot_pose": step.foot,
-            "zmp": _pair(step.zmp),
-            "zmp_offset": _pair(step.zmp_offset),
-            "zmp_margin": step.zmp_margin,
-            "clearance": step.clearance,
+            "foot_pose": outcome.foot,
+            "zmp": _pair(outcome.zmp),
+            "zmp_offset": _pair(outcome.zmp_offset),
+            "zmp_margin": outcome.zmp_margin,
+            "clearance": outcome.clearance,
             "com": _pair(self.com),
             "com_vel": _pair(self.com_vel),
             "rewards": rewards,

@@ -152,6 +152,12 @@ def _to_pair(label: str, value: Any, check: str | None) -> tuple[float, float]:
     return (lo, hi)
 
 
+def _to_numbers(label: str, value: Any, check: str | None) -> tuple[float, ...]:
+    if not isinstance(value, (list, tuple)):
+        raise ConfigError(f"{label} must be a list of numbers, got {value!r}")
+    return tuple(number(label, v) for v in value)
+
+
 def _to_list(label: str, value: Any, check: str | None) -> Any:
     return value  # its class's validate() checks its items
 
@@ -160,7 +166,7 @@ def _to_list(label: str, value: Any, check: str | None) -> Any:
 #: :class:`ConfigError` naming ``label``; ``check`` is the field's constraint (:func:`positive`, ...).
 CONVERTERS: dict[Any, Callable[[str, Any, "str | None"], Any]] = {
     int: _to_int, float: _to_float, bool: _to_bool, str: _to_str, dict: _to_mapping, list: _to_list,
-    tuple[float, float]: _to_pair,
+    tuple[float, float]: _to_pair, tuple[float, ...]: _to_numbers,
 }
 _FIELD_TYPES: dict[type, dict[str, Any]] = {}
 

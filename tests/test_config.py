@@ -523,3 +523,15 @@ def test_a_range_that_may_be_infinite_still_names_bad_values(value):
     with pytest.raises(ConfigError, match="sensing_max_range must be a number > 0"):
         gym.make("FootstepCrowd-v0", sensing_max_range=value)
     assert gym.make("FootstepCrowd-v0", sensing_max_range=math.inf).unwrapped.config.sensing_max_range == math.inf
+
+
+@pytest.mark.parametrize("value, match", [(3.0, "must be a list of numbers"), ([0.1, "x"], "must be a number"),
+                                          ([0.1, math.nan], "must be finite")])
+def test_a_list_of_numbers_names_a_bad_item(value, match):
+    @dataclasses.dataclass(frozen=True)
+    class Grid:
+        steps: tuple[float, ...] = config.plain()
+
+    assert config.build(Grid, {"steps": [1, 2.5]}, "grid.yaml").steps == (1.0, 2.5)
+    with pytest.raises(ConfigError, match=f"grid.yaml.steps {match}"):
+        config.build(Grid, {"steps": value}, "grid.yaml")

@@ -18,8 +18,8 @@ import dataclasses
 import difflib
 import math
 import os
-from pathlib import Path
 import typing
+from pathlib import Path
 from typing import Any, Callable, Mapping, TypeVar
 
 import yaml

@@ -161,7 +161,8 @@ def test_fall_reasons_match_the_limits_read_off_robot_yaml():
     assert seen == {None, "turn_limit", "overlap", "zmp"}
 
 
-@pytest.mark.parametrize("command", [(0.2, 0.08, 0.0, 0.6, 0.2), (0.0, 0.08, 0.0, 0.6, 0.0), (math.nan, 0.08, 0, 0.6, 0.2)])
+@pytest.mark.parametrize("command", [(0.2, 0.08, 0.0, 0.6, 0.2), (0.0, 0.08, 0.0, 0.6, 0.0),
+                                     (math.nan, 0.08, 0.0, 0.6, 0.2)])
 def test_a_command_outside_the_box_breaks_the_limits_first(command):
     """``footstep.kinematic_violation`` names the box first; the env clips to the box, so never reports it."""
     from footstep_gym.robot import load_robot

@@ -5,8 +5,8 @@ Usage::
     python baselines/make_results_doc.py           # rewrite the pages that differ from the result files
     python baselines/make_results_doc.py --check   # only list them; exit status 1 if any
 
-The pages are written from ``baselines/results/*/{run,results}.json``, ``baselines/results/benchmark.md``,
-``baselines/results/speed_tiers/benchmark.md``, ``baselines/results/soak/soak.md`` and
+The pages are written from ``baselines/results/*/{run,results}.json``, ``baselines/results/speed/speed.md``,
+``baselines/results/speed_tiers/speed.md``, ``baselines/results/soak/soak.md`` and
 ``baselines/agents/*/*/manifest.json`` (``footstep_gym.evaluation.results_doc``). Run it after committing a new evaluation into
 ``baselines/results/``; ``tests/test_docs.py`` fails while a page is stale.
 """

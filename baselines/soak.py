@@ -1,9 +1,9 @@
 """Soak: millions of fuzzed steps per env, checking that nothing unexpected ever happens.
 
-    python baselines/soak.py                      # 10^6 steps per env (1-5 minutes per env here)
+    python baselines/soak.py                      # 10^6 steps per env
     python baselines/soak.py --steps 100000       # 10^5 per env
     python baselines/soak.py --envs FootstepDoor-v0 --steps 20000 --out runs/soak-door
-    python baselines/soak.py --remake-every 300   # a fresh env every 300 episodes (the old mode)
+    python baselines/soak.py --remake-every 300   # a fresh env every 300 episodes
 
 Each env runs in a process of its own (so its memory figures are its own), with a tqdm
 progress bar on stderr, and keeps **one env instance** for its whole run (made with random
@@ -11,7 +11,8 @@ progress bar on stderr, and keeps **one env instance** for its whole run (made w
 as a training run does; ``--remake-every N`` makes a fresh env every N episodes instead. The
 fuzz (commands inside, at and outside the box, bad commands, steps after the end, random
 resets), the checks after every step and the RSS verdict are described in the engine's
-docstring, ``footstep_gym/bench/soak.py``; this file is its command line.
+docstring, ``baselines/speedlib/soak.py`` (beside this file, not part of the installed package); this
+file is its command line.
 
 Writes ``<out>/soak.json`` and ``<out>/soak.md`` (steps/s, outcomes, exceptions by type,
 RSS figures); exits with status 1 if any env failed a check, saying which and why on stderr.
@@ -27,9 +28,9 @@ import math
 import sys
 from pathlib import Path
 
-from footstep_gym.bench import soak
-from footstep_gym.bench.fmt import finite_json
-from footstep_gym.bench.report import soak_report
+from speedlib import soak
+from speedlib.fmt import finite_json
+from speedlib.tables import soak_report
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -26,7 +26,7 @@ from footstep_gym.evaluation import results_doc
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "baselines" / "make_results_doc.py"
 PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
-QUICK_START = ('python3 -m venv .venv && .venv/bin/pip install torch==2.13.0 -e ".[dev]" && '
+QUICK_START = ('python3 -m venv .venv && .venv/bin/pip install -c constraints.txt torch==2.13.0 -e ".[dev]" && '
                '.venv/bin/python baselines/eval_planner.py')
 TEST_COMMAND = ".venv/bin/python -m pytest -q -n 2"
 

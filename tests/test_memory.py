@@ -1,15 +1,14 @@
 """Memory stays flat in ONE long-lived env instance: thousands of resets and steps after a warm-up.
 
-A leak tied to the env instance (issue 17 §2: pymunk kept every shape removed at reset until the
-space's next ``Space.step``, which the compiled sweep never calls: about 1 KB per obstacle per
-reset, 7.6 KB per crowd reset) is invisible to a run that makes fresh envs, so each env here is
-made once, then reset and stepped a few thousand times (fresh seeds; half the actions outside the
+A leak tied to the env instance (pymunk keeping every shape removed at reset until the space's next
+``Space.step``, which the compiled sweep never calls, say) is invisible to a run that makes fresh envs,
+so each env here is made once, then reset and stepped a few thousand times (fresh seeds; half the actions outside the
 box). Each env runs in a fresh Python process: other tests' allocations would blur the figures,
 and memory freed by an env that is done would absorb the next one's growth. The current RSS
 comes from ``/proc/self/statm`` (not the peak).
 
-Bound (1 MiB over 2,000 resets + 4,000 steps): the leaky code grew 3.8 MiB (door, crossing),
-11.7 MiB (mix) and 28.6 MiB (crowd) there; the fixed code grows at most 0.1 MiB.
+Bound (:data:`MAX_GROWTH`, 1 MiB over the measured 2,000 resets + 4,000 steps): a leak of more than 525
+bytes per reset (1 MiB / 2,000) exceeds it, whatever the steps keep.
 """
 
 from __future__ import annotations
@@ -29,8 +28,8 @@ BLOCK_RESETS, BLOCK_STEPS = 1000, 2000
 #: Blocks before the first RSS reading (the allocators settle), then blocks measured. Every block ends with
 #: ``gc.collect()``: pymunk's shapes and bodies are reference cycles, freed by the cyclic collector, whose full
 #: collections come at irregular times; collecting at the same points of the work makes the readings compare
-#: what is *kept* (without it a fixed crowd env's RSS still creeps up ~0.4 MiB over the first blocks, as the
-#: uncollected garbage reaches its high-water mark, then stays put).
+#: what is *kept* (without it a leak-free env's RSS still creeps up over the first blocks, as the uncollected
+#: garbage reaches its high-water mark, then stays put).
 WARMUP_BLOCKS, MEASURED_BLOCKS = 2, 2
 #: Largest RSS growth [bytes] allowed over the measured blocks, per env.
 MAX_GROWTH = 1 << 20

@@ -1,15 +1,15 @@
-"""Seeded episodes replay against a trace recorded before the env's step was sped up.
+"""Seeded episodes replay against a recorded trace.
 
 ``tests/data/replay_golden.json`` holds, for each env, seeds and commands (near-nominal walks
 and random commands), a digest of each step's observation, reward, flags and every value of
 ``info`` (exact: JSON floats are ``repr``, which round-trips) beside a few values in clear
-(reward, time, CoM, termination, scene) to show where a trace departs. It was recorded with
+(reward, time, CoM, termination, scene) to show where a trace departs, and the versions it was
+recorded with (:func:`versions`). It is recorded with
 
     PYTHONPATH=. python tests/test_replay_golden.py --record
 
-before the speed-ups of the env's step (issue 10 §1), and recorded again when ``info``
-gained ``clearance`` and ``zmp_margin`` (checked first: without those two keys the env
-replayed the old trace exactly); the tests replay the same episodes.
+on the versions that ``constraints.txt`` pins (and the Python CI runs), and only when the env is
+meant to change what it does; the tests replay the same episodes.
 
 **What is exact, and where.** The env's step computes its floats with libm (``math``, ``cmath``,
 Chipmunk's C) and IEEE arithmetic, not with numpy's run-time-dispatched SIMD kernels (it replays the
@@ -19,8 +19,11 @@ episodes end and how, feasibility, scene) to be the recorded one, and the floats
 a few ulps; :func:`test_seeded_episodes_replay_the_golden_trace_bit_for_bit` requires every value, bit
 for bit, where libm rounds as it did on the recording machine (:data:`LIBM_PROBES`; glibc takes
 another code path on a CPU without FMA, and other libm versions may round otherwise) and says why it is
-skipped elsewhere. Both are skipped (saying so) under other Python/numpy/pymunk/gymnasium versions than
-the file records.
+skipped elsewhere. The first runs under any versions of Python, numpy, pymunk and gymnasium: a library
+update that changes the episodes beyond a few ulps fails it (re-record only when the change is meant).
+The second also needs the versions the file records, and skips (saying which differ) under others,
+except under CI (``CI`` set, as ``.ci/run`` does), which installs them from ``constraints.txt``: there a
+difference fails, so a lock that drifts from the recording cannot turn the test into a skip.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import platform
 import sys
 from importlib import metadata
@@ -174,10 +178,14 @@ def first_difference(a: Any, b: Any, path: str = "") -> str | None:
 
 @pytest.fixture(scope="module")
 def golden() -> dict[str, Any]:
-    data = json.loads(GOLDEN.read_text(encoding="utf-8"))
-    if data["versions"] != versions():
-        pytest.skip(f"golden trace recorded with {data['versions']}, running {versions()}")
-    return data
+    return json.loads(GOLDEN.read_text(encoding="utf-8"))
+
+
+def version_differences(recorded: dict[str, str]) -> list[str]:
+    """What differs between the versions the trace was recorded with and this interpreter's (empty: none)."""
+    here = versions()
+    return [f"{k} {recorded.get(k)} (recorded) != {here.get(k)}" for k in sorted(set(recorded) | set(here))
+            if recorded.get(k) != here.get(k)]
 
 
 def replay(golden: dict[str, Any], env_id: str, seed: int, kind: str) -> tuple[list[dict], list[dict]]:
@@ -204,7 +212,16 @@ def test_seeded_episodes_replay_the_golden_trace(golden, env_id, seed, kind):
 @pytest.mark.parametrize("env_id, seed, kind", cases())
 def test_seeded_episodes_replay_the_golden_trace_bit_for_bit(golden, env_id, seed, kind):
     """Every observation, reward, flag and ``info`` value bit for bit: where libm rounds as on the recording
-    machine (the env's floats come from libm and IEEE arithmetic; numpy's SIMD kernels do not enter)."""
+    machine (the env's floats come from libm and IEEE arithmetic; numpy's SIMD kernels do not enter), with the
+    versions it was recorded with (under CI, which installs them from ``constraints.txt``, a difference fails)."""
+    other = version_differences(golden["versions"])
+    if other:
+        why = f"the golden trace was recorded with other versions: {'; '.join(other)}"
+        if os.environ.get("CI"):
+            pytest.fail(f"{why}. CI installs from constraints.txt, which must pin what the trace was recorded "
+                        "with: re-record the trace on the locked versions (see this file's docstring) or fix the lock")
+        pytest.skip(why + " (the floats may differ in their last bits; compared to a few ulps by "
+                    "test_seeded_episodes_replay_the_golden_trace)")
     differs = libm_as_recorded()
     if differs:
         pytest.skip(f"libm rounds {len(differs)} of {len(LIBM_PROBES)} probes otherwise than on the recording "
@@ -217,6 +234,23 @@ def test_seeded_episodes_replay_the_golden_trace_bit_for_bit(golden, env_id, see
         assert clear is None, clear
         assert a["digest"] == b["digest"], f"steps[{i}]: an observation or info value differs (digest)"
     assert len(expected) == len(got)
+
+
+@pytest.mark.parametrize("ci", ["", "true"])
+def test_other_versions_skip_only_the_bit_for_bit_replay_and_fail_it_under_ci(golden, monkeypatch, ci):
+    """Under other versions than recorded the cross-CPU replay still runs (and passes on these episodes), while
+    the bit-for-bit one skips, naming the difference, or fails under CI."""
+    recorded = golden["versions"]
+    monkeypatch.setitem(globals(), "versions", lambda: {**recorded, "numpy": "0.0.0"})
+    if ci:
+        monkeypatch.setenv("CI", ci)
+    else:
+        monkeypatch.delenv("CI", raising=False)
+    case = cases()[0]
+    test_seeded_episodes_replay_the_golden_trace(golden, *case)
+    outcome = pytest.fail.Exception if ci else pytest.skip.Exception
+    with pytest.raises(outcome, match=rf"numpy {recorded['numpy']} \(recorded\) != 0\.0\.0"):
+        test_seeded_episodes_replay_the_golden_trace_bit_for_bit(golden, *case)
 
 
 def test_golden_traces_cover_walks_episode_ends_and_every_scene(golden):

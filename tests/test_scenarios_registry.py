@@ -242,10 +242,10 @@ def test_the_shipped_fuzz_ranges_are_valid_and_reach_the_bounds():
 
 
 def test_the_soak_draws_from_the_fuzz_ranges(toy):
-    """The soak (``footstep_gym.bench.soak``, behind ``baselines/soak.py``) keeps no table of its own: a scenario's
+    """The soak (``speedlib.soak``, behind ``baselines/soak.py``) keeps no table of its own: a scenario's
     ``randomize=`` settings are drawn from its ``fuzz_ranges()``, key by key in their order (a registered
     scenario's too), bounds as resolved there."""
-    from footstep_gym.bench import soak
+    from speedlib import soak
 
     assert not hasattr(soak, "FUZZ_RANGES")
     ranges = toy.fuzz_ranges()

@@ -1,4 +1,4 @@
-"""baselines/soak.py: a tiny run end to end (its summary), and its engine (footstep_gym.bench.soak) catching a
+"""baselines/soak.py: a tiny run end to end (its summary), and its engine (speedlib.soak) catching a
 broken env.
 
 The soak itself (10^5-10^6 steps per env) is a command, not a test; here it runs 2,000
@@ -19,7 +19,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from footstep_gym.bench import soak
+from speedlib import soak
 
 ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = ROOT / "baselines" / "soak.py"

@@ -2,7 +2,7 @@
 ``docs/speed.md`` and ``README.md``.
 
 Nothing here runs an episode: every number comes from a file under ``baselines/results/`` (each evaluation's
-``run.json`` and ``results.json``, the benchmark's ``benchmark.md`` and its tiers run's ``speed_tiers/benchmark.md``,
+``run.json`` and ``results.json``, the speed run's ``speed/speed.md`` and its tiers run's ``speed_tiers/speed.md``,
 the soak's ``soak.md``) or from a shipped agent's ``manifest.json`` under ``baselines/agents/``. :func:`render_docs`
 gives the text each page must have; ``baselines/make_results_doc.py`` writes it (``--check``: only says which page
 is stale) and ``tests/test_docs.py`` fails when a committed page differs from it, so a re-run whose results are
@@ -348,12 +348,12 @@ def _include(path: Path, skip: Callable[[str], bool] = lambda line: False) -> st
 
 
 def speed_blocks(repo: Path) -> dict[str, str]:
-    """The blocks of ``docs/speed.md``: the benchmark's tables (``benchmark.md``, which ``baselines/benchmark.py``
-    writes beside ``benchmark.json``), its tiers section's own run (``speed_tiers/benchmark.md``, ``--sections
+    """The blocks of ``docs/speed.md``: the speed run's tables (``speed/speed.md``, which ``baselines/speed.py``
+    writes beside ``speed.json``), its tiers section's own run (``speed_tiers/speed.md``, ``--sections
     tiers``) and the soak's (``soak.md``, without its RSS series)."""
     results = repo / "baselines" / "results"
-    return {"benchmark": _include(results / "benchmark.md"),
-            "speed_tiers": _include(results / "speed_tiers" / "benchmark.md"),
+    return {"speed": _include(results / "speed" / "speed.md"),
+            "speed_tiers": _include(results / "speed_tiers" / "speed.md"),
             "soak": _include(results / "soak" / "soak.md", skip=lambda line: "current RSS [MiB] at steps" in line)}
 
 

@@ -13,7 +13,7 @@ policy in a fresh process load (or compile) the planners' numba kernels and an a
 torch graph, which is start-up, not planning; so each process first acts
 :data:`WARMUP_ACTS` times untimed, on a throwaway env, with each cell's policy.
 An ``on_step`` hook (:func:`run_episode`) sees every footstep's timings (sensing, act, env
-step) and the policy's ``last_info``: the benchmark (:mod:`footstep_gym.bench.planners`) times
+step) and the policy's ``last_info``: the speed run (``baselines/speed.py``) times
 the planners through this loop.
 
 :func:`run_tasks` runs many episodes on a backend (``"local"``: worker processes on this

@@ -17,7 +17,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .settings import Settings, error, log
-from .stats import tail_summary
+from .timing import tail_summary
 
 PLANNERS = ("period-aware", "fixed-period", "pso-only")
 STAGE_KEYS = ("time_period_search_ms", "time_rrt_ms", "time_pso_ms")  # policy.last_info, when present
@@ -122,7 +122,7 @@ def bench_planners(settings: Settings, seed: int) -> tuple[dict[str, Any], dict[
     Also returns the period-aware planner's recorded commands per env (replayed by the
     env-steps section, so that the env is timed without the planner).
     """
-    from .envs import FOOTSTEP_ENVS
+    from .env_rates import FOOTSTEP_ENVS
 
     make_policy, reason = make_policy_fn()
     if make_policy is None:

@@ -3,7 +3,7 @@
 (:func:`measure_vector`), the env of another checkout (:class:`RemoteCell`, ``--compare-with``), and
 the section as a whole (:func:`bench_envs`).
 
-This module (with :mod:`.settings`, :mod:`.stats` and :mod:`.fmt`, which it imports) also runs in
+This module (with :mod:`.settings`, :mod:`.timing` and :mod:`.fmt`, which it imports) also runs in
 the ``--compare-with`` worker against *another checkout's* ``footstep_gym``: it may use nothing
 of ``footstep_gym`` but the env ids (``footstep_gym.ENV_IDS``), the envs and
 ``footstep_gym.robot.load_robot``, and it imports its siblings relatively.
@@ -29,7 +29,7 @@ from footstep_gym.robot import load_robot
 
 from .fmt import finite_json
 from .settings import MODES, Settings, log
-from .stats import summary
+from .timing import summary
 
 FOOTSTEP_ENVS = tuple(footstep_gym.ENV_IDS.values())
 REFERENCE_ENVS = ("CartPole-v1", "Pendulum-v1", "BipedalWalker-v3")
@@ -168,18 +168,18 @@ class SingleCell:
         self.env.close()
 
 
-#: The ``--compare-with`` worker's program (``python -c``): this package (``footstep_gym/bench``) loaded
-#: under another name, ``_footstep_bench``, so that ``import footstep_gym`` finds the other checkout's
+#: The ``--compare-with`` worker's program (``python -c``): this package (``baselines/speedlib``) loaded
+#: under another name, ``_footstep_speed``, so that ``import footstep_gym`` finds the other checkout's
 #: (the worker runs in that checkout, which is first on its path), while this timing code stays ours.
 _WORKER = """\
 import importlib, importlib.util, json, sys
 here = sys.argv[1]
-spec = importlib.util.spec_from_file_location("_footstep_bench", here + "/__init__.py",
+spec = importlib.util.spec_from_file_location("_footstep_speed", here + "/__init__.py",
                                               submodule_search_locations=[here])
 package = importlib.util.module_from_spec(spec)
-sys.modules["_footstep_bench"] = package
+sys.modules["_footstep_speed"] = package
 spec.loader.exec_module(package)
-importlib.import_module("_footstep_bench.envs").cell_worker(json.loads(sys.argv[2]))
+importlib.import_module("_footstep_speed.env_rates").cell_worker(json.loads(sys.argv[2]))
 """
 
 
@@ -424,7 +424,7 @@ def bench_envs(settings: Settings, seed: int, replays: dict[str, list],
                compare_with: Path | None = None) -> dict[str, Any]:
     """Env steps/s of every footstep env with each kind of :data:`COMMANDS` and of the reference envs with random
     commands: one process (interleaved), then sync and async ``make_vec``. ``replays``: the planner's recorded
-    episodes per env (:func:`footstep_gym.bench.planners.bench_planners`)."""
+    episodes per env (:func:`speedlib.planner_times.bench_planners`)."""
     spec = [(e, c) for e in FOOTSTEP_ENVS for c in COMMANDS]
     spec += [(e, "random") for e in REFERENCE_ENVS]
     reasons = {e: _available(e) for e in dict.fromkeys(e for e, _ in spec)}

@@ -1,7 +1,7 @@
-"""baselines/benchmark.py runs end to end (tiny ``--smoke`` mode) and writes a well-formed JSON; its code,
-``footstep_gym.bench``, is tested here in-process (the planners timed through the evaluation runner).
+"""baselines/speed.py runs end to end (tiny ``--smoke`` mode) and writes a well-formed JSON; its code,
+``baselines/speedlib``, is tested here in-process (the planners timed through the evaluation runner).
 
-No timing thresholds here: the speed targets live in the benchmark's own PASS/MISS table.
+No timing thresholds here: the speed targets live in the speed run's own PASS/MISS table.
 These tests check structure, keys and the sanity of the values (positive, finite, ordered
 spreads, consistent counts, two worker processes for the async vectoriser, ...), and the
 PASS/MISS logic on made-up figures.
@@ -18,13 +18,13 @@ from pathlib import Path
 
 import pytest
 
-from footstep_gym.bench import fmt, memory, stats
-from footstep_gym.bench.envs import BEFORE_ID
-from footstep_gym.bench.settings import MODES, SECTIONS
-from footstep_gym.bench.targets import LIPM_TARGET_PER_S, evaluate_targets
+from speedlib import fmt, memory_use, timing
+from speedlib.env_rates import BEFORE_ID
+from speedlib.settings import MODES, SECTIONS
+from speedlib.targets import LIPM_TARGET_PER_S, evaluate_targets
 
 ROOT = Path(__file__).resolve().parent.parent
-SCRIPT = ROOT / "baselines" / "benchmark.py"
+SCRIPT = ROOT / "baselines" / "speed.py"
 
 FOOTSTEP_ENVS = ("FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0")
 REFERENCE_ENVS = ("CartPole-v1", "Pendulum-v1", "BipedalWalker-v3")
@@ -63,13 +63,13 @@ def before_checkout(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def smoke(tmp_path_factory, before_checkout):
-    out = tmp_path_factory.mktemp("bench")
+    out = tmp_path_factory.mktemp("speed")
     proc = subprocess.run([sys.executable, str(SCRIPT), "--smoke", "--out", str(out), "--compare-with",
                            str(before_checkout)], capture_output=True, text=True, timeout=600, cwd=str(ROOT))
     assert proc.returncode == 0, proc.stderr[-3000:]
     # Strict JSON: NaN / Infinity must have become null.
-    data = json.loads((out / "benchmark.json").read_text(), parse_constant=_reject_constant)
-    assert (out / "benchmark.md").read_text().strip() == proc.stdout.strip()
+    data = json.loads((out / "speed.json").read_text(), parse_constant=_reject_constant)
+    assert (out / "speed.md").read_text().strip() == proc.stdout.strip()
     return data, proc.stdout, proc.stderr
 
 
@@ -165,7 +165,7 @@ def test_planner_replay_and_ratios(smoke):
             _check_spread(ratios[key], key)
             # Paired per interleaved round, then the median.
             paired = sorted(d / b for d, b in zip(door["rates"], bw["rates"]))
-            assert ratios[key]["median"] == pytest.approx(stats.summary(paired)["median"])
+            assert ratios[key]["median"] == pytest.approx(timing.summary(paired)["median"])
         else:
             assert ratios[key] is None
 
@@ -278,7 +278,7 @@ def test_compare_with_times_the_other_checkout_in_the_same_rounds(smoke, before_
     _check_spread(cell["steps_per_s"], "before")
     paired = [a / b for a, b in zip(now["rates"], cell["rates"])]
     assert data["ratios"]["FootstepDoor_near_nominal/before"]["median"] == pytest.approx(
-        stats.summary(paired)["median"])
+        timing.summary(paired)["median"])
     assert f"| {BEFORE_ID} | near_nominal |" in stdout
 
 
@@ -295,13 +295,13 @@ def test_ppo_throughput_beside_cartpole(smoke):
             _check_spread(cell["steps_per_s"], f"ppo {env_id} {n}")
     for n in ("1", "2"):
         door, pole = ppo["cells"]["FootstepDoor-v0"][n]["rates"], ppo["cells"]["CartPole-v1"][n]["rates"]
-        assert ppo["ratios"][n]["median"] == pytest.approx(stats.summary(
+        assert ppo["ratios"][n]["median"] == pytest.approx(timing.summary(
             [a / b for a, b in zip(door, pole)])["median"])
     assert "FootstepDoor-v0 / CartPole-v1 (paired per round)" in stdout
 
 
 def test_tiers_section_one_cell_per_scene_and_tier(smoke):
-    """The tiers section in the smoke run (footstep_gym.bench.tiers; tests/test_bench_tiers.py tests it in depth):
+    """The tiers section in the smoke run (speedlib.tier_rates; tests/test_speed_tiers.py tests it in depth):
     smoke keeps the first cell of every scene and tier."""
     from footstep_gym import tiers as tier_config
 
@@ -379,21 +379,21 @@ def test_median_ratio_interval_resamples_episodes_in_pairs():
     rng = np.random.default_rng(1)
     fast = [rng.uniform(1.0, 2.0, n) for n in (30, 25, 40, 35, 28)]
     slow = [10.0 * ep[: max(len(ep) // 2, 1)] for ep in fast]  # exactly 10x every footstep kept
-    assert stats.median_ratio_interval([10.0 * ep for ep in fast], fast, rng) == pytest.approx((10.0, 10.0))
-    lo, hi = stats.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500)
+    assert timing.median_ratio_interval([10.0 * ep for ep in fast], fast, rng) == pytest.approx((10.0, 10.0))
+    lo, hi = timing.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500)
     point = np.median(np.concatenate(slow)) / np.median(np.concatenate(fast))
     assert lo < point < hi and 8.0 < lo and hi < 12.5  # the footsteps kept differ, so the ratio spreads
-    assert stats.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500) == (lo, hi)
+    assert timing.median_ratio_interval(slow, fast, np.random.default_rng(2), n_boot=500) == (lo, hi)
     with pytest.raises(ValueError, match="same number"):
-        stats.median_ratio_interval(slow, fast[:3], rng)
+        timing.median_ratio_interval(slow, fast[:3], rng)
 
 
 def test_stats_and_formatting():
-    s = stats.summary([5.0, 1.0, 3.0, 2.0, 4.0])
+    s = timing.summary([5.0, 1.0, 3.0, 2.0, 4.0])
     assert (s["median"], s["min"], s["max"], s["n"]) == (3.0, 1.0, 5.0, 5)
     assert s["q1"] == 2.0 and s["q3"] == 4.0
-    assert math.isnan(stats.summary([])["median"])
-    t = stats.tail_summary(list(range(1, 101)))
+    assert math.isnan(timing.summary([])["median"])
+    t = timing.tail_summary(list(range(1, 101)))
     assert t["median"] <= t["p95"] <= t["p99"] <= t["max"] == 100 and t["n"] == 100
     assert fmt.fmt_num(1_234_567) == "1.23M" and fmt.fmt_num(8467) == "8.47k"
     assert fmt.fmt_num(float("nan")) == "n/a"
@@ -403,13 +403,29 @@ def test_stats_and_formatting():
     assert fmt.markdown_table(["x", "y"], [[1, 2]]) == "| x | y |\n|---|---|\n| 1 | 2 |"
 
 
+def test_speedlib_lives_beside_the_scripts_and_shadows_no_package_module():
+    """The speed tooling is not in the installed package (``tests/test_install.py`` checks the install), and none
+    of its modules takes the name of a ``footstep_gym`` module (``lipm``, ``tiers``, ``stats``, ``planners``, ...)."""
+    import speedlib
+
+    import footstep_gym
+
+    lib = Path(speedlib.__file__).resolve().parent
+    assert lib == ROOT / "baselines" / "speedlib"
+    package = Path(footstep_gym.__file__).resolve().parent
+    ours = {p.stem for p in lib.glob("*.py")} - {"__init__"}
+    theirs = {p.stem for p in package.rglob("*.py")} | {p.name for p in package.rglob("*") if p.is_dir()}
+    assert {"env_rates", "lipm_rates", "planner_times", "tier_rates", "timing", "soak"} <= ours
+    assert not ours & theirs, f"speedlib modules named as footstep_gym modules: {sorted(ours & theirs)}"
+
+
 def test_call_fresh_returns_the_value_or_says_why():
     """The memory probes, the PPO child and the soak's env processes run through ``fresh.call_fresh``."""
-    from footstep_gym.bench.fresh import ChildFailed, call_fresh
+    from speedlib.fresh import ChildFailed, call_fresh
 
-    assert call_fresh(stats.summary, [1.0, 2.0, 3.0])["median"] == 2.0
+    assert call_fresh(timing.summary, [1.0, 2.0, 3.0])["median"] == 2.0
     with pytest.raises(ChildFailed, match="ValueError: need the same number") as exc:
-        call_fresh(stats.median_ratio_interval, [[1.0]], [], None, quiet=True)
+        call_fresh(timing.median_ratio_interval, [[1.0]], [], None, quiet=True)
     assert exc.value.status == 1
 
 
@@ -417,7 +433,7 @@ def test_call_fresh_returns_the_value_or_says_why():
 def test_rss_peak_sees_a_transient_allocation():
     import numpy as np
 
-    r = memory.RssPeak()
+    r = memory_use.RssPeak()
     base = r.sample()
     a = np.ones(64 << 20 >> 3)  # 64 MiB, touched (above any mmap threshold: fresh pages)
     del a
@@ -470,10 +486,10 @@ def test_planner_run_times_through_the_runner_and_records_its_commands():
     import gymnasium as gym
     import numpy as np
 
-    from footstep_gym.bench.planners import PlannerRun
+    from speedlib.planner_times import PlannerRun
     from footstep_gym.evaluation import runner
 
-    # The benchmark warms each planner up as the evaluation warms up a cell, with as many acts (quick and full).
+    # The speed run warms each planner up as the evaluation warms up a cell, with as many acts (quick and full).
     assert MODES["quick"].planner_warmup_steps == MODES["full"].planner_warmup_steps == runner.WARMUP_ACTS
     run = PlannerRun("fixed-period", "FootstepCrossing-v0", max_steps=None)
     run.warm_up(10_000, acts=2)

@@ -1,4 +1,4 @@
-"""Per-tier figures (issue 19): env steps/s and the period-aware planner's time per footstep on every cell of
+"""Per-tier figures: env steps/s and the period-aware planner's time per footstep on every cell of
 every benchmark tier of every scene (``configs/benchmark.yaml``, :mod:`footstep_gym.tiers`), beside ``paper``
 (:func:`bench_tiers`).
 
@@ -6,11 +6,11 @@ The cells are the benchmark's (:func:`footstep_gym.evaluation.benchmark.benchmar
 ``gymnasium.make(env_id, tier=TIER, tier_cell=CELL)``. For each cell, in this order:
 
 1. **planning time**: the period-aware planner through the evaluation runner, as the planners section
-   times it (:class:`~footstep_gym.bench.planners.PlannerRun` on the runner cell with the tier's selector:
+   times it (:class:`~speedlib.planner_times.PlannerRun` on the runner cell with the tier's selector:
    the runner's warm-up of that cell first, then one episode per seed, the same seeds for every cell), its
    commands recorded;
 2. **env steps/s**: those commands replayed from the same seeds, resets inside the timed loop, with the env
-   section's machinery (:func:`~footstep_gym.bench.envs.measure_singles`: every cell built and warmed up,
+   section's machinery (:func:`~speedlib.env_rates.measure_singles`: every cell built and warmed up,
    then their repetitions interleaved round by round, so ratios between cells pair per round). The env
    section makes its cells by id; each tier cell gets a temporary id in the namespace
    :data:`NAMESPACE` (the scene's spec with ``tier`` and ``tier_cell`` added to its kwargs), removed from
@@ -28,10 +28,10 @@ import time
 import warnings
 from typing import Any
 
-from .envs import measure_singles
-from .planners import WARMUP_SEED_OFFSET, PlannerRun, make_policy_fn
+from .env_rates import measure_singles
+from .planner_times import WARMUP_SEED_OFFSET, PlannerRun, make_policy_fn
 from .settings import Settings, error, log
-from .stats import summary, tail_summary
+from .timing import summary, tail_summary
 
 #: The planner timed on every tier cell (and whose commands the env replays).
 PLANNER = "period-aware"

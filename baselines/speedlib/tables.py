@@ -1,16 +1,16 @@
-"""Markdown of the results: the benchmark's tables (:func:`benchmark_report`) and the soak's
-(:func:`soak_report`), as ``benchmark.md`` / ``soak.md`` and the commands' stdout."""
+"""Markdown of the results: the speed run's tables (:func:`speed_report`) and the soak's
+(:func:`soak_report`), as ``speed.md`` / ``soak.md`` and the commands' stdout."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from .envs import VEC_MODES
+from .env_rates import VEC_MODES
 from .fmt import fmt_bytes, fmt_num, fmt_stat, markdown_table
-from .ppo import PPO_CELLS, PPO_ENVS
+from .ppo_rates import PPO_CELLS, PPO_ENVS
 
 
-# ------------------------------------------------------------------ the benchmark
+# ------------------------------------------------------------------ the speed run
 def _cell_str(cell: dict | None) -> str:
     if not cell:
         return "n/a"
@@ -217,18 +217,18 @@ def _tiers_section(res: dict[str, Any], tiers: dict[str, Any]) -> list[str]:
     return out + [""]
 
 
-def benchmark_report(res: dict[str, Any]) -> str:
-    """The benchmark's markdown: the machine, then a table per section measured, then the targets."""
+def speed_report(res: dict[str, Any]) -> str:
+    """The speed run's markdown: the machine, then a table per section measured, then the targets."""
     m = res["meta"]
     mc = m["machine"]
-    out = [f"# footstep_gym benchmark ({m['mode']} mode)", "",
+    out = [f"# footstep_gym speed ({m['mode']} mode)", "",
            f"Machine: {mc['cpu']}, {mc['cores_usable']} usable / {mc['cores_logical']} logical cores, "
            f"{mc['os']}; Python {mc['python']}, numpy {mc['numpy']}, pymunk {mc['pymunk']}, "
            f"gymnasium {mc['gymnasium']}, box2d {mc['box2d']}.", "",
            f"Load average (1/5/15 min) at start {m.get('load_average_start')}, at end {m.get('load_average_end')}"
            + (" — other processes were running: rates are lower and noisier than on an idle machine."
               if busy(m) else "."), "",
-           "All rates: median (IQR) over repetitions in this run; min/max are in benchmark.json.", ""]
+           "All rates: median (IQR) over repetitions in this run; min/max are in speed.json.", ""]
     if res.get("env_steps"):
         out += _env_section(res, res["env_steps"])
     if res.get("lipm"):
@@ -245,7 +245,7 @@ def benchmark_report(res: dict[str, Any]) -> str:
         out += ["## Targets", "", markdown_table(["target", "threshold", "measured", "status"],
                                                  [[t["target"], t["threshold"], t["measured"], t["status"]]
                                                   for t in res["targets"]]), ""]
-    out.append(f"Total benchmark time: {m['duration_s']:.0f} s.")
+    out.append(f"Total time: {m['duration_s']:.0f} s.")
     return "\n".join(out)
 
 

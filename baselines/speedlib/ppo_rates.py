@@ -1,6 +1,6 @@
 """PPO training throughput: env steps/s inside ``model.learn`` with :data:`PPO_ENVS` envs, FootstepDoor-v0
 beside CartPole-v1 with the same network and hyperparameters (the ceiling: what PPO itself costs), in a
-fresh interpreter (torch stays out of the benchmark's process) (:func:`bench_ppo`)."""
+fresh interpreter (torch stays out of the speed run's process) (:func:`bench_ppo`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import Any
 
 from .fresh import ChildFailed, call_fresh
 from .settings import Settings
-from .stats import summary
+from .timing import summary
 
 #: PPO throughput cells: (env id, whose configs/rl/ppo.yml entry to train with); CartPole with the door's network
 #: and hyperparameters is the ceiling (an env step that costs next to nothing).
@@ -18,7 +18,7 @@ PPO_TIMEOUT_S = 3600
 
 
 def ppo_child(spec: dict[str, Any]) -> dict[str, dict[str, list[float]]]:
-    """Runs in its own interpreter (torch stays out of the benchmark's): PPO env steps/s per cell and round.
+    """Runs in its own interpreter (torch stays out of the speed run's): PPO env steps/s per cell and round.
 
     :func:`footstep_gym.rl.training.ppo_throughput` (what ``train_rl.py --throughput`` reports):
     ``configs/rl/ppo.yml``'s model, wrappers and normalisation, ``n_envs`` envs in a

@@ -1,4 +1,4 @@
-"""How much the benchmark measures (:class:`Settings`, one per mode in :data:`MODES`), its sections, and
+"""How much the speed run (``baselines/speed.py``) measures (:class:`Settings`, one per mode in :data:`MODES`), its sections, and
 its progress lines (:func:`log`, on stderr: stdout carries only the report). Standard library only."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import sys
 import time
 from dataclasses import dataclass
 
-#: The benchmark's sections, in the order of ``--sections``' default.
+#: The speed run's sections, in the order of ``--sections``' default.
 SECTIONS = ("env", "lipm", "planners", "memory", "ppo", "tiers")
 
 
@@ -35,7 +35,7 @@ class Settings:
     action_pool: int  # distinct pre-sampled commands per env cell (cycled; sampling is outside the timing)
     ppo_timesteps: int  # env steps of each timed PPO.learn (after a warm-up of one rollout)
     ppo_rounds: int  # interleaved rounds of the PPO cells
-    #: the tiers section (footstep_gym.bench.tiers): at most this many cells per scene and tier, in the file's
+    #: the tiers section (speedlib.tier_rates): at most this many cells per scene and tier, in the file's
     #: order (None = every cell); the seeds per cell are planner_episodes, its env repetitions `repetitions`
     tier_max_cells: int | None = None
     tier_budget_s: float | None = None  # per tier cell: no new planner seed after this (>= 1 seed always runs)

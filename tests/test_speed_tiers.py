@@ -1,8 +1,8 @@
-"""The speed benchmark's ``tiers`` section (``footstep_gym.bench.tiers``; issue 19): a tiny in-process run (one
+"""The speed run's ``tiers`` section (``speedlib.tier_rates``): a tiny in-process run (one
 scene, its paper cell and one hard cell, a few footsteps) gives well-formed records, ratios, targets and a
 table; the targets' PASS/MISS logic on made-up figures.
 
-No timing thresholds here: the targets live in the benchmark's own PASS/MISS table.
+No timing thresholds here: the targets live in the speed run's own PASS/MISS table.
 """
 
 from __future__ import annotations
@@ -14,12 +14,12 @@ import statistics
 import gymnasium as gym
 import pytest
 
-from footstep_gym.bench import stats
-from footstep_gym.bench.machine import loadavg, machine_info
-from footstep_gym.bench.report import benchmark_report
-from footstep_gym.bench.settings import MODES, SECTIONS
-from footstep_gym.bench.targets import TIER_PLAN_MEDIAN_S, TIER_PLAN_P99_S, evaluate_targets, tier_ratio_key
-from footstep_gym.bench.tiers import NAMESPACE, bench_tiers, select_cells
+from speedlib import timing
+from speedlib.machine import loadavg, machine_info
+from speedlib.tables import speed_report
+from speedlib.settings import MODES, SECTIONS
+from speedlib.targets import TIER_PLAN_MEDIAN_S, TIER_PLAN_P99_S, evaluate_targets, tier_ratio_key
+from speedlib.tier_rates import NAMESPACE, bench_tiers, select_cells
 
 TINY = dataclasses.replace(MODES["smoke"], tier_max_cells=1)
 CELLS = ("crowd/paper/default", "crowd/hard/counter_flow")  # the scripted crowd and the first ORCA cell
@@ -89,7 +89,7 @@ def test_a_tiny_run_gives_ratios_targets_and_a_table(tiny):
     res["targets"], res["ratios"] = evaluate_targets(res, 0.8)
     paper = tiny["cells"]["crowd/paper/default"]["env"]["rates"]
     orca = tiny["cells"]["crowd/hard/counter_flow"]["env"]["rates"]
-    paired = stats.summary([a / b for a, b in zip(orca, paper)])
+    paired = timing.summary([a / b for a, b in zip(orca, paper)])
     assert res["ratios"][tier_ratio_key("crowd", "hard")]["median"] == pytest.approx(paired["median"])
     assert res["ratios"][tier_ratio_key("crowd", "hard", "counter_flow")]["median"] == pytest.approx(paired["median"])
     names = [t["target"] for t in res["targets"]]
@@ -98,7 +98,7 @@ def test_a_tiny_run_gives_ratios_targets_and_a_table(tiny):
                      "hard/counter_flow (ORCA crowd) env steps/s >= 0.5x paper (scripted) crowd",
                      "period-aware median plan time, hard tier, crowd", "period-aware p99 plan time, hard tier, crowd"]
     assert {t["status"] for t in res["targets"]} <= {"PASS", "MISS"}
-    text = benchmark_report(res)
+    text = speed_report(res)
     assert "## Tiers: env steps per second and planning time per tier" in text
     assert "| crowd | hard | counter_flow (ORCA) |" in text and "| crowd | paper | 1 |" in text
     for t in res["targets"]:

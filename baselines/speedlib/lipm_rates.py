@@ -12,7 +12,7 @@ from footstep_gym import lipm
 from footstep_gym.robot import load_robot
 
 from .settings import Settings, log
-from .stats import summary
+from .timing import summary
 
 LIPM_BATCHES = (1, 32, 1024)
 

@@ -1,12 +1,12 @@
 """How fast footstep_gym is: env steps/s, LIPM checks/s, planning time per footstep, memory, PPO training, tiers.
 
-    python baselines/benchmark.py            # quick, the default (a few minutes on 2 cores)
-    python baselines/benchmark.py --full     # more repetitions, more episodes
-    python baselines/benchmark.py --out runs/benchmark --sections env,lipm
-    python baselines/benchmark.py --sections env --compare-with /tmp/before   # + the steady walk on another checkout
-    python baselines/benchmark.py --sections tiers --out runs/speed_tiers     # per benchmark tier only
+    python baselines/speed.py            # quick, the default
+    python baselines/speed.py --full     # more repetitions, more episodes
+    python baselines/speed.py --out runs/speed --sections env,lipm
+    python baselines/speed.py --sections env --compare-with /tmp/before   # + the steady walk on another checkout
+    python baselines/speed.py --sections tiers --out runs/speed_tiers     # per benchmark tier only
 
-Prints markdown tables and writes ``<out>/benchmark.json``. Every rate is the median and
+Prints markdown tables and writes ``<out>/speed.json`` and ``<out>/speed.md``. Every rate is the median and
 spread (IQR and min/max) over repetitions measured in this one run, after a warm-up,
 with ``time.perf_counter``. Measured:
 
@@ -41,14 +41,14 @@ with ``time.perf_counter``. Measured:
   planner (M acts), on each env: the ``tracemalloc`` peak, and the peak RSS above the
   baseline (the kernel's ``VmHWM`` reset at the baseline; else sampled after every step;
   C allocations included), each figure in a fresh subprocess;
-* **per tier** (``tiers``; ``footstep_gym.bench.tiers``): on every cell of every benchmark tier of every
+* **per tier** (``tiers``; ``speedlib.tier_rates``): on every cell of every benchmark tier of every
   scene (``gym.make(id, tier=TIER, tier_cell=CELL)``, ``configs/benchmark.yaml``), the period-aware
   planner's time per footstep through the evaluation runner after its warm-up of the cell (median, p99,
   pooled over a tier's cells), and env steps/s, one process, with its commands recorded once and replayed
   from the same seeds (the env section's interleaved rounds; resets timed); a tier's rate is per round the
   median over its cells, and its ratio to the scene's ``paper`` tier is paired per round.
 
-Targets (PASS/MISS in the output; in ``footstep_gym.bench.targets``, never in timed tests): FootstepDoor
+Targets (PASS/MISS in the output; in ``speedlib.targets``, never in timed tests): FootstepDoor
 steps/s >= 2x BipedalWalker's on a steady walk (near-nominal commands; >= 1x with random
 commands, which mostly time reset, and with the planner's commands); batched LIPM >= 1e6 commands/s at batch 1024; period-aware
 planning median <= 1 % and p99 <= 5 % of the nominal period per footstep, and >= 10x
@@ -56,8 +56,8 @@ faster than pso-only at no lower success rate; the ``hard`` tier's steps/s >= 0.
 paper crowd is the scripted one; each ORCA crowd cell against it too), and the period-aware planner on
 ``hard`` at a median <= 2 ms and a p99 <= 20 ms per footstep.
 
-The code is the package's ``footstep_gym.bench`` (one module per section; see its docstring);
-this file is its command line.
+The code is ``baselines/speedlib`` (one module per section; see its docstring), beside this file and
+not part of the installed package; this file is its command line.
 """
 
 from __future__ import annotations
@@ -69,31 +69,32 @@ import time
 from pathlib import Path
 from typing import Any
 
-from footstep_gym.bench.envs import bench_envs
-from footstep_gym.bench.fmt import finite_json
-from footstep_gym.bench.lipm import bench_lipm
-from footstep_gym.bench.machine import loadavg, machine_info
-from footstep_gym.bench.memory import bench_memory
-from footstep_gym.bench.planners import bench_planners
-from footstep_gym.bench.ppo import bench_ppo
-from footstep_gym.bench.report import benchmark_report
-from footstep_gym.bench.settings import MODES, SECTIONS, log
-from footstep_gym.bench.targets import evaluate_targets
-from footstep_gym.bench.tiers import bench_tiers
+from speedlib.env_rates import bench_envs
+from speedlib.fmt import finite_json
+from speedlib.lipm_rates import bench_lipm
+from speedlib.machine import loadavg, machine_info
+from speedlib.memory_use import bench_memory
+from speedlib.planner_times import bench_planners
+from speedlib.ppo_rates import bench_ppo
+from speedlib.settings import MODES, SECTIONS, log
+from speedlib.tables import speed_report
+from speedlib.targets import evaluate_targets
+from speedlib.tier_rates import bench_tiers
+
 from footstep_gym.robot import load_robot
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
-        description=__doc__.split("\n")[0] + " Quick mode by default (a few minutes at most on 2 cores); "
+        description=__doc__.split("\n")[0] + " Quick mode by default; "
         "--full for more repetitions and episodes. Prints markdown tables (with each target's PASS/MISS) on "
-        "stdout, progress on stderr, and writes <out>/benchmark.json and <out>/benchmark.md.")
+        "stdout, progress on stderr, and writes <out>/speed.json and <out>/speed.md.")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--quick", action="store_true", help="the default: few repetitions, 4 seeds per planner and env")
     g.add_argument("--full", action="store_true",
-                   help="more repetitions (21 per cell) and 12 seeds per planner and env (several minutes)")
+                   help="more repetitions (21 per cell) and 12 seeds per planner and env")
     g.add_argument("--smoke", action="store_true", help=argparse.SUPPRESS)  # tiny, for the tests
-    p.add_argument("--out", type=Path, default=Path("runs/benchmark"), help="directory for benchmark.json")
+    p.add_argument("--out", type=Path, default=Path("runs/speed"), help="folder for speed.json and speed.md")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--sections", default=",".join(SECTIONS),
                    help=f"comma-separated subset of {','.join(SECTIONS)}")
@@ -146,12 +147,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     res["meta"]["torch_imported"] = "torch" in sys.modules  # the benchmarked paths are torch-free
     res["meta"]["load_average_end"] = loadavg()
     res["targets"], res["ratios"] = evaluate_targets(res, robot.nominal_period)
-    text = benchmark_report(res)
+    text = speed_report(res)
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "benchmark.json").write_text(json.dumps(finite_json(res), indent=2) + "\n", encoding="utf-8")
-    (args.out / "benchmark.md").write_text(text + "\n", encoding="utf-8")
-    log(f"wrote {args.out / 'benchmark.json'}")
+    (args.out / "speed.json").write_text(json.dumps(finite_json(res), indent=2) + "\n", encoding="utf-8")
+    (args.out / "speed.md").write_text(text + "\n", encoding="utf-8")
+    log(f"wrote {args.out / 'speed.json'} and {args.out / 'speed.md'}")
     return res
 
 

@@ -1,4 +1,4 @@
-"""The benchmark's targets (PASS / MISS / N/A in its report; never asserted in timed tests) and the ratios
+"""The speed targets (PASS / MISS / N/A in its report; never asserted in timed tests) and the ratios
 they are read from (:func:`evaluate_targets`)."""
 
 from __future__ import annotations
@@ -8,19 +8,19 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .envs import BEFORE_ID
+from .env_rates import BEFORE_ID
 from .fmt import fmt_num
-from .stats import median_ratio_interval, summary
+from .timing import median_ratio_interval, summary
 
-#: FootstepDoor-v0 steps/s over BipedalWalker-v3's, per kind of commands: 2x on a steady walk (issue 10);
+#: FootstepDoor-v0 steps/s over BipedalWalker-v3's, per kind of commands: 2x on a steady walk;
 #: random commands fall within a few footsteps, so that row mostly times reset; the planner's commands walk.
 DOOR_VS_BIPEDAL = {"near_nominal": 2.0, "random": 1.0, "planner": 1.0}
 LIPM_TARGET_PER_S = 1_000_000
 PLAN_MEDIAN_FRACTION = 0.01  # of the nominal period
 PLAN_P99_FRACTION = 0.05
 PSO_SPEEDUP_TARGET = 10.0
-#: The tiers section (issue 19): the hard tier's env steps/s of each scene (and of each ORCA crowd cell) over the
-#: paper tier's scripted crowd (the slowest paper scene; the issue's yardstick), and the period-aware planner on
+#: The tiers section: the hard tier's env steps/s of each scene (and of each ORCA crowd cell) over the
+#: paper tier's scripted crowd (the slowest paper scene: the yardstick), and the period-aware planner on
 #: hard. Each tier's rate over its own scene's paper tier is reported beside, as a ratio with no target.
 TIER_VS_PAPER = 0.5
 TIER_PLAN_MEDIAN_S = 0.002
@@ -28,7 +28,7 @@ TIER_PLAN_P99_S = 0.020
 
 
 def evaluate_targets(res: dict[str, Any], nominal_period: float) -> tuple[list[dict[str, Any]], dict[str, Any]]:
-    """``(targets, ratios)`` of a benchmark result ``res``: each target with its threshold, measured value and
+    """``(targets, ratios)`` of a speed result ``res``: each target with its threshold, measured value and
     status, and the ratios between cells (paired per interleaved round where they were interleaved)."""
     targets: list[dict[str, Any]] = []
     ratios: dict[str, Any] = {}

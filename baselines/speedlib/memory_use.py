@@ -1,6 +1,6 @@
 """Memory: the RSS of this process (:func:`rss_bytes`, :class:`RssPeak`, :func:`max_rss_bytes`; no psutil:
 ``/proc/self/statm``, ``/proc/self/status``'s ``VmHWM`` reset through ``/proc/self/clear_refs``, and
-``resource.getrusage``), and the benchmark's memory section (:func:`bench_memory`): the peak memory of
+``resource.getrusage``), and the speed run's memory section (:func:`bench_memory`): the peak memory of
 one env and of the period-aware planner, each figure in a process of its own (:func:`memory_child`).
 """
 
@@ -128,8 +128,8 @@ def memory_child(spec: dict[str, Any]) -> dict[str, Any]:
     import footstep_gym.env  # noqa: F401 - pymunk, scenarios, world
     from footstep_gym.robot import load_robot
 
-    from .envs import near_nominal_commands
-    from .planners import make_policy_fn
+    from .env_rates import near_nominal_commands
+    from .planner_times import make_policy_fn
 
     env_id, n, what, use_tm = spec["env_id"], spec["steps"], spec["what"], spec["tracemalloc"]
     budget = spec.get("budget_s")
@@ -230,19 +230,19 @@ def memory_server(specs: list[dict[str, Any]], workers: int) -> list[dict[str, A
     This interpreter has imported numpy, gymnasium, pymunk, footstep_gym and the planners
     and allocated nothing else, so a forked child starts from the state of a fresh
     interpreter after its imports (what :func:`memory_child` measures from in a fresh
-    interpreter), without paying ~0.5 s of imports per probe. ``workers`` children run at a
+    interpreter), without paying for the imports again per probe. ``workers`` children run at a
     time; each writes its result to a file of its own and leaves with ``os._exit``.
     """
     import tempfile
 
     import footstep_gym.env  # noqa: F401
 
-    from .planners import make_policy_fn
+    from .planner_times import make_policy_fn
 
     make_policy_fn()  # import the planners once, here
     workers = max(1, int(workers))
     results: list[dict[str, Any] | None] = [None] * len(specs)
-    with tempfile.TemporaryDirectory(prefix="footstep-bench-mem-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="footstep-speed-mem-") as tmp:
         running: dict[int, int] = {}
         nxt = 0
         while nxt < len(specs) or running:
@@ -292,7 +292,7 @@ def run_memory_jobs(specs: list[dict[str, Any]], workers: int) -> list[dict[str,
     with its shared-library pages unmapped and fault them back in as it runs, which shows
     up as RSS growth that is no allocation. tracemalloc probes count allocations only, so
     (where ``os.fork`` exists) they run in children forked from one :func:`memory_server`
-    interpreter, one at a time beside the RSS probes, which saves ~0.5 s of imports per
+    interpreter, one at a time beside the RSS probes, which saves the imports per
     probe. Each result says which (``process``).
     """
     from concurrent.futures import ThreadPoolExecutor
@@ -323,7 +323,7 @@ def bench_memory(settings: Settings, workers: int | None = None) -> dict[str, An
     ``workers`` at a time (default: the usable cores). Nothing is timed here, so running
     them side by side does not change what they measure (RSS and tracemalloc are per process).
     """
-    from .envs import FOOTSTEP_ENVS
+    from .env_rates import FOOTSTEP_ENVS
 
     n = settings.memory_steps
     planner_steps = settings.memory_acts

@@ -1,13 +1,13 @@
 """The soak engine: millions of fuzzed steps per env, checking that nothing unexpected ever happens
-(``baselines/soak.py`` is its command line; ``footstep_gym.bench.report.soak_report`` its markdown).
+(``baselines/soak.py`` is its command line; ``speedlib.tables.soak_report`` its markdown).
 
 :func:`run` soaks each env in a fresh interpreter of its own (so its memory figures are its own)
 with :func:`soak_env`, with a tqdm progress bar on stderr, and keeps **one env instance** for its
 whole run (made with random ``randomize=`` settings drawn from the scenario's fuzz ranges,
 :meth:`footstep_gym.scenarios.Scenario.fuzz_ranges`, reset at every episode's end), as a training
-run does: a leak tied to the env instance (issue 17: pymunk kept every shape removed at reset)
-shows only there. ``remake_every=N`` makes a fresh env every N episodes instead, which hid that
-leak. Every ``env.step`` call counts as a step. The fuzz, drawn from one seeded generator:
+run does: a leak tied to the env instance (pymunk keeping the shapes removed at reset, say) shows
+only there. ``remake_every=N`` makes a fresh env every N episodes instead, which hides such a leak.
+Every ``env.step`` call counts as a step. The fuzz, drawn from one seeded generator:
 
 * three episodes in four are "fuzz" episodes: commands uniform **inside** the box, **at its
   bounds** (each field at its low or high end, or inside), **outside** it (finite; the env
@@ -30,10 +30,9 @@ and ``info["clipped"]`` is what the command asks. Any other exception is counted
 the end, sampled ``RSS_SAMPLES`` times in between (``rss.samples``: ``[step, bytes]``, and their
 least-squares slope in bytes per step), and the peak since the warm-up (``VmHWM``). "Flat"
 means the end RSS, and the peak, exceed the start by at most ``--rss-tolerance-mib``
-(default 8 MiB: over 10^6 steps a leak of ~10 B per step fails it; a leak-free env's RSS
-rises 1-2 MiB after the warm-up, in one-off steps of the allocators, then stays put; the
-leak of issue 17 grew it by 0.4-3.4 KB per step); an env whose RSS is not flat FAILs. If
-the env cannot be made ``MAX_MAKE_FAILURES`` times in a row, the run ends there and fails.
+(default :data:`DEFAULT_RSS_TOLERANCE_MIB`: over 10^6 steps a leak of 10 B per step exceeds it, while a
+leak-free env's RSS grows only in the allocators' one-off steps after the warm-up); an env whose RSS is
+not flat FAILs. If the env cannot be made ``MAX_MAKE_FAILURES`` times in a row, the run ends there and fails.
 
 :func:`run` returns the summary (steps/s, outcomes, exceptions by type, RSS figures, and each
 env's verdict with why it failed); the command writes it as ``<out>/soak.json`` and
@@ -65,7 +64,7 @@ from footstep_gym.scenarios import SCENARIOS, scene_of
 from .fmt import finite_json, fmt_bytes
 from .fresh import ChildFailed, call_fresh
 from .machine import loadavg, machine_info
-from .memory import RssPeak, rss_bytes
+from .memory_use import RssPeak, rss_bytes
 
 ENV_IDS = (*footstep_gym.ENV_IDS.values(), footstep_gym.MIX_ENV_ID)
 DEFAULT_STEPS = 1_000_000
@@ -195,7 +194,7 @@ def _cumulative(weights: dict[str, float]) -> list[float]:
 
 
 def _pick(cumulative: list[float], rng: np.random.Generator) -> int:
-    """An index drawn with the probabilities of ``cumulative`` (``rng.choice(n, p=...)`` costs ~20 us a call)."""
+    """An index drawn with the probabilities of ``cumulative`` (cheaper than ``rng.choice(n, p=...)`` per call)."""
     return min(bisect.bisect_right(cumulative, rng.random()), len(cumulative) - 1)
 
 

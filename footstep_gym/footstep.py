@@ -69,6 +69,15 @@ def place_foot_scalar(support_pose: tuple[float, float, float], support_side: in
     return (x + c * S - s * lat, y + s * S + c * lat, (yaw + theta + math.pi) % (2.0 * math.pi) - math.pi)
 
 
+def local_to_world(pose: Any, local: np.ndarray) -> np.ndarray:
+    """Points ``local`` ``(..., 2)`` [m] given in the frame of foot ``pose`` ``(x, y, yaw)`` (each scalar or
+    array, broadcast against ``local``'s leading axes), in the world frame."""
+    x, y, yaw = (np.asarray(v, dtype=float) for v in pose)
+    c, s = np.cos(yaw), np.sin(yaw)
+    lx, ly = local[..., 0], local[..., 1]
+    return np.stack([x + c * lx - s * ly, y + s * lx + c * ly], axis=-1)
+
+
 def command_between(support_pose: Any, support_side: Any, new_pose: Any) -> tuple[Any, Any, Any]:
     """``(S, L, theta)`` that moves the swing foot from ``support_pose`` to ``new_pose`` (eq. 2-3)."""
     x, y, yaw = support_pose

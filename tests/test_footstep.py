@@ -329,3 +329,16 @@ def test_place_foot_scalar_is_place_foot_within_ulps():
         want = tuple(float(v) for v in footstep.place_foot(pose, side, S, L, theta))
         got = footstep.place_foot_scalar(pose, side, S, L, theta)
         np.testing.assert_allclose(got, want, rtol=4 * np.finfo(float).eps, atol=1e-14)  # |x| <= 5.2 m: ~4 ulp
+
+
+def test_local_to_world_is_the_inverse_of_the_foot_frame():
+    """A point given in a foot's frame, taken to the world and back by hand (rotation by -yaw), is itself."""
+    rng = np.random.default_rng(0)
+    poses = rng.uniform([-2, -2, -np.pi], [2, 2, np.pi], size=(50, 3))
+    local = rng.uniform(-0.2, 0.2, size=(50, 2))
+    world = footstep.local_to_world(poses.T, local)
+    d = world - poses[:, :2]
+    c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+    assert np.allclose(np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1), local, atol=1e-12)
+    one = footstep.local_to_world((1.0, 2.0, np.pi / 2), np.array([0.1, 0.0]))
+    assert np.allclose(one, [1.0, 2.1])

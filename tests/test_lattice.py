@@ -12,7 +12,7 @@ import pytest
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym import footstep, lipm, make_policy
 from footstep_gym.errors import ConfigError
-from footstep_gym.planners.lattice import LatticeSearch, centre_speed_bound, lattice_size, to_world, transition_set
+from footstep_gym.planners.lattice import LatticeSearch, centre_speed_bound, lattice_size, transition_set
 from footstep_gym.planners.params import load_planner_config
 from footstep_gym.planners.prediction import ObstaclePredictor
 
@@ -86,8 +86,8 @@ def _brute_force_time(search: LatticeSearch, snap, predictor, depth: int) -> flo
                 if not res.feasible[0]:
                     break
                 new = footstep.place_foot(support, side, *cmd[:3])
-                start_com = to_world(support, com)
-                end_com = to_world(new, res.end_com[0])
+                start_com = footstep.local_to_world(support, com)
+                end_com = footstep.local_to_world(new, res.end_com[0])
                 period = cmd[3] + cmd[4]
                 if not search.body_clear(predictor, start_com[None], end_com[None], t, np.array([period]))[0]:
                     break
@@ -135,7 +135,8 @@ def test_a_wall_across_the_way_is_never_stepped_into():
     new = footstep.place_foot(snap.support_foot, side, *command[:3])
     res = lipm.check_steps(robot, snap.com_local, snap.vel_local, command[None], side)
     assert res.feasible[0]
-    assert policy.search.body_clear(predictor, np.asarray(snap.com)[None], to_world(new, res.end_com[0])[None], 0.0,
+    end = footstep.local_to_world(new, res.end_com[0])[None]
+    assert policy.search.body_clear(predictor, np.asarray(snap.com)[None], end, 0.0,
                                     np.array([command[3] + command[4]]))[0]
 
 

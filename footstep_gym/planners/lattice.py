@@ -38,14 +38,6 @@ from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot
 
 
-def to_world(pose: Any, local: np.ndarray) -> np.ndarray:
-    """Points ``local`` ``(..., 2)`` [m] in the frame of foot ``pose`` ``(x, y, yaw)`` (arrays broadcast) in the world."""
-    x, y, yaw = (np.asarray(v, dtype=float) for v in pose)
-    c, s = np.cos(yaw), np.sin(yaw)
-    lx, ly = local[..., 0], local[..., 1]
-    return np.stack([x + c * lx - s * ly, y + s * lx + c * ly], axis=-1)
-
-
 def transition_set(robot: Robot, params: LatticeParams) -> np.ndarray:
     """The commands ``(K, 5)`` ``[S, L, θ, T_SS, T_DS]`` of the lattice: strides x side strides x turns x
     periods, each period split as ``T_SS = T - T_DS``, ``T_DS`` nominal. Turn limits are per side (the
@@ -120,7 +112,8 @@ class LatticeSearch:
         p = self.params
         x, y, yaw = node.support
         return (round(x / p.xy_resolution_m), round(y / p.xy_resolution_m),
-                round(footstep.wrap_angle(yaw) / p.yaw_resolution_rad), node.side, round(node.time / p.time_resolution_s))
+                round(footstep.wrap_angle(yaw) / p.yaw_resolution_rad), node.side,
+                round(node.time / p.time_resolution_s))
 
     def _heuristic(self, centre: np.ndarray, goal: np.ndarray, tolerance: float) -> float:
         return max(float(np.hypot(*(centre - goal))) - tolerance, 0.0) / self.speed
@@ -139,8 +132,8 @@ class LatticeSearch:
         fx, fy, fyaw = footstep.place_foot(node.support, node.side, cmds[:, 0], cmds[:, 1], cmds[:, 2])
         centre = 0.5 * (np.asarray(node.support[:2])[None] + np.stack([fx, fy], axis=1))
         period = cmds[:, 3] + cmds[:, 4]
-        clear = self.body_clear(predictor, to_world(node.support, node.com)[None], to_world((fx, fy, fyaw), end_com),
-                                node.time, period)
+        start = footstep.local_to_world(node.support, node.com)[None]
+        clear = self.body_clear(predictor, start, footstep.local_to_world((fx, fy, fyaw), end_com), node.time, period)
         out = []
         for j in np.flatnonzero(clear):
             first = int(idx[j]) if node.first < 0 else node.first
@@ -229,7 +222,8 @@ class LatticePlanner(SnapshotPlanner):
         fx, fy, fyaw = footstep.place_foot(snapshot.support_foot, side, cmds[:, 0], cmds[:, 1], cmds[:, 2])
         n = len(cmds)
         start = np.broadcast_to(np.asarray(snapshot.com, dtype=float), (n, 2))
-        pts, times = body_path_points(start, to_world((fx, fy, fyaw), end_com), np.zeros(n), cmds[:, 3] + cmds[:, 4],
+        end = footstep.local_to_world((fx, fy, fyaw), end_com)
+        pts, times = body_path_points(start, end, np.zeros(n), cmds[:, 3] + cmds[:, 4],
                                       self.config.prediction.edge_samples)
         clear = predictor.clearance(pts, times).reshape(n, -1).min(axis=1)
         return cmds[int(np.argmax(clear))].copy()

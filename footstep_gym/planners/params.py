@@ -210,6 +210,32 @@ class LatticeParams:
 
 
 @dataclass(frozen=True)
+class LookaheadParams:
+    """The ``lookahead`` planner: cross-entropy optimisation of K footsteps with their periods (:mod:`.lookahead`)."""
+
+    horizon_steps: int = positive()  # K footsteps optimised per call
+    samples: int = positive()  # sequences per iteration
+    elites: int = positive()  # the best this many refit the sampling distribution
+    iterations: int = positive()  # cross-entropy iterations per call
+    initial_std: float = positive()  # first standard deviation per dimension, as a fraction of the command box
+    min_std: float = nonnegative()  # the standard deviation never shrinks below this fraction of the box
+    collision_penalty: float = positive()  # [s] added for a predicted collision (x (K - k) / K at step k)
+    infeasible_penalty: float = positive()  # [s] added for a step the LIPM rejects (x (K - k) / K at step k)
+    soft_margin_m: float = nonnegative()  # [m] clearance beyond the safe distance below which ...
+    soft_weight: float = nonnegative()  # [s/m] ... each metre short is charged this much
+    dwell_s: float = nonnegative()  # [s] the last stance must stay clear this long after the sequence
+    dwell_samples: int = positive()  # instants checked over dwell_s
+    greedy_seed: bool = plain()  # the period-aware planner's command, repeated, is one sequence of every first population
+
+    def validate(self) -> None:
+        if self.elites > self.samples:
+            raise ConfigError(f"planner.yaml:lookahead.elites ({self.elites}) must be <= samples ({self.samples})")
+        if self.samples < 8:
+            raise ConfigError(f"planner.yaml:lookahead.samples must be >= 8 (the fixed seeds and a population), "
+                              f"got {self.samples}")
+
+
+@dataclass(frozen=True)
 class KernelsParams:
     """Which of the planners' twin implementations runs: the same answers either way, at another cost."""
 
@@ -227,6 +253,7 @@ class PlannerConfig:
     pso: PSOParams
     pso_only: PSOOnlyParams
     lattice: LatticeParams
+    lookahead: LookaheadParams
     kernels: KernelsParams
 
 
@@ -238,6 +265,7 @@ _SECTION_TYPES = {
     "pso": PSOParams,
     "pso_only": PSOOnlyParams,
     "lattice": LatticeParams,
+    "lookahead": LookaheadParams,
     "kernels": KernelsParams,
 }
 

@@ -15,6 +15,7 @@ from typing import Any, Mapping
 
 from footstep_gym.planners.oracle import DESCRIPTION as ORACLE_DESCRIPTION
 from footstep_gym.planners.lattice import LatticePlanner
+from footstep_gym.planners.lookahead import LookaheadPlanner
 from footstep_gym.planners.oracle import OraclePlanner
 from footstep_gym.planners.params import AdditionsParams, PlannerConfig, load_planner_config
 from footstep_gym.planners.staged import FixedPeriodPlanner, PeriodAwarePlanner, PSOOnlyPlanner, SnapshotPlanner
@@ -90,6 +91,8 @@ POLICIES: dict[str, PolicySpec] = {
                                      description="the paper's planner as written, the period held at T_n"),
     "lattice": PolicySpec(LatticePlanner, description="A* over a discrete footstep set x walking periods in space "
                                                        "and time (the discrete search the paper argues against)"),
+    "lookahead": PolicySpec(LookaheadPlanner, description="receding horizon: K footsteps with their periods optimised "
+                                                           "by the cross-entropy method, the first executed"),
     # An upper bound, not a baseline: period-aware told the truth (reads_truth; tables mark it "(upper bound)").
     "oracle": PolicySpec(OraclePlanner, readings={"kernels": {"compiled": False}}, description=ORACLE_DESCRIPTION),
 }

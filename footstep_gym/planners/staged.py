@@ -183,6 +183,7 @@ class PeriodAwarePlanner(SnapshotPlanner):
         self._history.append(snapshot)
         predictor = ObstaclePredictor(snapshot, horizon=self.horizon, horizons=unsteady, accelerations=accelerations,
                                       acceleration_horizon=self.acceleration_horizon)
+        self.predictor = predictor  # the last prediction, for planners built on this one (.lookahead)
         body = BodyModel(predictor, self.robot, self.margin, sway=self.com_sway)
         search_body = BodyModel(predictor, self.robot, self.search_margin, sway=self.com_sway)
         return body, search_body, len(unsteady)

@@ -72,12 +72,15 @@ def test_every_key_of_planner_yaml_is_read_by_the_planners():
 
     seen: set[str] = set()
     base = load_planner_config()
+    # lookahead keeps the greedy plan while it holds (as in the first steps here): once more with its own search
+    own_search = dataclasses.replace(base, lookahead=dataclasses.replace(base.lookahead, greedy_seed=False))
+    runs = [(name, base) for name in POLICIES] + [("lookahead", own_search)]
     for env_id, kwargs in (("FootstepDoor-v0", {"door_speed": 17.0}), ("FootstepCrowd-v0", {})):
         env = gym.make(env_id, **kwargs)
-        for name in POLICIES:
+        for name, config in runs:
             if reads_truth(name):  # the oracle acts only bound to its env's truth, on the numpy route (its own tests)
                 continue
-            policy = make_policy(name, env.unwrapped.robot, seed=0, config=RecordingConfig(base, seen))
+            policy = make_policy(name, env.unwrapped.robot, seed=0, config=RecordingConfig(config, seen))
             obs, _ = env.reset(seed=0)
             policy.reset(seed=0)
             for _ in range(3):

@@ -75,7 +75,9 @@ def test_every_key_of_planner_yaml_is_read_by_the_planners():
     # lookahead keeps the greedy plan while it holds (as in the first steps here): once more with its own search
     own_search = dataclasses.replace(base, lookahead=dataclasses.replace(base.lookahead, greedy_seed=False))
     runs = [(name, base) for name in POLICIES] + [("lookahead", own_search)]
-    for env_id, kwargs in (("FootstepDoor-v0", {"door_speed": 17.0}), ("FootstepCrowd-v0", {})):
+    # The noisy door: the tracker's keys are read once the readings show noise.
+    for env_id, kwargs in (("FootstepDoor-v0", {"door_speed": 17.0}), ("FootstepCrowd-v0", {}),
+                           ("FootstepDoor-v0", {"tier": "hard", "tier_cell": "noisy"})):
         env = gym.make(env_id, **kwargs)
         for name, config in runs:
             if reads_truth(name):  # the oracle acts only bound to its env's truth, on the numpy route (its own tests)

@@ -39,6 +39,7 @@ class AdditionsParams:
     rrt_seeds: bool = plain()  # stage 2: stage 1's free walks are the tree's first branches
     fallback: bool = plain()  # stage 2 without a goal path: the spot that stays free longest (off: nearest goal)
     feasibility_rescue: bool = plain()  # stage 3: if Table 1's increments find nothing feasible, the whole box
+    tracking: bool = plain()  # a Kalman filter per sensed obstacle between sensing() and the prediction (.tracking)
 
 
 @dataclass(frozen=True)
@@ -64,6 +65,35 @@ class PredictionParams:
             raise ConfigError(f"prediction.edge_samples must be >= 2, got {self.edge_samples}")
         if self.check not in self.CHECKS:
             raise ConfigError(f"prediction.check must be one of {', '.join(self.CHECKS)}, got {self.check!r}")
+
+
+@dataclass(frozen=True)
+class TrackingParams:
+    """The tracker of ``additions.tracking`` (:mod:`.tracking`): the sensor's noise profile, its filters' settings."""
+
+    measurement_noise: tuple[float, ...] = plain()  # [m, m/s, rad, rad/s] the sensor's reading stds (its profile)
+    estimate_noise: bool = plain()  # the reading stds estimated from the readings instead (measurement_noise unused)
+    noise_floor_m: float = positive()  # [m] readings count as exact while their consistency residual's std is below it
+    noise_floor_rad: float = positive()  # [rad] likewise for a rod's angle
+    process_noise_linear: float = positive()  # [m^2/s^3] least variance per second of a velocity's steps
+    process_noise_angular: float = positive()  # [rad^2/s^3] likewise for a rod's turn rate
+    gate: float = positive()  # normalised innovation squared (2 degrees of freedom) beyond which a track restarts
+    still_prior: float = nonnegative()  # log-odds for "still" over "moving" before any reading
+    model_memory: float = nonnegative()  # per footstep, the weight of the earlier evidence for "still" over "moving"
+    window: int = positive()  # residuals of each kind kept for the noise estimate (the latest)
+    outlier: float = positive()  # a residual beyond this times its kind's median square is left out of the estimate
+
+    def validate(self) -> None:
+        noise = self.measurement_noise
+        if len(noise) != 4 or any(v < 0 for v in noise):
+            raise ConfigError(f"tracking.measurement_noise must be four stds >= 0 [position m, velocity m/s, "
+                              f"angle rad, angular velocity rad/s], got {list(noise)!r}")
+        if self.outlier <= 1:
+            raise ConfigError(f"tracking.outlier must be > 1 (a multiple of the median square), got {self.outlier}")
+        if not self.model_memory < 1:
+            raise ConfigError(f"tracking.model_memory must be in [0, 1), got {self.model_memory}")
+        if self.window < 3:
+            raise ConfigError(f"tracking.window must be >= 3, got {self.window}")
 
 
 @dataclass(frozen=True)
@@ -255,6 +285,7 @@ class PlannerConfig:
     lattice: LatticeParams
     lookahead: LookaheadParams
     kernels: KernelsParams
+    tracking: TrackingParams
 
 
 _SECTION_TYPES = {
@@ -267,6 +298,7 @@ _SECTION_TYPES = {
     "lattice": LatticeParams,
     "lookahead": LookaheadParams,
     "kernels": KernelsParams,
+    "tracking": TrackingParams,
 }
 
 

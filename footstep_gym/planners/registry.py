@@ -94,7 +94,9 @@ POLICIES: dict[str, PolicySpec] = {
     "lookahead": PolicySpec(LookaheadPlanner, description="receding horizon: K footsteps with their periods optimised "
                                                            "by the cross-entropy method, the first executed"),
     # An upper bound, not a baseline: period-aware told the truth (reads_truth; tables mark it "(upper bound)").
-    "oracle": PolicySpec(OraclePlanner, readings={"kernels": {"compiled": False}}, description=ORACLE_DESCRIPTION),
+    # It reads the noise-free truth: nothing to track.
+    "oracle": PolicySpec(OraclePlanner, additions={"tracking": False}, readings={"kernels": {"compiled": False}},
+                         description=ORACLE_DESCRIPTION),
 }
 
 #: ``<policy>-no-<switch>``: a staged policy of :data:`POLICIES` with one switch of ``additions`` off.

@@ -75,6 +75,7 @@ from footstep_gym.planners.prediction import (
 )
 from footstep_gym.planners.pso import CommandRepair
 from footstep_gym.planners.rrt import PathChoice, PathSearch
+from footstep_gym.planners.tracking import Tracker
 from footstep_gym.planners.walks import WalkStart, walk_start
 from footstep_gym.policy import Policy
 from footstep_gym.robot import Robot
@@ -143,6 +144,7 @@ class PeriodAwarePlanner(SnapshotPlanner):
         self.acceleration_pooled = pp.acceleration_pooled
         # What was sensed at the last steps, oldest first (the previous snapshot last).
         self._history: deque[Snapshot] = deque(maxlen=pp.acceleration_steps if add.acceleration else 1)
+        self.tracker = Tracker(config.tracking) if add.tracking else None  # filters what is sensed, step to step
 
     @property
     def _previous_snapshot(self) -> Snapshot | None:
@@ -152,6 +154,8 @@ class PeriodAwarePlanner(SnapshotPlanner):
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
         self._history.clear()
+        if self.tracker is not None:
+            self.tracker.reset()
 
     # -------------------------------------------------------------- the three stages
     def _plan(self, snapshot: Snapshot) -> tuple[np.ndarray, dict[str, Any]]:
@@ -175,7 +179,12 @@ class PeriodAwarePlanner(SnapshotPlanner):
 
     def _predict(self, snapshot: Snapshot, start: WalkStart) -> tuple[BodyModel, BodyModel, int]:
         """The body checks of the RRT and of the period search over the predicted obstacles, and how many
-        shapes were found unsteady (their velocity changed since the previous step)."""
+        shapes were found unsteady (their velocity changed since the previous step). With ``additions.tracking``
+        everything here reads the tracker's estimates of what was sensed."""
+        if self.tracker is not None:
+            snapshot = self.tracker.update(snapshot)
+            if self.tracker.revised:  # what was kept of earlier steps is the raw readings
+                self._history.clear()
         unsteady = (steady_motion_horizons(self._previous_snapshot, snapshot, *self.unsteady)
                     if self.unsteady is not None else {})
         accelerations = (sensed_accelerations(self._history, snapshot, self.acceleration_pooled)

@@ -206,20 +206,28 @@ def tier_aggregates(records: Sequence[dict[str, Any]], reps: int = 2000) -> list
     return out
 
 
-#: The files that define the benchmark's envs (relative to configs/): a submission's ``env_configs_sha256``
-#: must match the release's (the planner's and the agents' own configs are the method's business).
-ENV_CONFIGS = ("benchmark.yaml", "env.yaml", "eval.yaml", "robot.yaml", "scenarios/door.yaml",
-               "scenarios/crossing.yaml", "scenarios/crowd.yaml")
+#: The files that define the benchmark's envs besides the scenarios' own YAMLs (relative to configs/): a
+#: submission's ``env_configs_sha256`` must match the release's (the planner's and the agents' own configs are the
+#: method's business).
+BASE_CONFIGS = ("benchmark.yaml", "env.yaml", "eval.yaml", "robot.yaml")
+
+
+def env_config_files() -> list[str]:
+    """The files :func:`env_configs_sha256` hashes: :data:`BASE_CONFIGS`, then every registered scenario's
+    ``config_file`` (in ``SCENARIOS`` order; relative to configs/ or absolute)."""
+    from footstep_gym.scenarios import SCENARIOS
+
+    return [*BASE_CONFIGS, *(cls.config_file for cls in SCENARIOS.values())]
 
 
 def env_configs_sha256() -> str:
-    """One SHA-256 over the files of :data:`ENV_CONFIGS` (name and bytes of each, in that order)."""
+    """One SHA-256 over the files of :func:`env_config_files` (name and bytes of each, in that order)."""
     import hashlib
 
     from footstep_gym.config import config_dir
 
     digest = hashlib.sha256()
-    for name in ENV_CONFIGS:
+    for name in env_config_files():
         digest.update(name.encode() + b"\0" + (config_dir() / name).read_bytes() + b"\0")
     return digest.hexdigest()
 

@@ -15,7 +15,8 @@ import footstep_gym
 from footstep_gym.evaluation import report
 from footstep_gym.evaluation.profiles import Settings, sweep_axes
 from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, record_video, safe_name
-from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, cell_record, over_runs
+from footstep_gym.evaluation.records import cell_record, dump_records, over_runs
+from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult
 
 SHOWCASE_POLICY = "period-aware"  # the figures show a seed this policy solved, when there is one
 SCRIPT = "baselines/eval_planner.py"  # the command line that runs an evaluation (in run.json's "command")
@@ -35,15 +36,14 @@ def write_outputs(settings: Settings, cells: list[Cell], results: list[EpisodeRe
     records = over_runs(per_run)
     table = report.markdown_table(records)
     files = [out / "results.json", out / "results.csv", out / "episodes.csv"]
-    files[0].write_text(json.dumps(records, indent=2) + "\n", encoding="utf-8")
-    report.write_csv(files[1], *report.csv_rows(records))
-    ep_rows = report.episode_rows(cells, results)
-    report.write_csv(files[2], list(ep_rows[0]), ep_rows)
-    if any(r["run"] is not None for r in per_run):
+    files[0].write_text(dump_records(records), encoding="utf-8")
+    report.write_csv(files[1], report.csv_table(records))
+    report.write_csv(files[2], report.episode_table(cells, results))
+    if any(r.run is not None for r in per_run):
         (out / "runs").mkdir(exist_ok=True)
         files += [out / "runs" / "results.json", out / "runs" / "results.csv"]
-        files[-2].write_text(json.dumps(per_run, indent=2) + "\n", encoding="utf-8")
-        report.write_csv(files[-1], *report.csv_rows(per_run))
+        files[-2].write_text(dump_records(per_run), encoding="utf-8")
+        report.write_csv(files[-1], report.csv_table(per_run))
     if settings.figures:
         files += report.write_pictures(out, cells, results, SHOWCASE_POLICY)
     files += videos

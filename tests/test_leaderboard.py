@@ -271,6 +271,16 @@ def test_allow_mixed_accepts_other_configs(tmp_path):
                                                  "--reps", str(REPS)]) == 0
     board = json.loads((tmp_path / "board" / "leaderboard.json").read_text(encoding="utf-8"))
     assert board["protocol"]["env_configs_sha256"] == [SHA, "cd" * 32]
+    # The row of the other protocol is marked and its difference said under the table.
+    three = write_fakes(tmp_path / "three", [document("agent", AGENT), document("partial", PARTIAL),
+                                             document("planner", PLANNER, sha="cd" * 32, episodes=20)])
+    board = lb.leaderboard([three], allow_mixed=True, reps=REPS)
+    rows = {line.split("|")[1].strip(): line for line in lb.headline_markdown(board).splitlines()[2:]}
+    assert set(rows) == {"agent", "partial (partial)", "planner ‡"}
+    notes = lb.headline_notes(board)
+    assert notes[-1].startswith(f"‡ planner: another protocol than the other rows (env configs {'cd' * 6}, 20 "
+                                "episodes per cell;")
+    assert "configs abababababab (rows marked ‡: another protocol)" in lb.markdown(board)
 
 
 def test_the_benchmarks_bootstrap_intervals_are_seeded_and_leave_numpys_generator_alone():

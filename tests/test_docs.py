@@ -5,7 +5,7 @@
   those files;
 * every relative link (and image) of the README and of ``docs/*.md`` resolves to a file, and every ``#anchor`` to
   a heading of its page;
-* every Python snippet of the README runs as written from the repository root;
+* every Python snippet of the README runs as written (in a temporary folder: nothing is written into the checkout);
 * the README's two commands are the ones ``.ci/run`` and a newcomer use.
 """
 
@@ -136,13 +136,18 @@ def _snippet_params():
 
 
 @pytest.mark.parametrize("code", list(_snippet_params()))
-def test_readme_python_snippet_runs(code):
-    """As a reader would run it: a fresh interpreter in the repository root (runs/ is where a snippet may write)."""
-    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy"}
-    env.pop("FOOTSTEP_GYM_AGENTS_DIR", None)
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True,
+def test_readme_python_snippet_runs(code, tmp_path):
+    """As a reader would run it, in a fresh interpreter, but in a temporary folder: what a snippet writes (runs/)
+    lands there, not in the checkout. The shipped agents are named by ``$FOOTSTEP_GYM_AGENTS_DIR``, as a reader
+    outside the checkout's root names them."""
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy",
+           "PYTHONPATH": os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])]),
+           "FOOTSTEP_GYM_AGENTS_DIR": str(REPO / "baselines" / "agents")}
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, f"the snippet failed:\n{code}\n--- stderr:\n{done.stderr[-3000:]}"
+    if "RecordVideo" in code:
+        assert list((tmp_path / "runs" / "videos").glob("*.mp4"))  # it wrote where it says, in the cwd
 
 
 def test_readme_has_snippets_and_the_two_commands():

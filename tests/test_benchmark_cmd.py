@@ -148,7 +148,8 @@ def test_the_ray_backend_gives_the_same_records(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--policy", FAST, "--policy", "period-aware"], "one method"),
     ([], "one method"),
-    (["--policy", FAST, "--paper"], "--paper"),
+    (["--policy", FAST, "--paper"], "--paper does not apply"),
+    (["--policy", FAST, "--paper", "--video"], "--paper, --video do not apply"),
     (["--policy", FAST, "--door-speed", "8"], "--door-speed"),
     (["--policy", FAST, "--split", "validation"], "--split validation"),
     (["--policy", FAST, "--full", "--episodes", "3"], "--full is 500"),
@@ -164,7 +165,7 @@ def test_bad_benchmark_options_exit_2_before_touching_out(args, message, tmp_pat
 
 def test_benchmark_options_need_benchmark(tmp_path):
     proc = run_cli("--full", "--out", str(tmp_path / "x"), timeout=120)
-    assert proc.returncode == 2 and "go(es) with --benchmark" in proc.stderr
+    assert proc.returncode == 2 and "--full goes with --benchmark only" in proc.stderr
     assert not (tmp_path / "x").exists()
 
 

@@ -227,6 +227,14 @@ def make_cells(settings: Settings) -> list[Cell]:
     return cells
 
 
+def describe_cells(cells: Sequence[Cell]) -> str:
+    """``41 cells (83 with the agents' training runs)``: the rows of the run's table (a setting and policy each, an
+    agent's training runs pooled into one), then the runner's cells where an agent has several runs."""
+    rows = len({(c.env_id, c.params, c.policy) for c in cells})
+    runs = f" ({len(cells)} with the agents' training runs)" if len(cells) != rows else ""
+    return f"{rows} cell{'' if rows == 1 else 's'}{runs}"
+
+
 def check_cells(cells: list[Cell]) -> str | None:
     """:func:`footstep_gym.evaluation.runner.check_cells`, each setting named by its command-line flags."""
     return runner_check_cells(

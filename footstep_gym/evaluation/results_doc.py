@@ -10,11 +10,13 @@ committed without the pages shows up.
 
 ``docs/results.md`` is generated whole: one section per evaluation folder (those of :data:`EVALUATIONS` first,
 then any other folder holding a ``run.json`` and a ``results.json``), then the shipped agents' training runs.
-``docs/speed.md`` and ``README.md`` are written by hand around blocks that this module fills::
+``docs/speed.md`` and ``README.md`` are written by hand around blocks that `cog <https://cog.readthedocs.io>`_
+fills (``cog -r README.md`` does what the script does for that page), each block naming what fills it
+(:data:`BLOCKS`)::
 
-    <!-- BEGIN GENERATED benchmark: ... -->
+    <!-- [[[cog import footstep_gym.evaluation.results_doc as r; r.cog_block("headline") ]]] -->
     ...
-    <!-- END GENERATED benchmark -->
+    <!-- [[[end]]] -->
 """
 
 from __future__ import annotations
@@ -75,7 +77,6 @@ EVALUATIONS = (
 HEADLINE = ("agents", ("period-aware", "fixed-period", "ppo", "ppo-fixed-period", "ppo-wide", "ppo-all", "sac",
                        "td3"))
 
-_BEGIN = re.compile(r"<!-- BEGIN GENERATED (?P<name>[a-z0-9_-]+)(?P<note>[^>]*)-->\n")
 
 
 # ---------------------------------------------------------------- reading the files
@@ -343,35 +344,58 @@ def speed_blocks(repo: Path) -> dict[str, str]:
             "soak": _include(results / "soak" / "soak.md", skip=lambda line: "current RSS [MiB] at steps" in line)}
 
 
-def fill_blocks(text: str, blocks: dict[str, str], where: str = "") -> str:
-    """``text`` with the body of each ``<!-- BEGIN GENERATED name ... -->`` ... ``<!-- END GENERATED name -->``
-    block replaced by ``blocks[name]``. A block without its end, or named in neither, raises ``ValueError``."""
-    out, pos = [], 0
-    for match in _BEGIN.finditer(text):
-        if match.start() < pos:
-            continue
-        name = match.group("name")
-        end_marker = f"<!-- END GENERATED {name} -->"
-        end = text.find(end_marker, match.end())
-        if end < 0:
-            raise ValueError(f"{where}: block {name!r} has no '{end_marker}'")
-        if name not in blocks:
-            raise ValueError(f"{where}: unknown generated block {name!r}; known: {', '.join(blocks)}")
-        out += [text[pos:match.end()], "\n", blocks[name].strip("\n"), "\n\n"]
-        pos = end
-    out.append(text[pos:])
-    return "".join(out)
+#: The blocks of the hand-written pages: name -> what fills it from the repository (under ``baselines/``).
+BLOCKS: dict[str, Callable[[Path], str]] = {
+    "headline": lambda repo: headline_table(repo),
+    "leaderboard": lambda repo: leaderboard_block(repo),
+    "speed": lambda repo: speed_blocks(repo)["speed"],
+    "speed_tiers": lambda repo: speed_blocks(repo)["speed_tiers"],
+    "soak": lambda repo: speed_blocks(repo)["soak"],
+}
+
+
+def repo_of(page: Path) -> Path:
+    """The repository a page is in: the nearest folder above it holding ``baselines/``."""
+    for folder in Path(page).absolute().parents:
+        if (folder / "baselines").is_dir():
+            return folder
+    raise ValueError(f"{page}: no baselines/ in any folder above it")
+
+
+def block(name: str, page: Path) -> str:
+    """The text of generated block ``name`` for ``page`` (a blank line before and after it)."""
+    if name not in BLOCKS:
+        raise ValueError(f"{page}: unknown generated block {name!r}; known: {', '.join(BLOCKS)}")
+    return "\n" + BLOCKS[name](repo_of(page)).strip("\n") + "\n\n"
+
+
+def cog_block(name: str) -> None:
+    """Write block ``name`` into the page cog is processing (the call a page's ``[[[cog ...]]]`` makes)."""
+    import cog
+
+    cog.out(block(name, Path(cog.inFile)))
+
+
+def cog_page(path: Path, text: str | None = None) -> str:
+    """``path``'s text (or ``text``, as if it were at ``path``) with every cog block regenerated; a bad block raises
+    ``ValueError`` with cog's (or the block's own) one line."""
+    from cogapp import Cog
+    from cogapp.cogapp import CogError
+
+    source = path.read_text(encoding="utf-8") if text is None else text
+    try:
+        return Cog().process_string(source, fname=str(path))
+    except CogError as exc:
+        last = str(exc).strip().splitlines()[-1]
+        raise ValueError(last.removeprefix("ValueError: ")) from None
 
 
 def render_docs(repo: Path) -> dict[Path, str]:
     """``{path relative to repo: the text it must have}`` for every page this module writes or fills."""
     pages = {RESULTS_DOC: results_markdown(repo)}
-    fills = {SPEED_DOC: speed_blocks(repo),
-             README: {"headline": headline_table(repo), "leaderboard": leaderboard_block(repo)}}
-    for rel, blocks in fills.items():
-        path = repo / rel
-        if path.is_file():
-            pages[rel] = fill_blocks(path.read_text(encoding="utf-8"), blocks, str(rel))
+    for rel in (SPEED_DOC, README):
+        if (repo / rel).is_file():
+            pages[rel] = cog_page(repo / rel)
     return pages
 
 

@@ -26,7 +26,7 @@ else is refused). The run writes into a temporary folder beside ``--out`` and mo
 place only once it has finished: a run that fails or is interrupted leaves ``--out`` as it was.
 
 * ``results.json``: one record per cell summarised over training runs, and ``runs/results.json``
-  one per training run (fields in ``footstep_gym.evaluation.stats``); ``results.csv`` likewise;
+  one per training run (fields in ``footstep_gym.evaluation.records``); ``results.csv`` likewise;
 * ``episodes.csv``: one row per episode (outcome, steps, time, path, clearance, ZMP margin, act time);
 * ``figures/<setting>.png``: the policies side by side on one seed (footprints, CoM path,
   obstacles at several instants, per-step period and stride), like the paper's Fig. 8-10;

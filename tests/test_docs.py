@@ -83,7 +83,7 @@ def test_cog_fills_the_blocks_and_names_a_bad_one(tmp_path):
     """The pages' blocks are cog's: the text between a block's code and its end is replaced, the rest kept; an
     unknown block name is refused by name; a block without its end is cog's error."""
     page = REPO / results_doc.README
-    text = ("a\n<!-- [[[cog import footstep_gym.evaluation.results_doc as r; r.cog_block(\"headline\") ]]] -->\n"
+    text = ("a\n<!-- [[[cog import footstep_gym.evaluation.results_doc as r; r.cog_block(cog, \"headline\") ]]] -->\n"
             "old\n<!-- [[[end]]] -->\nb\n")
     done = results_doc.cog_page(page, text)
     assert done.startswith("a\n<!-- [[[cog") and done.endswith("\n<!-- [[[end]]] -->\nb\n") and "old" not in done

@@ -14,7 +14,7 @@ then any other folder holding a ``run.json`` and a ``results.json``), then the s
 fills (``cog -r README.md`` does what the script does for that page), each block naming what fills it
 (:data:`BLOCKS`)::
 
-    <!-- [[[cog import footstep_gym.evaluation.results_doc as r; r.cog_block("headline") ]]] -->
+    <!-- [[[cog import footstep_gym.evaluation.results_doc as r; r.cog_block(cog, "headline") ]]] -->
     ...
     <!-- [[[end]]] -->
 """
@@ -369,10 +369,9 @@ def block(name: str, page: Path) -> str:
     return "\n" + BLOCKS[name](repo_of(page)).strip("\n") + "\n\n"
 
 
-def cog_block(name: str) -> None:
-    """Write block ``name`` into the page cog is processing (the call a page's ``[[[cog ...]]]`` makes)."""
-    import cog
-
+def cog_block(cog: Any, name: str) -> None:
+    """Write block ``name`` into the page cog is processing: the call a page's ``[[[cog ...]]]`` makes, with the
+    ``cog`` module cog gives it."""
     cog.out(block(name, Path(cog.inFile)))
 
 

@@ -124,3 +124,13 @@ def test_a_benchmarks_summary_is_its_records_over_runs():
     for p in sorted((REPO / "baselines" / "results" / "benchmark").glob("*/benchmark.json")):
         doc = json.loads(p.read_text(encoding="utf-8"))
         assert [r.to_dict() for r in over_runs(rec.load_records(doc["records"]))] == doc["summary"], p.parent.name
+
+
+@pytest.mark.parametrize("policy", ["ppo", "fixed-period"])
+def test_a_benchmarks_aggregates_are_its_records_score_matrix(policy):
+    """The tier aggregates (IQM over the tier's cells with the bootstrap over runs, from the one score matrix) of a
+    committed file are what its committed records give."""
+    from footstep_gym.evaluation import benchmark
+
+    doc = json.loads((REPO / "baselines" / "results" / "benchmark" / policy / "benchmark.json").read_text())
+    assert benchmark.tier_aggregates(rec.load_records(doc["records"])) == doc["aggregates"]

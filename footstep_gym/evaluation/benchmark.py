@@ -49,7 +49,7 @@ from footstep_gym.evaluation.profiles import OptionError, unique, usable_cores
 from footstep_gym.evaluation.report import policy_label, upper_bound
 from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, Task, check_cells, run_tasks
 from footstep_gym.evaluation.splits import split_seeds
-from footstep_gym.evaluation.records import CellRecord, cell_record, frame, over_runs
+from footstep_gym.evaluation.records import CellRecord, cell_record, over_runs
 from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, iqm_over_tasks, score_matrix
 from footstep_gym.evaluation.tables import interval, markdown as markdown_table, mm, num, plural, runs as runs_text
 from footstep_gym.scenarios import resolve_env_id, scene_of
@@ -184,25 +184,25 @@ def tier_aggregates(records: Sequence[CellRecord], reps: int = 2000) -> list[dic
     planner is one run: its interval is its point. Also ``success_mean`` (the plain mean over the tier's cells of the
     success pooled over runs), ``cells``, ``scenes`` and ``episodes`` (all episodes of the tier).
     """
-    df = frame(records)
-    df["label"] = df["scene"] + "/" + df["cell"]
+    groups: dict[tuple[str, str], list[CellRecord]] = {}
+    for r in records:
+        groups.setdefault((r.tier, r.policy), []).append(r)
     out = []
-    for (tier, policy), group in df.groupby(["tier", "policy"], sort=False):
-        cells = list(dict.fromkeys(group["label"]))
-        mine = [r for r in records if (r.tier, r.policy) == (tier, policy)]
+    for (tier, policy), mine in groups.items():
+        by_cell = pd.DataFrame([(f"{r.scene}/{r.cell}", r.run or "", r.successes, r.episodes) for r in mine],
+                               columns=["cell", "run", "successes", "episodes"])
+        cells = list(dict.fromkeys(by_cell["cell"]))
         matrix, _ = score_matrix(mine, cells)
         n_runs = matrix.shape[0]
-        per_cell = group.groupby("label", sort=False)
-        pooled = (per_cell["successes"].sum() / per_cell["episodes"].sum()).astype(float)
-        used = {r.run for label in cells
-                for r in sorted((r for r in mine if f"{r.scene}/{r.cell}" == label), key=lambda r: r.run or "")[:n_runs]}
+        totals = by_cell.groupby("cell", sort=False)[["successes", "episodes"]].sum()
+        used = by_cell.sort_values("run").groupby("cell", sort=False).head(n_runs)["run"]  # the runs in the matrix
         iqm, lo, hi = iqm_over_tasks(matrix, reps=reps)
         out.append({
-            "tier": tier, "policy": policy, "upper_bound": bool(group["upper_bound"].iloc[0]),
-            "success_iqm": iqm, "success_iqm_ci95": [lo, hi], "success_mean": float(pooled.mean()),
-            "runs": n_runs, "cells": cells, "scenes": sorted(set(group["scene"])),
-            "episodes": int(group["episodes"].sum()),
-            "runs_used": sorted(r for r in used if r is not None),
+            "tier": tier, "policy": policy, "upper_bound": bool(mine[0].upper_bound),
+            "success_iqm": iqm, "success_iqm_ci95": [lo, hi],
+            "success_mean": float((totals["successes"] / totals["episodes"]).mean()),
+            "runs": n_runs, "cells": cells, "scenes": sorted({r.scene for r in mine}),
+            "episodes": int(totals["episodes"].sum()), "runs_used": sorted(set(used) - {""}),
         })
     return out
 

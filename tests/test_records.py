@@ -107,7 +107,8 @@ def _committed() -> list[tuple[str, list[dict]]]:
              for p in sorted((REPO / "baselines" / "results").glob("*/results.json"))]
     for p in sorted((REPO / "baselines" / "results" / "benchmark").glob("*/benchmark.json")):
         doc = json.loads(p.read_text(encoding="utf-8"))
-        found += [(f"{p.relative_to(REPO)}:records", doc["records"]), (f"{p.relative_to(REPO)}:summary", doc["summary"])]
+        name = str(p.relative_to(REPO))
+        found += [(f"{name}:records", doc["records"]), (f"{name}:summary", doc["summary"])]
     return found
 
 

@@ -71,7 +71,8 @@ def test_a_benchmark_run_and_its_leaderboard_include_the_scenario(toy, tmp_path)
     doc = json.loads((out / "benchmark.json").read_text())
     assert doc["protocol"]["scenes"] == ["toy"] and doc["protocol"]["env_configs_sha256"] == \
         benchmark.env_configs_sha256()
-    assert [(r["scene"], r["tier"], r["cell"], r["episodes"]) for r in doc["records"]] == [("toy", "paper", "default", 2)]
+    assert [(r["scene"], r["tier"], r["cell"], r["episodes"]) for r in doc["records"]] == [
+        ("toy", "paper", "default", 2)]
     board = leaderboard.leaderboard([out], reps=50)
     assert board["scenes"] == ["toy"] and board["tier_cells"] == {"paper": ["toy/default"]}
     row = leaderboard.scene_markdown(board).splitlines()[2]

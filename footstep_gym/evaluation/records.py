@@ -16,7 +16,8 @@ its episodes (:func:`cell_record`). Definitions:
   between the body circle and any obstacle (``None`` where nothing came within reach); ``min_zmp_margin_*`` [m]
   likewise for the ZMP's distance to the stable region's edge (negative: an infeasible step).
 * ``plan_ms_median`` / ``_p95`` / ``_p99`` / ``_max``: wall clock of ``policy.act`` per footstep [ms], pooled over
-  the cell's footsteps: the only fields that depend on the machine (:data:`~footstep_gym.evaluation.stats.TIMING_FIELDS`).
+  the cell's footsteps: the only fields that depend on the machine
+  (:data:`~footstep_gym.evaluation.stats.TIMING_FIELDS`).
 * a benchmark cell adds where it is (``scene``, ``tier``, ``cell``, ``env_kwargs``) and ``upper_bound``.
 
 Each field is declared with :func:`pooled`, which says how :func:`over_runs` combines the records of one cell's

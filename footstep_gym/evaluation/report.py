@@ -213,7 +213,8 @@ def paper_comparison(records: Sequence[CellRecord]) -> str:
         fixed, aware = find("crossing", "fixed-period", **params), find("crossing", "period-aware", **params)
         rows.append(("crossing: success", "both reach the goal",
                      f"fixed-period {_rate(fixed)}, period-aware {_rate(aware)}"))
-        rows.append(("crossing: steps, path (successes)", "fixed-period 26 steps, 260 cm; period-aware 20 steps, 190 cm",
+        rows.append(("crossing: steps, path (successes)",
+                     "fixed-period 26 steps, 260 cm; period-aware 20 steps, 190 cm",
                      f"fixed-period {steps_path(fixed)}; period-aware {steps_path(aware)}"))
     for params in settings_of("crowd"):
         fixed, aware = find("crowd", "fixed-period", **params), find("crowd", "period-aware", **params)

@@ -31,7 +31,7 @@ import pandas as pd
 
 from footstep_gym.evaluation.records import CellRecord, frame, load_records
 from footstep_gym.evaluation.report import ablation_table, paper_comparison
-from footstep_gym.evaluation.tables import DASH, grid, interval, markdown, num
+from footstep_gym.evaluation.tables import grid, interval, markdown, num
 
 #: The page :func:`results_markdown` writes, and the hand-written pages with generated blocks, relative to the repo.
 RESULTS_DOC = Path("docs") / "results.md"

@@ -1,4 +1,5 @@
-"""Write docs/results.md (and the generated blocks of docs/speed.md and README.md) from the committed results.
+"""Write docs/results.md (the generated blocks of docs/speed.md and README.md, and each committed evaluation's
+summary.md) from the committed results.
 
 Usage::
 

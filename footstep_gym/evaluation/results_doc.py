@@ -1,5 +1,5 @@
-"""The results pages, written from the committed result files: ``docs/results.md`` and the generated blocks of
-``docs/speed.md`` and ``README.md``.
+"""The results pages, written from the committed result files: ``docs/results.md``, the generated blocks of
+``docs/speed.md`` and ``README.md``, and each committed evaluation's ``summary.md``.
 
 Nothing here runs an episode: every number comes from a file under ``baselines/results/`` (each evaluation's
 ``run.json`` and ``results.json``, the speed run's ``speed/speed.md`` and its tiers run's ``speed_tiers/speed.md``,
@@ -389,9 +389,25 @@ def cog_page(path: Path, text: str | None = None) -> str:
         raise ValueError(last.removeprefix("ValueError: ")) from None
 
 
+def summary_page(folder: Path) -> str:
+    """An evaluation folder's ``summary.md`` written again from its ``run.json`` and ``results.json`` (its list of
+    files, which no JSON holds, as the committed page has it)."""
+    from footstep_gym.evaluation.outputs import summary_markdown
+
+    text = (folder / "summary.md").read_text(encoding="utf-8")
+    listing = re.findall(r"^- `([^`]+)`$", text.split("\n## Files\n", 1)[-1], re.M)
+    return summary_markdown(load_json(folder / "run.json"), load_records(load_json(folder / "results.json")), listing)
+
+
 def render_docs(repo: Path) -> dict[Path, str]:
-    """``{path relative to repo: the text it must have}`` for every page this module writes or fills."""
+    """``{path relative to repo: the text it must have}`` for every page this module writes or fills: the results
+    page, the blocks of the hand-written pages, and each committed evaluation's ``summary.md``."""
     pages = {RESULTS_DOC: results_markdown(repo)}
+    results_dir = repo / "baselines" / "results"
+    for evaluation in evaluation_folders(results_dir):
+        if (results_dir / evaluation.folder / "summary.md").is_file():
+            pages[Path("baselines") / "results" / evaluation.folder / "summary.md"] = \
+                summary_page(results_dir / evaluation.folder)
     for rel in (SPEED_DOC, README):
         if (repo / rel).is_file():
             pages[rel] = cog_page(repo / rel)

@@ -65,6 +65,7 @@ from footstep_gym.evaluation.profiles import (PROFILES, OptionError, Settings, c
                                              describe_sweep, evaluation_settings, flag_of, make_cells, sweep_axes)
 from footstep_gym.evaluation.runner import BACKENDS, Task, run_tasks
 from footstep_gym.evaluation.splits import SPLITS
+from footstep_gym.evaluation.tables import plural
 from footstep_gym.scenarios import SCENARIOS
 
 
@@ -232,7 +233,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         refuse(problem)
     tasks = [Task(i, c, s, record=settings.figures) for i, c in enumerate(cells) for s in settings.seeds]
     workers = max(1, min(settings.workers, len(tasks)))
-    print(f"{describe_cells(cells)} x {settings.episodes} seeds = {len(tasks)} episodes on {workers} worker(s) "
+    print(f"{describe_cells(cells)} x {plural(settings.episodes, 'seed')} = {len(tasks)} episodes on "
+          f"{workers} worker(s) "
           f"({settings.backend}) -> {settings.out}", file=sys.stderr)
 
     def work(folder: Path) -> tuple[str, list[Path], str]:

@@ -17,17 +17,22 @@ def trace():
     return run_episode(Task(0, Cell("FootstepCrossing-v0", "crossing", "fixed-period"), 20000, record=True)).trace
 
 
-@pytest.mark.parametrize("n, rows, cols", [(1, 1, 1), (2, 1, 2), (15, 4, 4)])
-def test_many_policies_make_a_grid_of_readable_panels(trace, tmp_path, monkeypatch, n, rows, cols):
-    assert figures.grid_shape(n, wide=False) == (rows, cols)
+def test_the_grid_is_near_square_and_at_most_four_wide():
+    assert figures.grid_shape(1, 0.8) == (1, 1) and figures.grid_shape(2, 0.8) == (1, 2)
+    assert figures.grid_shape(15, 0.8) == (4, 4) and figures.grid_shape(16, 0.7) == (4, 4)
+    assert figures.grid_shape(6, 1.5) == (2, 3) and figures.grid_shape(40, 0.5) == (10, 4)
+
+
+@pytest.mark.parametrize("n", [1, 2, 15])
+def test_many_policies_make_a_grid_of_readable_panels(trace, tmp_path, monkeypatch, n):
     saved = []
     original = plt.Figure.savefig
     monkeypatch.setattr(plt.Figure, "savefig", lambda self, *a, **k: (saved.append(self), original(self, *a, **k))[1])
     traces = [dataclasses.replace(trace, policy=f"policy-{k}") for k in range(n)]
     path = figures.episode_figure(traces, tmp_path / "crossing.png", "crossing, seed 20000")
     height, width = plt.imread(path).shape[:2]
-    assert width <= cols * figures.PANEL_W * figures.DPI + 100
-    assert height <= rows * 5.5 * figures.DPI + 200  # 15 policies: about 1,800 px, not 7,000
+    assert width <= min(n, figures.MAX_COLUMNS) * figures.PANEL_W * figures.DPI + 100
+    assert height <= 2000  # 15 policies: about 1,800 px, not 7,000
     (fig,) = saved
     bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
     assert len(bars) == 1

@@ -193,14 +193,17 @@ def draw_commands(ax: Any, trace: Trace) -> None:
     ax.grid(alpha=0.3)
 
 
-#: Width of one policy's panel [in] and the figure's resolution [dpi]: a panel is about 400 px wide.
+#: Width of one policy's panel [in], the most panels side by side and the figure's resolution [dpi]: a panel is
+#: about 420 px wide, a figure at most about 1,750 px.
 PANEL_W = 4.2
+MAX_COLUMNS = 4
 DPI = 100
 
 
-def grid_shape(n: int, wide: bool) -> tuple[int, int]:
-    """``(rows, columns)`` of ``n`` panels: up to 4 columns (3 for a wide scene), rows as needed."""
-    cols = min(n, 3 if wide else 4)
+def grid_shape(n: int, panel_aspect: float) -> tuple[int, int]:
+    """``(rows, columns)`` of ``n`` panels of height / width ``panel_aspect``: the grid closest to square, at most
+    :data:`MAX_COLUMNS` wide."""
+    cols = max(1, min(n, MAX_COLUMNS, math.ceil(math.sqrt(n * panel_aspect))))
     return math.ceil(n / cols), cols
 
 
@@ -212,10 +215,9 @@ def episode_figure(traces: Sequence[Trace], path: Path, title: str) -> Path:
     t_max = max(float(tr.times[-1]) for tr in traces) or 1.0
     norm = matplotlib.colors.Normalize(0.0, t_max)
     x0, x1, y0, y1 = view_box(traces)
-    aspect = (y1 - y0) / max(x1 - x0, 1e-6)
-    rows, cols = grid_shape(len(traces), wide=aspect < 0.5)
-    scene_h = float(np.clip(PANEL_W * aspect, 1.0, 1.3 * PANEL_W))
+    scene_h = float(np.clip(PANEL_W * (y1 - y0) / max(x1 - x0, 1e-6), 1.0, 1.3 * PANEL_W))
     strip_h = 1.0
+    rows, cols = grid_shape(len(traces), (scene_h + strip_h + 0.8) / PANEL_W)
     fig = plt.figure(figsize=(PANEL_W * cols + 0.6, rows * (scene_h + strip_h + 0.8) + 1.6), layout="constrained")
     grid = fig.add_gridspec(2 * rows, cols, height_ratios=[scene_h, strip_h] * rows)
     scenes, strips = [], []

@@ -233,9 +233,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         refuse(problem)
     tasks = [Task(i, c, s, record=settings.figures) for i, c in enumerate(cells) for s in settings.seeds]
     workers = max(1, min(settings.workers, len(tasks)))
-    print(f"{describe_cells(cells)} x {plural(settings.episodes, 'seed')} = {len(tasks)} episodes on "
-          f"{workers} worker(s) "
-          f"({settings.backend}) -> {settings.out}", file=sys.stderr)
+    print(f"{describe_cells(cells)} x {plural(settings.episodes, 'seed')} = {plural(len(tasks), 'episode')} on "
+          f"{workers} worker(s) ({settings.backend}) -> {settings.out}", file=sys.stderr)
 
     def work(folder: Path) -> tuple[str, list[Path], str]:
         t0 = time.perf_counter()

@@ -448,8 +448,9 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
     all_tasks = tasks(cells, settings.episodes)
     workers = max(1, min(settings.workers, len(all_tasks)))
     per_run = f" ({len(cells)} with the training runs)" if len(cells) != len(settings.cells) else ""
-    print(f"benchmark of {settings.policy}: {len(settings.cells)} cells{per_run} x {settings.episodes} seeds = "
-          f"{len(all_tasks)} episodes on {workers} worker(s) ({settings.backend}) -> {settings.out}", file=sys.stderr)
+    print(f"benchmark of {settings.policy}: {plural(len(settings.cells), 'cell')}{per_run} x "
+          f"{plural(settings.episodes, 'seed')} = {plural(len(all_tasks), 'episode')} on {workers} worker(s) "
+          f"({settings.backend}) -> {settings.out}", file=sys.stderr)
 
     def work(folder: Path) -> tuple[str, list[Path], str]:
         t0 = time.perf_counter()

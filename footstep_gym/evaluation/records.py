@@ -26,7 +26,7 @@ a key the type does not have is refused by :meth:`CellRecord.from_dict`, so no m
 pooled record also carries ``runs``, ``run_success_rates`` and the interquartile mean of the runs' success rates
 with its stratified-bootstrap 95 % interval (``success_iqm``, ``success_iqm_ci95``; rliable).
 
-:func:`frame` turns records into a pandas DataFrame, the one form every table is drawn from.
+:func:`frame` turns records into a pandas DataFrame, from which the tables that pivot records are drawn.
 """
 
 from __future__ import annotations

@@ -7,13 +7,14 @@
   :func:`check_compatible`: all of one protocol (``env_configs_sha256``, ``episodes_per_cell``) and one file per
   policy. A problem raises :class:`LeaderboardError` (one line);
 * :func:`build`: the leaderboard (what ``leaderboard.json`` holds): per policy and tier the score matrix
-  (:func:`score_matrix`: a row per training run, a column per cell of the tier, every scene's), its IQM and
-  optimality gap (threshold 1.0: the mean of ``max(0, 1 - success)``) with rliable's stratified-bootstrap 95 %
-  intervals over training runs (:func:`interval_estimates`; one run, a planner's: the interval is the point), and
+  (:func:`~footstep_gym.evaluation.stats.score_matrix`, the benchmark's own: a row per training run, a column per
+  cell of the tier, every scene's), its IQM and optimality gap (threshold 1.0: the mean of ``max(0, 1 - success)``)
+  with rliable's stratified-bootstrap 95 % intervals over training runs
+  (:func:`~footstep_gym.evaluation.stats.interval_estimates`; one run, a planner's: the interval is the point), and
   per policy, tier and scene the mean success over the cells with the pooled Wilson interval
   (:func:`per_scene`);
-* :func:`headline_markdown` (the table the README shows), :func:`scene_markdown` and :func:`markdown`
-  (``leaderboard.md``);
+* :func:`headline_markdown` (the table the README shows; a row of another protocol, admitted by ``--allow-mixed``,
+  marked ‡), :func:`scene_markdown` and :func:`markdown` (``leaderboard.md``);
 * :func:`write_figures`: ``iqm_optimality_gap.png`` (and one per tier) and ``performance_profiles.png``
   (rliable's ``plot_interval_estimates`` and ``plot_performance_profiles``, matplotlib's Agg backend);
 * :func:`write_leaderboard`: every file, written into a temporary folder beside ``out`` and then moved in one by
@@ -37,7 +38,6 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-
 import pandas as pd
 
 from footstep_gym.evaluation.outfolder import new_run_folder

@@ -26,7 +26,7 @@ else is refused). The run writes into a temporary folder beside ``--out`` and mo
 place only once it has finished: a run that fails or is interrupted leaves ``--out`` as it was.
 
 * ``results.json``: one record per cell summarised over training runs, and ``runs/results.json``
-  one per training run (fields in ``footstep_gym.evaluation.stats``); ``results.csv`` likewise;
+  one per training run (fields in ``footstep_gym.evaluation.records``); ``results.csv`` likewise;
 * ``episodes.csv``: one row per episode (outcome, steps, time, path, clearance, ZMP margin, act time);
 * ``figures/<setting>.png``: the policies side by side on one seed (footprints, CoM path,
   obstacles at several instants, per-step period and stride), like the paper's Fig. 8-10;
@@ -61,10 +61,11 @@ from footstep_gym.evaluation import benchmark
 from footstep_gym.evaluation.benchmark import BenchmarkSettings, run_benchmark
 from footstep_gym.evaluation.outfolder import check_out, run_into
 from footstep_gym.evaluation.outputs import record_videos, write_outputs
-from footstep_gym.evaluation.profiles import (PROFILES, OptionError, Settings, check_cells, describe_sweep,
-                                             evaluation_settings, flag_of, make_cells, sweep_axes)
+from footstep_gym.evaluation.profiles import (PROFILES, OptionError, Settings, check_cells, describe_cells,
+                                             describe_sweep, evaluation_settings, flag_of, make_cells, sweep_axes)
 from footstep_gym.evaluation.runner import BACKENDS, Task, run_tasks
 from footstep_gym.evaluation.splits import SPLITS
+from footstep_gym.evaluation.tables import plural
 from footstep_gym.scenarios import SCENARIOS
 
 
@@ -190,15 +191,15 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings | BenchmarkSet
             if args.seed:
                 clash.append("--seed")
             if clash:
-                parser.error(f"--benchmark runs the protocol's cells and test seeds: {', '.join(clash)} do(es) not "
-                             "apply")
+                parser.error(f"--benchmark runs the protocol's cells and test seeds: {', '.join(clash)} "
+                             f"{'does' if len(clash) == 1 else 'do'} not apply")
             return benchmark.benchmark_settings(
                 policies=args.policy, agents=args.agent, name=args.name, full=args.full, episodes=args.episodes,
                 envs=args.env, tiers=args.tier, out=args.out, workers=args.workers, backend=args.backend,
                 ray_address=args.ray_address, agents_dir=args.agents_dir)
         given = [flag for flag, value in (("--full", args.full), ("--tier", args.tier), ("--name", args.name)) if value]
         if given:
-            parser.error(f"{', '.join(given)} go(es) with --benchmark")
+            parser.error(f"{', '.join(given)} {'goes' if len(given) == 1 else 'go'} with --benchmark only")
         chosen = {name for flag, name in ((args.paper, "paper"), (args.ablation, "ablation")) if flag}
         if args.profile:
             chosen.add(args.profile)
@@ -232,8 +233,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         refuse(problem)
     tasks = [Task(i, c, s, record=settings.figures) for i, c in enumerate(cells) for s in settings.seeds]
     workers = max(1, min(settings.workers, len(tasks)))
-    print(f"{len(cells)} cells x {settings.episodes} seeds = {len(tasks)} episodes on {workers} worker(s) "
-          f"({settings.backend}) -> {settings.out}", file=sys.stderr)
+    print(f"{describe_cells(cells)} x {plural(settings.episodes, 'seed')} = {plural(len(tasks), 'episode')} on "
+          f"{workers} worker(s) ({settings.backend}) -> {settings.out}", file=sys.stderr)
 
     def work(folder: Path) -> tuple[str, list[Path], str]:
         t0 = time.perf_counter()

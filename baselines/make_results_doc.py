@@ -1,4 +1,5 @@
-"""Write docs/results.md (and the generated blocks of docs/speed.md and README.md) from the committed results.
+"""Write docs/results.md (the generated blocks of docs/speed.md and README.md, and each committed evaluation's
+summary.md) from the committed results.
 
 Usage::
 
@@ -8,7 +9,8 @@ Usage::
 The pages are written from ``baselines/results/*/{run,results}.json``, ``baselines/results/speed/speed.md``,
 ``baselines/results/speed_tiers/speed.md``, ``baselines/results/soak/soak.md`` and
 ``baselines/agents/*/*/manifest.json`` (``footstep_gym.evaluation.results_doc``). Run it after committing a new evaluation into
-``baselines/results/``; ``tests/test_docs.py`` fails while a page is stale.
+``baselines/results/``; ``tests/test_docs.py`` fails while a page is stale. The blocks of README.md and docs/speed.md
+are cog's: ``cog -r README.md`` (pip package cogapp) regenerates one page the same way.
 """
 
 from __future__ import annotations
@@ -27,7 +29,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a page is stale")
     parser.add_argument("--repo", type=Path, default=REPO, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    stale = stale_docs(args.repo)
+    try:
+        stale = stale_docs(args.repo)
+    except ValueError as exc:  # a bad block in a page (its name, a missing end)
+        parser.error(str(exc))
     if args.check:
         for rel in stale:
             print(f"stale: {rel} (run python baselines/make_results_doc.py)", file=sys.stderr)

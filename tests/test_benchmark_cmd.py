@@ -10,6 +10,7 @@ stratified-bootstrap interval over training runs) is checked against hand-worked
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -21,7 +22,8 @@ from script_helpers import load_script
 from footstep_gym import tiers
 from footstep_gym.evaluation import benchmark, report
 from footstep_gym.evaluation.splits import split_seeds
-from footstep_gym.evaluation.stats import iqm_over_tasks
+from footstep_gym.evaluation.records import cell_record
+from footstep_gym.evaluation.stats import EpisodeResult, iqm_over_tasks
 
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "baselines" / "eval_planner.py"
@@ -37,6 +39,17 @@ RECORD_FIELDS = {
 }
 AGGREGATE_FIELDS = {"tier": str, "policy": str, "upper_bound": bool, "success_iqm": float, "success_iqm_ci95": list,
                     "success_mean": float, "runs": int, "cells": list, "scenes": list, "episodes": int}
+
+
+def squash(text: str) -> str:
+    """Markdown without the padding around table cells."""
+    return re.sub(r" *\| *", " | ", text)
+
+
+def episodes(wins: int, n: int = 10) -> list[EpisodeResult]:
+    return [EpisodeResult(cell_index=0, seed=20000 + i, outcome="goal" if i < wins else "collision", steps=20,
+                          time=10.0, path_length=2.5, com_path_length=2.6, plan_ms=[1.0], periods=[0.8],
+                          pso_ran=[None], min_clearance=0.03, min_zmp_margin=0.01) for i in range(n)]
 
 
 def run_cli(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
@@ -97,13 +110,13 @@ def test_every_cell_end_to_end_in_process(tmp_path, capsys):
     labels = [c.label for c in benchmark.benchmark_cells()]
     check_document(doc, 1, labels)
     assert doc["complete"] and doc["policy"] == FAST and doc["label"] == FAST and not doc["upper_bound"]
-    text = (out / "benchmark.md").read_text()
+    text = squash((out / "benchmark.md").read_text())
     assert "## Leaderboard row" in text and "Partial run" not in text
     for tier in tiers.tier_names():
         assert f"| **{tier}** | **all** |" in text
     assert (out / "notes.txt").read_text() == "keep" and (out / "episodes.csv").is_file()
     assert json.loads((out / "run.json").read_text())["complete"]
-    assert f"| {FAST} |" in capsys.readouterr().out  # the row printed
+    assert f"| {FAST} |" in squash(capsys.readouterr().out)  # the row printed
     assert not list(tmp_path.glob(".bench.*"))  # no temporary folder left
 
 
@@ -135,7 +148,8 @@ def test_the_ray_backend_gives_the_same_records(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--policy", FAST, "--policy", "period-aware"], "one method"),
     ([], "one method"),
-    (["--policy", FAST, "--paper"], "--paper"),
+    (["--policy", FAST, "--paper"], "--paper does not apply"),
+    (["--policy", FAST, "--paper", "--video"], "--paper, --video do not apply"),
     (["--policy", FAST, "--door-speed", "8"], "--door-speed"),
     (["--policy", FAST, "--split", "validation"], "--split validation"),
     (["--policy", FAST, "--full", "--episodes", "3"], "--full is 500"),
@@ -151,7 +165,7 @@ def test_bad_benchmark_options_exit_2_before_touching_out(args, message, tmp_pat
 
 def test_benchmark_options_need_benchmark(tmp_path):
     proc = run_cli("--full", "--out", str(tmp_path / "x"), timeout=120)
-    assert proc.returncode == 2 and "go(es) with --benchmark" in proc.stderr
+    assert proc.returncode == 2 and "--full goes with --benchmark only" in proc.stderr
     assert not (tmp_path / "x").exists()
 
 
@@ -171,8 +185,9 @@ def test_iqm_over_tasks_hand_worked():
 
 def test_tier_aggregates_over_training_runs_and_scenes():
     def record(tier, scene, cell, run, rate, policy="agent:mine"):
-        return {"tier": tier, "scene": scene, "cell": cell, "run": run, "policy": policy, "success_rate": rate,
-                "successes": round(10 * rate), "episodes": 10, "upper_bound": False}
+        return cell_record(f"Footstep{scene.title()}-v0", scene, policy, {"tier": tier, "tier_cell": cell},
+                           episodes(round(10 * rate)), run=run, scene=scene, tier=tier, cell=cell, env_kwargs={},
+                           upper_bound=False)
 
     rates = {("door", "a"): (0.2, 0.3), ("door", "b"): (0.4, 0.5), ("crowd", "a"): (0.6, 0.7),
              ("crowd", "b"): (0.8, 0.9)}
@@ -196,9 +211,5 @@ def test_the_oracle_is_marked_upper_bound_and_not_run_by_default():
     script = load_script("eval_planner")
     assert "oracle" not in script.parse_settings([]).policies  # the quick default: every policy but the oracle
     assert script.parse_settings(["--policy", "oracle"]).policies == ("oracle",)
-    record = {"scenario": "door", "params": {}, "policy": "oracle", "episodes": 1, "success_ci95": [0.2, 1.0],
-              "success_rate": 1.0, "collision_rate": 0.0, "fall_rate": 0.0, "timeout_rate": 0.0, "mean_steps": 30.0,
-              "mean_path_length": 2.6, "mean_time": 12.0, "mean_period": 0.8, "min_clearance_median": 0.03,
-              "min_clearance_min": 0.03, "min_zmp_margin_median": 0.01, "min_zmp_margin_min": 0.01,
-              "pso_step_rate": 0.0, "plan_ms_median": 20.0, "plan_ms_p95": 30.0, "plan_ms_p99": 40.0}
-    assert "| oracle (upper bound) |" in report.markdown_table([record])
+    record = cell_record("FootstepDoor-v0", "door", "oracle", {}, episodes(1, 1))
+    assert "| oracle (upper bound) |" in squash(report.markdown_table([record]))

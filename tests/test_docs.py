@@ -1,11 +1,11 @@
 """The README and docs/ hold what the code and the committed results say.
 
-* ``docs/results.md`` (generated whole) and the generated blocks of ``docs/speed.md`` and ``README.md`` equal what
-  ``baselines/make_results_doc.py`` writes from the committed result files, and the script follows a change of
-  those files;
+* ``docs/results.md`` (generated whole) and the generated blocks of ``docs/speed.md`` and ``README.md`` (cog's)
+  equal what ``baselines/make_results_doc.py`` writes from the committed result files, and the script follows a
+  change of those files;
 * every relative link (and image) of the README and of ``docs/*.md`` resolves to a file, and every ``#anchor`` to
   a heading of its page;
-* every Python snippet of the README runs as written from the repository root;
+* every Python snippet of the README runs as written (in a temporary folder: nothing is written into the checkout);
 * the README's two commands are the ones ``.ci/run`` and a newcomer use.
 """
 
@@ -79,14 +79,29 @@ def test_a_new_evaluation_folder_gets_its_own_section(tmp_path):
     assert "## Evaluation `my_sweep`" in text and "baselines/results/my_sweep/summary.md" in text
 
 
-def test_blocks_are_filled_and_bad_markers_are_named():
-    text = "a\n<!-- BEGIN GENERATED t: note -->\nold\n<!-- END GENERATED t -->\nb\n"
-    assert results_doc.fill_blocks(text, {"t": "new\n"}) == \
-        "a\n<!-- BEGIN GENERATED t: note -->\n\nnew\n\n<!-- END GENERATED t -->\nb\n"
-    with pytest.raises(ValueError, match="'u'"):
-        results_doc.fill_blocks(text.replace(" t", " u"), {"t": "new"}, "page")
-    with pytest.raises(ValueError, match="no '<!-- END GENERATED t -->'"):
-        results_doc.fill_blocks("<!-- BEGIN GENERATED t -->\nold\n", {"t": "new"}, "page")
+def test_cog_fills_the_blocks_and_names_a_bad_one(tmp_path):
+    """The pages' blocks are cog's: the text between a block's code and its end is replaced, the rest kept; an
+    unknown block name is refused by name; a block without its end is cog's error."""
+    page = REPO / results_doc.README
+    text = ("a\n<!-- [[[cog import footstep_gym.evaluation.results_doc as r; r.cog_block(cog, \"headline\") ]]] -->\n"
+            "old\n<!-- [[[end]]] -->\nb\n")
+    done = results_doc.cog_page(page, text)
+    assert done.startswith("a\n<!-- [[[cog") and done.endswith("\n<!-- [[[end]]] -->\nb\n") and "old" not in done
+    assert results_doc.headline_table(REPO).strip("\n") in done
+    with pytest.raises(ValueError, match="unknown generated block 'headlines'; known: headline, leaderboard"):
+        results_doc.cog_page(page, text.replace('"headline"', '"headlines"'))
+    with pytest.raises(ValueError, match=r"Missing '\[\[\[end\]\]\]'"):
+        results_doc.cog_page(page, text.replace("<!-- [[[end]]] -->\n", ""))
+    assert results_doc.repo_of(REPO / results_doc.SPEED_DOC) == REPO
+
+
+def test_cog_itself_checks_the_pages():
+    """``cog --check`` (the standard tool, without our script) finds the committed pages up to date."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    done = subprocess.run([sys.executable, "-m", "cogapp", "--check", str(REPO / results_doc.README),
+                           str(REPO / results_doc.SPEED_DOC)],
+                          capture_output=True, text=True, env=env, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
 
 
 # ---------------------------------------------------------------- links
@@ -136,13 +151,18 @@ def _snippet_params():
 
 
 @pytest.mark.parametrize("code", list(_snippet_params()))
-def test_readme_python_snippet_runs(code):
-    """As a reader would run it: a fresh interpreter in the repository root (runs/ is where a snippet may write)."""
-    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy"}
-    env.pop("FOOTSTEP_GYM_AGENTS_DIR", None)
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True,
+def test_readme_python_snippet_runs(code, tmp_path):
+    """As a reader would run it, in a fresh interpreter, but in a temporary folder: what a snippet writes (runs/)
+    lands there, not in the checkout. The shipped agents are named by ``$FOOTSTEP_GYM_AGENTS_DIR``, as a reader
+    outside the checkout's root names them."""
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy",
+           "PYTHONPATH": os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])]),
+           "FOOTSTEP_GYM_AGENTS_DIR": str(REPO / "baselines" / "agents")}
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, f"the snippet failed:\n{code}\n--- stderr:\n{done.stderr[-3000:]}"
+    if "RecordVideo" in code:
+        assert list((tmp_path / "runs" / "videos").glob("*.mp4"))  # it wrote where it says, in the cwd
 
 
 def test_readme_has_snippets_and_the_two_commands():

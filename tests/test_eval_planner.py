@@ -20,7 +20,8 @@ import pytest
 from footstep_gym.evaluation import figures as eval_report
 from footstep_gym.evaluation import profiles
 from footstep_gym.evaluation.runner import Cell, Task, planner_notes, run_episode
-from footstep_gym.evaluation.stats import OUTCOMES, TIMING_FIELDS, EpisodeResult, cell_record, wilson_interval
+from footstep_gym.evaluation.records import CellRecord, cell_record
+from footstep_gym.evaluation.stats import OUTCOMES, TIMING_FIELDS, EpisodeResult, wilson_interval
 from script_helpers import load_script
 
 REPO = Path(__file__).resolve().parents[1]
@@ -108,15 +109,15 @@ def test_cell_record_rates_and_means_over_successes():
     eps = [_episode(2, "goal", 20, 10.0, 2.0), _episode(0, "collision", 5, 3.0, 0.5),
            _episode(1, "goal", 30, 14.0, 3.0), _episode(3, "timeout", 200, 60.0, 1.0)]
     r = cell_record("FootstepDoor-v0", "door", "p", {"door_speed": 14.0}, eps)
-    assert r["seeds"] == [0, 1, 2, 3] and r["outcomes"] == ["collision", "goal", "goal", "timeout"]
-    assert (r["success_rate"], r["collision_rate"], r["fall_rate"], r["timeout_rate"]) == (0.5, 0.25, 0.0, 0.25)
-    assert r["mean_steps"] == 25 and r["mean_time"] == 12.0 and r["mean_path_length"] == 2.5
-    assert r["mean_steps_all"] == pytest.approx(63.75) and r["mean_path_length_all"] == pytest.approx(1.625)
-    assert r["success_ci95"] == list(wilson_interval(2, 4))
-    assert r["pso_step_rate"] == 0.5 and r["mean_period"] == pytest.approx(0.6)
-    assert r["plan_ms_median"] == 2.0 and r["plan_ms_max"] == 3.0
+    assert r.seeds == [0, 1, 2, 3] and r.outcomes == ["collision", "goal", "goal", "timeout"]
+    assert (r.success_rate, r.collision_rate, r.fall_rate, r.timeout_rate) == (0.5, 0.25, 0.0, 0.25)
+    assert r.mean_steps == 25 and r.mean_time == 12.0 and r.mean_path_length == 2.5
+    assert r.mean_steps_all == pytest.approx(63.75) and r.mean_path_length_all == pytest.approx(1.625)
+    assert r.success_ci95 == list(wilson_interval(2, 4))
+    assert r.pso_step_rate == 0.5 and r.mean_period == pytest.approx(0.6)
+    assert r.plan_ms_median == 2.0 and r.plan_ms_max == 3.0
     none = cell_record("FootstepDoor-v0", "door", "p", {}, [_episode(0, "fall", 3, 1.0, 0.1)])
-    assert none["mean_steps"] is None and none["mean_steps_all"] == 3
+    assert none.mean_steps is None and none.mean_steps_all == 3
     with pytest.raises(ValueError, match="outcome"):
         cell_record("FootstepDoor-v0", "door", "p", {}, [_episode(0, "exploded", 3, 1.0, 0.1)])
 
@@ -197,7 +198,7 @@ def test_cli_one_episode_per_env(tmp_path):
     proc = run_cli("--episodes", "1", "--env", "door", "--env", "FootstepCrossing-v0", "--env", "crowd",
                    "--policy", FASTEST_POLICY, "--out", str(out), "--workers", "1")
     assert proc.returncode == 0, proc.stderr
-    assert "| env |" in proc.stdout and FASTEST_POLICY in proc.stdout
+    assert proc.stdout.startswith("| env ") and FASTEST_POLICY in proc.stdout
 
     records = json.loads((out / "results.json").read_text())
     assert [(r["env"], r["params"]) for r in records] == [
@@ -244,7 +245,7 @@ def test_ablation_end_to_end(tmp_path):
     summary = (out / "summary.md").read_text()
     table = summary[summary.index("## What each addition buys"):]
     rows = [line for line in table.splitlines() if line.startswith("| period-aware") or line.startswith("| paper-")]
-    assert [row.split(" | ")[0][2:] for row in rows] == list(variants)
+    assert [row.split("|")[1].strip() for row in rows] == list(variants)
     assert all(row.count(" ms") == 2 for row in rows)  # a cell per setting
 
 
@@ -305,13 +306,14 @@ def test_seed_splits_are_disjoint_and_bounded():
         split_seeds("holdout", 1)
 
 
-def _run_record(run: str, outcomes: list[str]) -> dict:
+def _run_record(run: str, outcomes: list[str]) -> CellRecord:
     eps = [_episode(i, o, 10, 5.0, 1.0) for i, o in enumerate(outcomes)]
     return cell_record("FootstepDoor-v0", "door", "ppo", {"door_speed": 8.0}, eps, run=run)
 
 
 def test_over_runs_pools_episodes_and_gives_an_iqm_over_training_seeds():
-    from footstep_gym.evaluation.stats import iqm_interval, over_runs
+    from footstep_gym.evaluation.records import over_runs
+    from footstep_gym.evaluation.stats import iqm_over_tasks
 
     runs = [_run_record("FootstepDoor-v0_1", ["goal"] * 4),
             _run_record("FootstepDoor-v0_2", ["goal", "goal", "collision", "fall"]),
@@ -320,16 +322,16 @@ def test_over_runs_pools_episodes_and_gives_an_iqm_over_training_seeds():
     out = over_runs(runs + [planner])
     assert len(out) == 2 and out[1] is planner
     pooled = out[0]
-    assert (pooled["episodes"], pooled["successes"], pooled["success_rate"]) == (12, 6, 0.5)
-    assert pooled["collision_rate"] == pytest.approx(5 / 12) and pooled["fall_rate"] == pytest.approx(1 / 12)
-    assert pooled["success_ci95"] == list(wilson_interval(6, 12))
-    assert pooled["run_success_rates"] == [1.0, 0.5, 0.0] and pooled["runs"][0] == "FootstepDoor-v0_1"
+    assert (pooled.episodes, pooled.successes, pooled.success_rate) == (12, 6, 0.5)
+    assert pooled.collision_rate == pytest.approx(5 / 12) and pooled.fall_rate == pytest.approx(1 / 12)
+    assert pooled.success_ci95 == list(wilson_interval(6, 12))
+    assert pooled.run_success_rates == [1.0, 0.5, 0.0] and pooled.runs[0] == "FootstepDoor-v0_1"
     # IQM of three runs trims nothing (0.25 * 3 < 1): the mean; the bootstrap interval spans the runs.
-    assert pooled["success_iqm"] == pytest.approx(0.5)
-    lo, hi = pooled["success_iqm_ci95"]
+    assert pooled.success_iqm == pytest.approx(0.5)
+    lo, hi = pooled.success_iqm_ci95
     assert 0.0 <= lo < 0.5 < hi <= 1.0
     # With eight runs the IQM drops the best two and the worst two.
-    iqm, lo, hi = iqm_interval([0.0, 0.1, 0.5, 0.5, 0.6, 0.6, 0.9, 1.0])
+    iqm, lo, hi = iqm_over_tasks(np.array([[0.0, 0.1, 0.5, 0.5, 0.6, 0.6, 0.9, 1.0]]).T)
     assert iqm == pytest.approx(np.mean([0.5, 0.5, 0.6, 0.6])) and lo <= iqm <= hi
 
 
@@ -558,11 +560,11 @@ def test_missing_shipped_agents_are_one_line_not_warnings(tmp_path, capsys, recw
 def test_the_iqm_bootstrap_raises_no_future_warning():
     import warnings
 
-    from footstep_gym.evaluation.stats import iqm_interval
+    from footstep_gym.evaluation.stats import iqm_over_tasks
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        assert iqm_interval([0.2, 0.5, 0.9])[0] == pytest.approx(0.5 + 0.1 / 3, abs=0.1)
+        assert iqm_over_tasks([[0.2], [0.5], [0.9]])[0] == pytest.approx(0.5 + 0.1 / 3, abs=0.1)
 
 
 def test_file_names_are_safe_and_the_same_everywhere(tmp_path):

@@ -2,13 +2,14 @@
 
 The aggregates (IQM and optimality gap with stratified-bootstrap intervals over training runs) are checked against
 a hand-worked score matrix, the per-scene table against tiny fake benchmark.json files built with the records'
-real fields (``stats.cell_record`` plus the benchmark's own), the script end to end on them (tables, JSON and
+real fields (``records.cell_record`` with the benchmark's own), the script end to end on them (tables, JSON and
 non-empty PNGs; a user's file in ``--out`` kept), and bad input is refused with exit status 2 and nothing written.
 """
 
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,8 @@ import pytest
 from script_helpers import load_script
 
 from footstep_gym.evaluation import leaderboard as lb
-from footstep_gym.evaluation.stats import EpisodeResult, cell_record, iqm_over_tasks, wilson_interval
+from footstep_gym.evaluation.records import cell_record
+from footstep_gym.evaluation.stats import EpisodeResult, iqm_over_tasks, wilson_interval
 
 REPS = 20  # few bootstrap resamples: the tests check the plumbing, not the intervals' precision
 ENV_IDS = {"door": "FootstepDoor-v0", "crossing": "FootstepCrossing-v0"}
@@ -36,9 +38,13 @@ def record(policy: str, scene: str, tier: str, cell: str, run: str | None, wins:
                               time=10.0, path_length=2.5, com_path_length=2.6, plan_ms=[1.0, 2.0],
                               periods=[0.45, 0.5], pso_ran=[None, None], min_clearance=0.05, min_zmp_margin=0.01)
                 for i in range(EPISODES)]
-    r = cell_record(ENV_IDS[scene], scene, policy, {"tier": tier, "tier_cell": cell}, episodes, run=run)
-    r.update(scene=scene, tier=tier, cell=cell, env_kwargs={}, upper_bound=upper_bound)
-    return r
+    return cell_record(ENV_IDS[scene], scene, policy, {"tier": tier, "tier_cell": cell}, episodes, run=run,
+                       scene=scene, tier=tier, cell=cell, env_kwargs={}, upper_bound=upper_bound).to_dict()
+
+
+def squash(table: str) -> list[str]:
+    """A markdown table's lines without the padding around its cells."""
+    return [re.sub(r" *\| *", " | ", line).strip() for line in table.splitlines()]
 
 
 def document(policy: str, wins: dict[tuple[str, str], list[int]], upper_bound: bool = False, sha: str = SHA,
@@ -136,7 +142,7 @@ def test_the_board_pairs_runs_and_marks_partial_and_upper_bound():
     shown, left_out = lb.in_figure(board, "hard")
     assert [p["policy"] for p in shown] == ["agent", "planner", "oracle"]
     assert [p["policy"] for p in left_out] == ["partial"]
-    head = lb.headline_markdown(board).splitlines()
+    head = squash(lb.headline_markdown(board))
     assert head[0] == "| policy | runs | paper (2 cells) | hard (3 cells) |"
     assert head[2].startswith("| agent | 2 | ") and head[3].startswith("| planner | 1 | ")
     assert head[4].startswith("| partial (partial) | 2 | ") and head[4].endswith(" † |")
@@ -154,7 +160,7 @@ def test_the_per_scene_table_from_fake_files():
     assert door["episodes"] == 40 and door["cells"] == ["two_doors", "noisy"] and door["runs"] == 2
     assert rows[("planner", "paper", "crossing")]["success_mean"] == 1.0
     assert ("partial", "hard", "crossing") not in rows
-    table = lb.scene_markdown(board).splitlines()
+    table = squash(lb.scene_markdown(board))
     assert table[0] == "| tier | scene | cells | agent | planner | partial | oracle (upper bound) |"
     lo, hi = wilson_interval(28, 40)
     assert table[4] == (f"| hard | door | 2 | 0.70 [{lo:.2f}, {hi:.2f}] | 0.25 [{wilson_interval(5, 20)[0]:.2f}, "
@@ -176,7 +182,7 @@ def test_the_script_end_to_end(tmp_path, capsys):
     (out / "notes.txt").write_text("mine", encoding="utf-8")
     assert script.main([str(bench), "--out", str(out), "--reps", str(REPS)]) == 0
     printed = capsys.readouterr().out
-    assert printed.startswith("| policy | runs | paper (2 cells) | hard (3 cells) |")
+    assert squash(printed)[0] == "| policy | runs | paper (2 cells) | hard (3 cells) |"
     names = {"leaderboard.md", "leaderboard.json", "iqm_optimality_gap.png", "iqm_optimality_gap_paper.png",
              "iqm_optimality_gap_hard.png", "performance_profiles.png"}
     assert {p.name for p in out.iterdir()} == names | {"notes.txt"}
@@ -265,6 +271,16 @@ def test_allow_mixed_accepts_other_configs(tmp_path):
                                                  "--reps", str(REPS)]) == 0
     board = json.loads((tmp_path / "board" / "leaderboard.json").read_text(encoding="utf-8"))
     assert board["protocol"]["env_configs_sha256"] == [SHA, "cd" * 32]
+    # The row of the other protocol is marked and its difference said under the table.
+    three = write_fakes(tmp_path / "three", [document("agent", AGENT), document("partial", PARTIAL),
+                                             document("planner", PLANNER, sha="cd" * 32, episodes=20)])
+    board = lb.leaderboard([three], allow_mixed=True, reps=REPS)
+    rows = {line.split("|")[1].strip(): line for line in lb.headline_markdown(board).splitlines()[2:]}
+    assert set(rows) == {"agent", "partial (partial)", "planner ‡"}
+    notes = lb.headline_notes(board)
+    assert notes[-1].startswith(f"‡ planner: another protocol than the other rows (env configs {'cd' * 6}, 20 "
+                                "episodes per cell;")
+    assert "configs abababababab (rows marked ‡: another protocol)" in lb.markdown(board)
 
 
 def test_the_benchmarks_bootstrap_intervals_are_seeded_and_leave_numpys_generator_alone():
@@ -281,4 +297,5 @@ def test_the_benchmarks_bootstrap_intervals_are_seeded_and_leave_numpys_generato
     assert first == second and first[1] < first[0] < first[2]
     np.random.seed(1)
     assert np.random.random() == after_first  # the global stream untouched by the bootstrap
-    assert stats.iqm_interval([0.2, 0.6, 0.9], reps=300) == stats.iqm_interval([0.2, 0.6, 0.9], reps=300)
+    column = [[0.2], [0.6], [0.9]]
+    assert stats.iqm_over_tasks(column, reps=300) == stats.iqm_over_tasks(column, reps=300)

@@ -30,7 +30,6 @@ upper bound: its records carry ``upper_bound: true`` and the tables call it "NAM
 from __future__ import annotations
 
 import json
-import math
 import os
 import platform
 import sys
@@ -39,7 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, NoReturn, Sequence
 
-import numpy as np
+import pandas as pd
 
 import footstep_gym
 from footstep_gym import policies as registry
@@ -50,7 +49,9 @@ from footstep_gym.evaluation.profiles import OptionError, unique, usable_cores
 from footstep_gym.evaluation.report import policy_label, upper_bound
 from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, Task, check_cells, run_tasks
 from footstep_gym.evaluation.splits import split_seeds
-from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, cell_record, iqm_over_tasks, over_runs
+from footstep_gym.evaluation.records import CellRecord, cell_record, over_runs
+from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, iqm_over_tasks, score_matrix
+from footstep_gym.evaluation.tables import interval, markdown as markdown_table, mm, num, plural, runs as runs_text
 from footstep_gym.scenarios import resolve_env_id, scene_of
 
 #: The seeds of every cell: the test split's first ones (configs/eval.yaml).
@@ -162,64 +163,72 @@ def tasks(cells: Sequence[Cell], episodes: int) -> list[Task]:
 
 # ---------------------------------------------------------------- records and aggregates
 def cell_records(cells: Sequence[Cell], owners: Sequence[BenchmarkCell], results: Sequence[EpisodeResult]
-                 ) -> list[dict[str, Any]]:
+                 ) -> list[CellRecord]:
     """One record per runner cell (scene x tier x cell x policy x training run), in the cells' order."""
     by_cell: dict[int, list[EpisodeResult]] = {}
     for r in results:
         by_cell.setdefault(r.cell_index, []).append(r)
-    out = []
-    for i, (c, bc) in enumerate(zip(cells, owners)):
-        record = cell_record(c.env_id, c.scenario, c.policy, c.params_dict, by_cell.get(i, []), run=c.run_name)
-        record.update(scene=bc.scene, tier=bc.tier, cell=bc.name, env_kwargs=dict(bc.env_kwargs),
-                      upper_bound=upper_bound(c.policy))
-        out.append(record)
-    return out
+    return [cell_record(c.env_id, c.scenario, c.policy, c.params_dict, by_cell.get(i, []), run=c.run_name,
+                        scene=bc.scene, tier=bc.tier, cell=bc.name, env_kwargs=dict(bc.env_kwargs),
+                        upper_bound=upper_bound(c.policy))
+            for i, (c, bc) in enumerate(zip(cells, owners))]
 
 
-def tier_aggregates(records: Sequence[dict[str, Any]], reps: int = 2000) -> list[dict[str, Any]]:
+def tier_aggregates(records: Sequence[CellRecord], reps: int = 2000) -> list[dict[str, Any]]:
     """Per tier and policy: the IQM of the success rates over the tier's cells (all scenes) with a stratified-bootstrap
     95 % interval over training runs (:func:`~footstep_gym.evaluation.stats.iqm_over_tasks`).
 
-    ``records``: one per cell and run (:func:`cell_records`). The score matrix has one column per cell of
-    the tier and one row per training run, the ``k``-th run (in name order) of each cell in row ``k``; an
-    agent with fewer runs for some scene is cut to the fewest (``runs`` says how many entered). A planner
-    is one run: its interval is its point. Also ``success_mean`` (the plain mean over the tier's cells of the
+    ``records``: one per cell and run (:func:`cell_records`). The score matrix
+    (:func:`~footstep_gym.evaluation.stats.score_matrix`) has one column per cell of the tier and one row per
+    training run; an agent with fewer runs for some scene is cut to the fewest (``runs`` says how many entered). A
+    planner is one run: its interval is its point. Also ``success_mean`` (the plain mean over the tier's cells of the
     success pooled over runs), ``cells``, ``scenes`` and ``episodes`` (all episodes of the tier).
     """
-    groups: dict[tuple[str, str], dict[str, list[dict[str, Any]]]] = {}
+    groups: dict[tuple[str, str], list[CellRecord]] = {}
     for r in records:
-        groups.setdefault((r["tier"], r["policy"]), {}).setdefault(f"{r['scene']}/{r['cell']}", []).append(r)
+        groups.setdefault((r.tier, r.policy), []).append(r)
     out = []
-    for (tier, policy), by_task in groups.items():
-        columns = [sorted(rs, key=lambda r: r["run"] or "") for rs in by_task.values()]
-        n_runs = min(len(col) for col in columns)
-        matrix = np.array([[col[k]["success_rate"] for col in columns] for k in range(n_runs)], dtype=float)
+    for (tier, policy), mine in groups.items():
+        by_cell = pd.DataFrame([(f"{r.scene}/{r.cell}", r.run or "", r.successes, r.episodes) for r in mine],
+                               columns=["cell", "run", "successes", "episodes"])
+        cells = list(dict.fromkeys(by_cell["cell"]))
+        matrix, _ = score_matrix(mine, cells)
+        n_runs = matrix.shape[0]
+        totals = by_cell.groupby("cell", sort=False)[["successes", "episodes"]].sum()
+        used = by_cell.sort_values("run").groupby("cell", sort=False).head(n_runs)["run"]  # the runs in the matrix
         iqm, lo, hi = iqm_over_tasks(matrix, reps=reps)
-        pooled = [sum(r["successes"] for r in col) / sum(r["episodes"] for r in col) for col in columns]
         out.append({
-            "tier": tier, "policy": policy, "upper_bound": bool(columns[0][0]["upper_bound"]),
-            "success_iqm": iqm, "success_iqm_ci95": [lo, hi], "success_mean": float(np.mean(pooled)),
-            "runs": n_runs, "cells": list(by_task), "scenes": sorted({c.split("/")[0] for c in by_task}),
-            "episodes": sum(r["episodes"] for col in columns for r in col),
-            "runs_used": sorted({r["run"] for col in columns for r in col[:n_runs] if r["run"] is not None}),
+            "tier": tier, "policy": policy, "upper_bound": bool(mine[0].upper_bound),
+            "success_iqm": iqm, "success_iqm_ci95": [lo, hi],
+            "success_mean": float((totals["successes"] / totals["episodes"]).mean()),
+            "runs": n_runs, "cells": cells, "scenes": sorted({r.scene for r in mine}),
+            "episodes": int(totals["episodes"].sum()), "runs_used": sorted(set(used) - {""}),
         })
     return out
 
 
-#: The files that define the benchmark's envs (relative to configs/): a submission's ``env_configs_sha256``
-#: must match the release's (the planner's and the agents' own configs are the method's business).
-ENV_CONFIGS = ("benchmark.yaml", "env.yaml", "eval.yaml", "robot.yaml", "scenarios/door.yaml",
-               "scenarios/crossing.yaml", "scenarios/crowd.yaml")
+#: The files that define the benchmark's envs besides the scenarios' own YAMLs (relative to configs/): a
+#: submission's ``env_configs_sha256`` must match the release's (the planner's and the agents' own configs are the
+#: method's business).
+BASE_CONFIGS = ("benchmark.yaml", "env.yaml", "eval.yaml", "robot.yaml")
+
+
+def env_config_files() -> list[str]:
+    """The files :func:`env_configs_sha256` hashes: :data:`BASE_CONFIGS`, then every registered scenario's
+    ``config_file`` (in ``SCENARIOS`` order; relative to configs/ or absolute)."""
+    from footstep_gym.scenarios import SCENARIOS
+
+    return [*BASE_CONFIGS, *(cls.config_file for cls in SCENARIOS.values())]
 
 
 def env_configs_sha256() -> str:
-    """One SHA-256 over the files of :data:`ENV_CONFIGS` (name and bytes of each, in that order)."""
+    """One SHA-256 over the files of :func:`env_config_files` (name and bytes of each, in that order)."""
     import hashlib
 
     from footstep_gym.config import config_dir
 
     digest = hashlib.sha256()
-    for name in ENV_CONFIGS:
+    for name in env_config_files():
         digest.update(name.encode() + b"\0" + (config_dir() / name).read_bytes() + b"\0")
     return digest.hexdigest()
 
@@ -241,7 +250,7 @@ def source_commit() -> str | None:
     return head.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
 
 
-def benchmark_document(policy: str, cells: Sequence[BenchmarkCell], records: Sequence[dict[str, Any]],
+def benchmark_document(policy: str, cells: Sequence[BenchmarkCell], records: Sequence[CellRecord],
                        episodes: int, run_info: Mapping[str, Any]) -> dict[str, Any]:
     """What ``benchmark.json`` holds: the protocol, the per-run records, their summary over runs, the aggregates."""
     from footstep_gym import policies
@@ -260,26 +269,16 @@ def benchmark_document(policy: str, cells: Sequence[BenchmarkCell], records: Seq
             "env_configs_sha256": env_configs_sha256(),
         },
         "aggregates": tier_aggregates(records),
-        "records": list(records),
-        "summary": over_runs(list(records)),
+        "records": [r.to_dict() for r in records],
+        "summary": [r.to_dict() for r in over_runs(records)],
         "run": {**run_info, "python": platform.python_version(), "machine": platform.machine(),
                 "source_commit": source_commit()},
     }
 
 
 # ---------------------------------------------------------------- markdown
-def _num(v: float | None, digits: int = 2) -> str:
-    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
-
-
-def _mm(v: float | None) -> str:
-    return "–" if v is None else f"{1000 * v:.0f}"
-
-
 def _iqm_text(a: Mapping[str, Any]) -> str:
-    lo, hi = a["success_iqm_ci95"]
-    runs = f"{a['runs']} runs" if a["runs"] > 1 else "1 run"
-    return f"{a['success_iqm']:.2f} [{lo:.2f}, {hi:.2f}] ({runs})"
+    return f"{interval(a['success_iqm'], a['success_iqm_ci95'])} ({runs_text(a['runs'])})"
 
 
 DEFINITIONS = """\
@@ -316,33 +315,27 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
                  f"{n} episode{'s' if n != 1 else ''} per cell, test seeds {seeds_[0]}..{seeds_[-1]}.")
     if not doc["complete"]:
         lines += ["", "**Partial run** (some tiers or scenes left out): not a leaderboard row."]
-    lines += ["", "## Leaderboard row", "",
-              "| policy | " + " | ".join(f"{t}: IQM success [95% CI]" for t in tiers) + " |",
-              "|---|" + "---:|" * len(tiers)]
     by_tier = {a["tier"]: a for a in aggregates}
-    lines.append(f"| {label} | " + " | ".join(_iqm_text(by_tier[t]) if t in by_tier else "–" for t in tiers) + " |")
-    lines += ["", "## Cells", ""]
-    head = ["tier", "scene", "cell", "n", "success [95% CI]", "collision", "fall", "timeout", "time to goal (s)*",
-            "path (m)*", "clearance mm", "ZMP margin mm", "act ms median / p99"]
-    lines += ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] * 3 + ["---:"] * (len(head) - 3)) + "|"]
-    summary = doc["summary"]
+    row = pd.DataFrame([[label, *(_iqm_text(by_tier[t]) if t in by_tier else "–" for t in tiers)]],
+                       columns=["policy", *(f"{t}: IQM success [95% CI]" for t in tiers)])
+    lines += ["", "## Leaderboard row", "", markdown_table(row).rstrip("\n"), "", "## Cells", ""]
+    rows = []
+    summary = [CellRecord.from_dict(r) for r in doc["summary"]]
     for tier in tiers:
-        for r in (r for r in summary if r["tier"] == tier):
-            lo, hi = r["success_ci95"]
-            runs = f" ({len(r['runs'])} runs)" if r.get("runs") else ""
-            lines.append("| " + " | ".join([
-                r["tier"], r["scene"], r["cell"], f"{r['episodes']}{runs}",
-                f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]",
-                f"{r['collision_rate']:.2f}", f"{r['fall_rate']:.2f}", f"{r['timeout_rate']:.2f}",
-                _num(r["mean_time"], 1), _num(r["mean_path_length"]),
-                f"{_mm(r['min_clearance_median'])} / {_mm(r['min_clearance_min'])}",
-                f"{_mm(r['min_zmp_margin_median'])} / {_mm(r['min_zmp_margin_min'])}",
-                f"{_num(r['plan_ms_median'], 2)} / {_num(r['plan_ms_p99'], 1)}",
-            ]) + " |")
+        for r in (r for r in summary if r.tier == tier):
+            rows.append([r.tier, r.scene, r.cell, f"{r.episodes}" + (f" ({len(r.runs)} runs)" if r.runs else ""),
+                         interval(r.success_rate, r.success_ci95), num(r.collision_rate), num(r.fall_rate),
+                         num(r.timeout_rate), num(r.mean_time, 1), num(r.mean_path_length),
+                         f"{mm(r.min_clearance_median)} / {mm(r.min_clearance_min)}",
+                         f"{mm(r.min_zmp_margin_median)} / {mm(r.min_zmp_margin_min)}",
+                         f"{num(r.plan_ms_median)} / {num(r.plan_ms_p99, 1)}"])
         a = by_tier.get(tier)
         if a is not None:
-            lines.append(f"| **{tier}** | **all** | IQM over {len(a['cells'])} cells | {a['episodes']} | "
-                         f"**{_iqm_text(a)}** | mean {a['success_mean']:.2f} |" + " |" * (len(head) - 6))
+            rows.append([f"**{tier}**", "**all**", f"IQM over {plural(len(a['cells']), 'cell')}", str(a["episodes"]),
+                         f"**{_iqm_text(a)}**", f"mean {a['success_mean']:.2f}", *[""] * 7])
+    head = ["tier", "scene", "cell", "n", "success [95% CI]", "collision", "fall", "timeout", "time to goal (s)*",
+            "path (m)*", "clearance mm", "ZMP margin mm", "act ms median / p99"]
+    lines.append(markdown_table(pd.DataFrame(rows, columns=head), left=3).rstrip("\n"))
     lines += ["", DEFINITIONS.format(episodes=protocol["episodes_per_cell"], first=seeds_[0], last=seeds_[-1],
                                      warmup=protocol["warmup_acts"])]
     return "\n".join(lines)
@@ -435,8 +428,7 @@ def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell]
     files = [folder / "benchmark.json", folder / "benchmark.md", folder / "episodes.csv", folder / "run.json"]
     files[0].write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     files[1].write_text(text, encoding="utf-8")
-    rows = report.episode_rows(cells, results)
-    report.write_csv(files[2], list(rows[0]), rows)
+    report.write_csv(files[2], report.episode_table(cells, results))
     files[3].write_text(json.dumps({**run_info, "complete": doc["complete"],
                                     "footstep_gym": footstep_gym.__version__}, indent=2) + "\n", encoding="utf-8")
     row = text.split("## Leaderboard row\n\n", 1)[1].split("\n\n", 1)[0]
@@ -456,8 +448,9 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
     all_tasks = tasks(cells, settings.episodes)
     workers = max(1, min(settings.workers, len(all_tasks)))
     per_run = f" ({len(cells)} with the training runs)" if len(cells) != len(settings.cells) else ""
-    print(f"benchmark of {settings.policy}: {len(settings.cells)} cells{per_run} x {settings.episodes} seeds = "
-          f"{len(all_tasks)} episodes on {workers} worker(s) ({settings.backend}) -> {settings.out}", file=sys.stderr)
+    print(f"benchmark of {settings.policy}: {plural(len(settings.cells), 'cell')}{per_run} x "
+          f"{plural(settings.episodes, 'seed')} = {plural(len(all_tasks), 'episode')} on {workers} worker(s) "
+          f"({settings.backend}) -> {settings.out}", file=sys.stderr)
 
     def work(folder: Path) -> tuple[str, list[Path], str]:
         t0 = time.perf_counter()

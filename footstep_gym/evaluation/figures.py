@@ -180,50 +180,71 @@ def draw_commands(ax: Any, trace: Trace) -> None:
     changed = np.isfinite(pre) & (np.abs(pre - period) > 1e-6)
     if changed.any():
         ax.plot(steps[changed], pre[changed], "o", mfc="none", color="tab:purple", ms=4, label="T before PSO")
-    ax.set_ylabel("period T (s)", color="tab:purple")
-    ax.set_xlabel("footstep")
+    ax.set_ylabel("T (s)", color="tab:purple", fontsize=8)
+    ax.set_xlabel("footstep", fontsize=8)
+    ax.tick_params(labelsize=7)
     ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     ax.set_ylim(0.0, max(1.0, float(np.nanmax(period)) + 0.1))
     ax2 = ax.twinx()
     ax2.step(steps, 100 * trace.commands[:, 0], where="mid", color="tab:orange", lw=1.0, label="S (cm)")
-    ax2.set_ylabel("front stride S (cm)", color="tab:orange")
+    ax2.set_ylabel("S (cm)", color="tab:orange", fontsize=8)
+    ax2.tick_params(labelsize=7)
     ax2.set_ylim(-5, 11)
     ax.grid(alpha=0.3)
 
 
+#: Width of one policy's panel [in], the most panels side by side and the figure's resolution [dpi]: a panel is
+#: about 420 px wide, a figure at most about 1,750 px.
+PANEL_W = 4.2
+MAX_COLUMNS = 4
+DPI = 100
+
+
+def grid_shape(n: int, panel_aspect: float) -> tuple[int, int]:
+    """``(rows, columns)`` of ``n`` panels of height / width ``panel_aspect``: the grid closest to square, at most
+    :data:`MAX_COLUMNS` wide."""
+    cols = max(1, min(n, MAX_COLUMNS, math.ceil(math.sqrt(n * panel_aspect))))
+    return math.ceil(n / cols), cols
+
+
 def episode_figure(traces: Sequence[Trace], path: Path, title: str) -> Path:
-    """One row per policy (same seed): the trajectory panel, and beside it the per-step period and stride."""
+    """The policies on one seed side by side, a grid of panels: each the trajectory (obstacles coloured by time,
+    footprints, CoM path) over a strip of the per-step period and stride. One colour bar (time) and one legend for
+    all of them, below the grid."""
     cmap = plt.get_cmap(TIME_CMAP)
     t_max = max(float(tr.times[-1]) for tr in traces) or 1.0
     norm = matplotlib.colors.Normalize(0.0, t_max)
     x0, x1, y0, y1 = view_box(traces)
-    scene_w = 9.0  # [in]
-    scene_h = float(np.clip(scene_w * (y1 - y0) / max(x1 - x0, 1e-6), 2.0, 7.0))
-    row_h = max(scene_h, 2.2) + 0.7
-    fig = plt.figure(figsize=(scene_w + 5.2, row_h * len(traces) + 1.3), layout="constrained")
-    grid = fig.add_gridspec(len(traces), 2, width_ratios=[scene_w, 4.0])
-    scenes = []
+    scene_h = float(np.clip(PANEL_W * (y1 - y0) / max(x1 - x0, 1e-6), 1.0, 1.3 * PANEL_W))
+    strip_h = 1.0
+    rows, cols = grid_shape(len(traces), (scene_h + strip_h + 0.8) / PANEL_W)
+    fig = plt.figure(figsize=(PANEL_W * cols + 0.6, rows * (scene_h + strip_h + 0.8) + 1.6), layout="constrained")
+    grid = fig.add_gridspec(2 * rows, cols, height_ratios=[scene_h, strip_h] * rows)
+    scenes, strips = [], []
     for j, tr in enumerate(traces):
-        ax = fig.add_subplot(grid[j, 0])
+        r, c = divmod(j, cols)
+        ax = fig.add_subplot(grid[2 * r, c])
         scenes.append(ax)
         draw_obstacles(ax, tr, norm, cmap)
         draw_robot(ax, tr)
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
         ax.set_aspect("equal")
-        ax.set_ylabel("y (m)")
-        ax.set_title(f"{tr.policy}: {outcome_text(tr)}", fontsize=10, loc="left")
-        cax = fig.add_subplot(grid[j, 1])
-        draw_commands(cax, tr)
-        cax.set_title(f"{tr.policy}: commands", fontsize=9, loc="left")
-    scenes[-1].set_xlabel("x (m)")
+        ax.tick_params(labelsize=7)
+        ax.set_title(f"{tr.policy}\n{outcome_text(tr)}", fontsize=9, loc="left")
+        strips.append(fig.add_subplot(grid[2 * r + 1, c]))
+        draw_commands(strips[-1], tr)
+    for ax in scenes[-cols:]:
+        ax.set_xlabel("x (m)", fontsize=8)
+    for ax in scenes[::cols]:
+        ax.set_ylabel("y (m)", fontsize=8)
     sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
-    fig.colorbar(sm, ax=scenes, label="time (s) of obstacles and robot body", shrink=0.6,
-                 aspect=40, location="left", pad=0.02)
+    fig.colorbar(sm, ax=scenes + strips, location="bottom", shrink=0.5, aspect=50, pad=0.01,
+                 label="time (s): obstacles and robot body drawn at these instants")
     fig.legend(handles=legend_handles(), loc="outside lower center", ncols=4, fontsize=8, frameon=False)
     fig.suptitle(title, fontsize=11)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    fig.savefig(path, dpi=DPI)
     plt.close(fig)
     return path
 

@@ -7,13 +7,14 @@
   :func:`check_compatible`: all of one protocol (``env_configs_sha256``, ``episodes_per_cell``) and one file per
   policy. A problem raises :class:`LeaderboardError` (one line);
 * :func:`build`: the leaderboard (what ``leaderboard.json`` holds): per policy and tier the score matrix
-  (:func:`score_matrix`: a row per training run, a column per cell of the tier, every scene's), its IQM and
-  optimality gap (threshold 1.0: the mean of ``max(0, 1 - success)``) with rliable's stratified-bootstrap 95 %
-  intervals over training runs (:func:`interval_estimates`; one run, a planner's: the interval is the point), and
+  (:func:`~footstep_gym.evaluation.stats.score_matrix`, the benchmark's own: a row per training run, a column per
+  cell of the tier, every scene's), its IQM and optimality gap (threshold 1.0: the mean of ``max(0, 1 - success)``)
+  with rliable's stratified-bootstrap 95 % intervals over training runs
+  (:func:`~footstep_gym.evaluation.stats.interval_estimates`; one run, a planner's: the interval is the point), and
   per policy, tier and scene the mean success over the cells with the pooled Wilson interval
   (:func:`per_scene`);
-* :func:`headline_markdown` (the table the README shows), :func:`scene_markdown` and :func:`markdown`
-  (``leaderboard.md``);
+* :func:`headline_markdown` (the table the README shows; a row of another protocol, admitted by ``--allow-mixed``,
+  marked ‡), :func:`scene_markdown` and :func:`markdown` (``leaderboard.md``);
 * :func:`write_figures`: ``iqm_optimality_gap.png`` (and one per tier) and ``performance_profiles.png``
   (rliable's ``plot_interval_estimates`` and ``plot_performance_profiles``, matplotlib's Agg backend);
 * :func:`write_leaderboard`: every file, written into a temporary folder beside ``out`` and then moved in one by
@@ -34,18 +35,21 @@ import json
 import os
 import shutil
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
+import pandas as pd
 
 from footstep_gym.evaluation.outfolder import new_run_folder
-from footstep_gym.evaluation.stats import seeded_bootstrap as seeded, wilson_interval
+from footstep_gym.evaluation.records import CellRecord
+from footstep_gym.evaluation.stats import REPS, SEED, interval_estimates, score_matrix, seeded_bootstrap as seeded
+from footstep_gym.evaluation.stats import wilson_interval
+from footstep_gym.evaluation.tables import DASH, interval, markdown as markdown_table, plural
 
 #: The ``protocol_version`` of the benchmark files this module reads (footstep_gym.evaluation.benchmark).
 PROTOCOL_VERSION = 1
-#: Bootstrap resamples and seed of every interval (the benchmark's own: ``stats.iqm_over_tasks``).
-REPS = 2000
-SEED = 0
+#: The protocol fields that files must share (``--allow-mixed`` lifts this; the rows that differ are marked).
+PROTOCOL_KEYS = ("env_configs_sha256", "episodes_per_cell")
 #: The optimality gap's threshold: a success rate of 1 is optimal (rliable's ``gamma``).
 GAMMA = 1.0
 #: The thresholds of the performance profiles (success rates).
@@ -107,15 +111,16 @@ def load_benchmark(path: Path) -> dict[str, Any]:
     if (not isinstance(protocol, dict) or not isinstance(records, list) or not records
             or not isinstance(doc.get("policy"), str)):
         raise LeaderboardError(f"{path}: a benchmark.json needs \"policy\", \"protocol\" and non-empty \"records\"")
-    needed = ("scene", "tier", "cell", "run", "episodes", "successes", "success_rate")
-    for r in records:
-        missing = [k for k in needed if k not in r] if isinstance(r, dict) else list(needed)
-        if missing:
-            raise LeaderboardError(f"{path}: a record lacks {', '.join(missing)}")
+    try:
+        loaded = [CellRecord.from_dict(r) for r in records]
+    except (TypeError, ValueError) as exc:
+        raise LeaderboardError(f"{path}: {exc}") from None
+    if any(r.scene is None or r.tier is None or r.cell is None for r in loaded):
+        raise LeaderboardError(f"{path}: a record lacks its benchmark cell (scene, tier, cell)")
     for key in ("env_configs_sha256", "episodes_per_cell", "tiers", "scenes", "cells"):
         if key not in protocol:
             raise LeaderboardError(f"{path}: protocol lacks {key!r}")
-    return doc
+    return {**doc, "records": loaded}
 
 
 def check_compatible(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path], allow_mixed: bool = False) -> None:
@@ -130,7 +135,7 @@ def check_compatible(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path], a
         seen[doc["policy"]] = path
     if allow_mixed:
         return
-    for key in ("env_configs_sha256", "episodes_per_cell"):
+    for key in PROTOCOL_KEYS:
         values = {str(doc["protocol"][key]) for doc in docs}
         if len(values) > 1:
             which = ", ".join(f"{p} ({str(d['protocol'][key])[:12]})" for d, p in zip(docs, paths))
@@ -156,48 +161,6 @@ def tier_cells(docs: Sequence[Mapping[str, Any]]) -> dict[str, list[str]]:
             if key not in cells.setdefault(c["tier"], []):
                 cells[c["tier"]].append(key)
     return cells
-
-
-def score_matrix(records: Sequence[Mapping[str, Any]], tier: str, cells: Sequence[str]
-                 ) -> tuple[np.ndarray, list[str]]:
-    """The ``(runs, cells)`` success rates of one policy on the ``cells`` of ``tier`` it has records of, and
-    those cells (in ``cells``' order).
-
-    As the benchmark's aggregate (``benchmark.tier_aggregates``): the ``k``-th run (in name order) of each cell
-    is in row ``k`` (an agent shipped per scene pairs its runs by order), and a policy with fewer runs for some
-    cell is cut to the fewest. A planner is one run: one row.
-    """
-    by_cell: dict[str, list[Mapping[str, Any]]] = {}
-    for r in records:
-        if r["tier"] == tier:
-            by_cell.setdefault(f"{r['scene']}/{r['cell']}", []).append(r)
-    covered = [c for c in cells if c in by_cell]
-    if not covered:
-        return np.zeros((0, 0)), []
-    columns = [sorted(by_cell[c], key=lambda r: r["run"] or "") for c in covered]
-    n_runs = min(len(col) for col in columns)
-    return np.array([[col[k]["success_rate"] for col in columns] for k in range(n_runs)], dtype=float), covered
-
-
-
-
-def interval_estimates(matrix: np.ndarray, func: Callable[[np.ndarray], np.ndarray], reps: int = REPS,
-                       seed: int = SEED) -> tuple[np.ndarray, np.ndarray]:
-    """``func``'s point estimates on a ``(runs, tasks)`` matrix and their stratified-bootstrap 95 % intervals over
-    runs (``rliable.library.get_interval_estimates``, ``reps`` resamples, :func:`seeded` afresh for each policy:
-    the same on every rerun, and adding a policy changes no other's interval): ``(point, (2, k) lower/upper)``.
-    With one run there is nothing to resample: the interval is the point."""
-    from rliable import library as rly
-
-    matrix = np.asarray(matrix, dtype=float)
-    if matrix.ndim != 2 or matrix.size == 0:
-        raise ValueError(f"need a non-empty (runs, tasks) matrix, got shape {matrix.shape}")
-    if matrix.shape[0] == 1:
-        point = np.asarray(func(matrix), dtype=float)
-        return point, np.stack([point, point])
-    with seeded(seed) as random_state:
-        point, interval = rly.get_interval_estimates({"policy": matrix}, func, reps=reps, random_state=random_state)
-    return np.asarray(point["policy"], dtype=float), np.asarray(interval["policy"], dtype=float)
 
 
 def profile_estimates(matrix: np.ndarray, reps: int = REPS, seed: int = SEED, taus: np.ndarray = TAUS
@@ -226,23 +189,27 @@ def profile(matrix: np.ndarray, taus: np.ndarray = TAUS) -> np.ndarray:
     return (np.asarray(matrix, dtype=float).reshape(-1)[:, None] > np.asarray(taus)[None, :]).mean(axis=0)
 
 
+def _records(doc: Mapping[str, Any]) -> list[CellRecord]:
+    return [r if isinstance(r, CellRecord) else CellRecord.from_dict(r) for r in doc["records"]]
+
+
 def per_scene(doc: Mapping[str, Any], tiers: Sequence[str], scenes: Sequence[str]) -> list[dict[str, Any]]:
     """Per tier and scene the policy has records of: the mean over the scene's cells of the success pooled over
     training runs, and the Wilson 95 % interval of all their episodes pooled (runs and cells)."""
+    df = pd.DataFrame([(r.tier, r.scene, r.cell, r.successes, r.episodes) for r in _records(doc)],
+                      columns=["tier", "scene", "cell", "successes", "episodes"])
     out = []
     for tier in tiers:
         for scene in scenes:
-            rs = [r for r in doc["records"] if r["tier"] == tier and r["scene"] == scene]
-            if not rs:
+            rs = df[(df["tier"] == tier) & (df["scene"] == scene)]
+            if rs.empty:
                 continue
-            by_cell: dict[str, list[Mapping[str, Any]]] = {}
-            for r in rs:
-                by_cell.setdefault(r["cell"], []).append(r)
-            rates = [sum(r["successes"] for r in col) / sum(r["episodes"] for r in col) for col in by_cell.values()]
-            wins, n = sum(r["successes"] for r in rs), sum(r["episodes"] for r in rs)
-            out.append({"policy": doc["policy"], "tier": tier, "scene": scene, "success_mean": float(np.mean(rates)),
-                        "success_ci95": list(wilson_interval(wins, n)), "cells": list(by_cell),
-                        "runs": min(len(col) for col in by_cell.values()), "episodes": n})
+            by_cell = rs.groupby("cell", sort=False)
+            pooled = by_cell["successes"].sum() / by_cell["episodes"].sum()
+            wins, n = int(rs["successes"].sum()), int(rs["episodes"].sum())
+            out.append({"policy": doc["policy"], "tier": tier, "scene": scene, "success_mean": float(pooled.mean()),
+                        "success_ci95": list(wilson_interval(wins, n)), "cells": list(pooled.index),
+                        "runs": int(by_cell.size().min()), "episodes": n})
     return out
 
 
@@ -275,16 +242,17 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
     for doc, path in zip(docs, paths):
         name = doc["policy"]
         rows = []
+        records = _records(doc)
         for tier in tiers:
-            matrix, covered = score_matrix(doc["records"], tier, cells[tier])
+            matrix, covered = score_matrix([r for r in records if r.tier == tier], cells[tier])
             if not covered:
                 continue
-            (iqm, gap), interval = interval_estimates(matrix, iqm_and_gap, reps, seed)
+            (iqm, gap), bounds = interval_estimates(matrix, iqm_and_gap, reps, seed)
             rows.append({
                 "policy": name, "tier": tier, "upper_bound": bool(doc.get("upper_bound")),
                 "covers_tier": len(covered) == len(cells[tier]),
-                "iqm": float(iqm), "iqm_ci95": [float(interval[0, 0]), float(interval[1, 0])],
-                "optimality_gap": float(gap), "optimality_gap_ci95": [float(interval[0, 1]), float(interval[1, 1])],
+                "iqm": float(iqm), "iqm_ci95": [float(bounds[0, 0]), float(bounds[1, 0])],
+                "optimality_gap": float(gap), "optimality_gap_ci95": [float(bounds[0, 1]), float(bounds[1, 1])],
                 "success_mean": float(matrix.mean()), "runs": int(matrix.shape[0]), "cells": covered,
                 "missing_cells": [c for c in cells[tier] if c not in covered],
                 "scores": matrix.tolist(),
@@ -295,7 +263,8 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
         policies.append({
             "policy": name, "label": _label(doc), "upper_bound": bool(doc.get("upper_bound")),
             "complete": bool(doc.get("complete")) and covered_all,
-            "scenes": _ordered([s for s in scenes if any(r["scene"] == s for r in doc["records"])]),
+            "scenes": _ordered([s for s in scenes if any(r.scene == s for r in records)]),
+            "protocol": {key: doc["protocol"].get(key) for key in PROTOCOL_KEYS},
             "runs": sorted({r["runs"] for r in rows}),
             "source": None if path is None else _shown(path),
             "description": doc.get("description", ""),
@@ -336,12 +305,26 @@ def in_figure(board: Mapping[str, Any], tier: str) -> tuple[list[Mapping[str, An
 
 
 # ---------------------------------------------------------------- markdown
-def _ci(value: float, ci: Sequence[float]) -> str:
-    return f"{value:.2f} [{ci[0]:.2f}, {ci[1]:.2f}]"
-
-
 def _runs(runs: Sequence[int]) -> str:
-    return "–" if not runs else str(runs[0]) if len(runs) == 1 else f"{min(runs)}–{max(runs)}"
+    return DASH if not runs else str(runs[0]) if len(runs) == 1 else f"{min(runs)}–{max(runs)}"
+
+
+def _usual_protocol(board: Mapping[str, Any]) -> dict[str, Any]:
+    """The protocol most of the board's policies were run on (the first policy's on a tie)."""
+    seen = [json.dumps(p["protocol"], sort_keys=True) for p in board["policies"] if "protocol" in p]
+    return json.loads(max(seen, key=seen.count)) if seen else {}
+
+
+def _other_protocol(board: Mapping[str, Any], p: Mapping[str, Any]) -> str | None:
+    """How ``p``'s protocol differs from the board's usual one (``--allow-mixed``), or None."""
+    usual = _usual_protocol(board)
+    mine = p.get("protocol", usual)
+    parts = []
+    if mine.get("env_configs_sha256") != usual.get("env_configs_sha256"):
+        parts.append(f"env configs {str(mine.get('env_configs_sha256'))[:12]}")
+    if mine.get("episodes_per_cell") != usual.get("episodes_per_cell"):
+        parts.append(f"{mine.get('episodes_per_cell')} episodes per cell")
+    return ", ".join(parts) or None
 
 
 def _partial_note(board: Mapping[str, Any], p: Mapping[str, Any]) -> str:
@@ -359,32 +342,37 @@ def _partial_note(board: Mapping[str, Any], p: Mapping[str, Any]) -> str:
 
 def headline_markdown(board: Mapping[str, Any]) -> str:
     """The leaderboard's table (the README's): a row per policy, a column per tier with the IQM success over the
-    tier's cells [95 % CI], the training runs; partial runs after the complete ones, upper bounds last."""
+    tier's cells [95 % CI], the training runs; partial runs after the complete ones, upper bounds last. A row of
+    another protocol than the others' (``--allow-mixed``) is marked ‡."""
     tiers = board["tiers"]
     cells = board["tier_cells"]
-    lines = ["| policy | runs | " + " | ".join(f"{t} ({len(cells[t])} cells)" for t in tiers) + " |",
-             "|---|---:|" + "---:|" * len(tiers)]
+    rows = []
     for p in board["policies"]:
         row = []
         for t in tiers:
             a = _aggregate(board, p["policy"], t)
-            row.append("–" if a is None else _ci(a["iqm"], a["iqm_ci95"]) + ("" if a["covers_tier"] else " †"))
+            row.append(DASH if a is None else interval(a["iqm"], a["iqm_ci95"]) + ("" if a["covers_tier"] else " †"))
         label = p["label"] if p["complete"] else (f"{p['label'][:-1]}, partial)" if p["label"].endswith(")")
                                                   else f"{p['label']} (partial)")
+        if _other_protocol(board, p):
+            label += " ‡"
         if p["upper_bound"]:
             label = f"*{label}*"
-        lines.append(f"| {label} | {_runs(p['runs'])} | " + " | ".join(row) + " |")
-    return "\n".join(lines)
+        rows.append([label, _runs(p["runs"]), *row])
+    table = pd.DataFrame(rows, columns=["policy", "runs", *(f"{t} ({plural(len(cells[t]), 'cell')})" for t in tiers)])
+    return markdown_table(table).rstrip("\n")
 
 
 def headline_notes(board: Mapping[str, Any]) -> list[str]:
-    """The lines under the headline table: what the numbers are, and the partial runs."""
+    """The lines under the headline table: what the numbers are, the partial runs, the rows of another protocol."""
     b = board["bootstrap"]
     notes = [f"IQM of the success rates over every cell of the tier (all scenes) [95 % stratified-bootstrap "
              f"interval over training runs, rliable, {b['reps']} resamples, seed {b['seed']}; one run, a planner's: "
              "the interval is the point]; runs: training runs per cell. Rows: complete runs by the mean of their "
              "tiers' IQMs, then partial runs, then upper bounds (they read the true future; not baselines)."]
     notes += [_partial_note(board, p) + "." for p in board["policies"] if not p["complete"]]
+    notes += [f"‡ {p['label']}: another protocol than the other rows ({_other_protocol(board, p)}; admitted by "
+              "--allow-mixed): not comparable with them." for p in board["policies"] if _other_protocol(board, p)]
     return notes
 
 
@@ -392,31 +380,39 @@ def scene_markdown(board: Mapping[str, Any]) -> str:
     """Per tier and scene (rows) and policy (columns): the mean success over the scene's cells [pooled Wilson
     95 % CI]."""
     labels = {p["policy"]: p["label"] for p in board["policies"]}
-    lines = ["| tier | scene | cells | " + " | ".join(labels.values()) + " |",
-             "|---|---|---:|" + "---:|" * len(labels)]
+    per_scene = pd.DataFrame(board["per_scene"], columns=["policy", "tier", "scene", "success_mean", "success_ci95",
+                                                          "cells"])
+    rows = []
     for tier in board["tiers"]:
         for scene in board["scenes"]:
             n = sum(c.split("/")[0] == scene for c in board["tier_cells"][tier])
             if not n:
                 continue
+            here = per_scene[(per_scene["tier"] == tier) & (per_scene["scene"] == scene)].set_index("policy")
             row = []
             for policy in labels:
-                s = next((r for r in board["per_scene"] if (r["policy"], r["tier"], r["scene"]) ==
-                          (policy, tier, scene)), None)
-                row.append("–" if s is None else _ci(s["success_mean"], s["success_ci95"])
+                if policy not in here.index:
+                    row.append(DASH)
+                    continue
+                s = here.loc[policy]
+                row.append(interval(s["success_mean"], s["success_ci95"])
                            + ("" if len(s["cells"]) == n else f" ({len(s['cells'])}/{n} cells)"))
-            lines.append(f"| {tier} | {scene} | {n} | " + " | ".join(row) + " |")
-    return "\n".join(lines)
+            rows.append([tier, scene, str(n), *row])
+    table = pd.DataFrame(rows, columns=["tier", "scene", "cells", *labels.values()])
+    return markdown_table(table, left=2).rstrip("\n")
 
 
 def markdown(board: Mapping[str, Any]) -> str:
     """``leaderboard.md``: the headline table, the per-scene table, the figures and what was left out of them."""
-    protocol = board["protocol"]
-    n = protocol.get("episodes_per_cell")
+    usual = _usual_protocol(board)
+    n = usual.get("episodes_per_cell", board["protocol"].get("episodes_per_cell"))
+    sha = usual.get("env_configs_sha256", board["protocol"].get("env_configs_sha256"))
+    mixed = " (rows marked ‡: another protocol)" if any(_other_protocol(board, p) for p in board["policies"]) else ""
     lines = ["# Leaderboard", "",
-             f"{len(board['policies'])} policies on {sum(len(c) for c in board['tier_cells'].values())} cells "
+             f"{plural(len(board['policies']), 'policy')} on "
+             f"{plural(sum(len(c) for c in board['tier_cells'].values()), 'cell')} "
              f"(tiers {', '.join(board['tiers'])}; scenes {', '.join(board['scenes'])}), {n} episodes per cell, "
-             f"configs {str(protocol.get('env_configs_sha256'))[:12]}. Regenerate with "
+             f"configs {str(sha)[:12]}{mixed}. Regenerate with "
              "`python baselines/make_leaderboard.py` (docs/benchmark.md §4).", "",
              "## IQM success per tier", "", headline_markdown(board), ""]
     lines += [note + "\n" for note in headline_notes(board)]

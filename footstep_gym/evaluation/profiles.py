@@ -33,31 +33,43 @@ class OptionError(ValueError):
 
 @dataclass(frozen=True)
 class Profile:
-    """Defaults of a run; options given on the command line override them."""
+    """Defaults of a run; options given on the command line override them.
 
-    envs: tuple[str, ...]
+    ``scenes``: the scenes it runs (``None``: every scenario registered in ``SCENARIOS`` when the run is set up,
+    a plugin's or a test's included); :attr:`envs` resolves it.
+    """
+
+    scenes: tuple[str, ...] | None
     episodes: int
     #: ``{scene: {key: values}}`` over the scenes' ``sweep_axes``: one cell per value (the product over a
     #: scene's keys); a key not given (or given no values) stays at the scenario's default.
     sweeps: dict[str, dict[str, tuple[float, ...]]]
     policies: tuple[str, ...] | None  # None: every registered policy
 
+    @property
+    def envs(self) -> tuple[str, ...]:
+        """The scenes of the run: :attr:`scenes`, or every registered scenario (in ``SCENARIOS`` order)."""
+        return tuple(SCENARIOS) if self.scenes is None else self.scenes
+
+
+#: The paper's scenes (its protocol and the shipped agents' settings are defined on them).
+PAPER_SCENES = ("door", "crossing", "crowd")
 
 PROFILES = {
-    # About a minute on two cores: every planner and every shipped agent, 3 seeds.
-    "quick": Profile(envs=("door", "crossing", "crowd"), episodes=3, sweeps={"door": {"door_speed": (17.0,)}},
+    # Every registered scene, every planner and every shipped agent, 3 seeds.
+    "quick": Profile(scenes=None, episodes=3, sweeps={"door": {"door_speed": (17.0,)}},
                      policies=None),
     # The paper's protocol: door at 8, 14, 17 deg/s, crossing, crowd; >= 20 seeds per cell.
-    "paper": Profile(envs=("door", "crossing", "crowd"), episodes=20,
+    "paper": Profile(scenes=PAPER_SCENES, episodes=20,
                      sweeps={"door": {"door_speed": (8.0, 14.0, 17.0)}},
                      policies=("period-aware", "fixed-period", "pso-only", "paper-period-aware",
                                "paper-fixed-period")),
     # period-aware with each addition switched off in turn, and the paper's planner with each switched on in turn
     # (filled in by --ablation: footstep_gym.planners.ablation_variants()).
-    "ablation": Profile(envs=("door", "crossing", "crowd"), episodes=10, sweeps={"door": {"door_speed": (17.0,)}},
+    "ablation": Profile(scenes=None, episodes=10, sweeps={"door": {"door_speed": (17.0,)}},
                         policies=()),
-    # The agents against both planners on every setting the README reports.
-    "agents": Profile(envs=("door", "crossing", "crowd"), episodes=20,
+    # The agents against both planners on every setting the README reports (the scenes they were trained on).
+    "agents": Profile(scenes=PAPER_SCENES, episodes=20,
                       sweeps={"door": {"door_speed": (8.0, 11.0, 14.0, 17.0, 20.0)},
                               "crowd": {"crowd_speed": (0.16, 0.2)}},
                       policies=("period-aware", "fixed-period", "ppo", "ppo-fixed-period", "ppo-wide", "ppo-all",
@@ -213,6 +225,14 @@ def make_cells(settings: Settings) -> list[Cell]:
     if missing:
         print(registry.missing_agents_note(missing, settings.agents_dir), file=sys.stderr)
     return cells
+
+
+def describe_cells(cells: Sequence[Cell]) -> str:
+    """``41 cells (83 with the agents' training runs)``: the rows of the run's table (a setting and policy each, an
+    agent's training runs pooled into one), then the runner's cells where an agent has several runs."""
+    rows = len({(c.env_id, c.params, c.policy) for c in cells})
+    runs = f" ({len(cells)} with the agents' training runs)" if len(cells) != rows else ""
+    return f"{rows} cell{'' if rows == 1 else 's'}{runs}"
 
 
 def check_cells(cells: list[Cell]) -> str | None:

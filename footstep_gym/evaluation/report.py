@@ -1,25 +1,20 @@
-"""Tables and files of an evaluation: the markdown table, results.json/.csv, episodes.csv, the paper's numbers.
+"""Tables and files of an evaluation: the markdown tables, results.csv, episodes.csv, the paper's numbers.
 
-Reads records (:func:`~footstep_gym.evaluation.stats.cell_record`,
-:func:`~footstep_gym.evaluation.stats.over_runs`) and episode results; runs nothing.
+Reads records (:class:`~footstep_gym.evaluation.records.CellRecord`) and episode results; runs nothing. Every table
+is a pandas DataFrame of text cells (:mod:`footstep_gym.evaluation.tables`).
 """
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
+import pandas as pd
+
+from footstep_gym.evaluation.records import CellRecord, frame
 from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, safe_name
 from footstep_gym.evaluation.stats import EpisodeResult
-
-
-def _fmt(v: Any, digits: int = 2) -> str:
-    return "–" if v is None else f"{v:.{digits}f}"
-
-
-def _mm(v: float | None) -> str:
-    return "–" if v is None else f"{1000 * v:.0f}"
+from footstep_gym.evaluation.tables import DASH, grid, interval, markdown, mm, num, percent, runs
 
 
 def upper_bound(policy: str) -> bool:
@@ -34,92 +29,87 @@ def policy_label(policy: str) -> str:
     return f"{policy} (upper bound)" if upper_bound(policy) else policy
 
 
-def markdown_table(records: list[dict[str, Any]]) -> str:
+def setting_text(params: dict[str, Any]) -> str:
+    """``door_speed=17`` (every key), or :data:`DASH` for none."""
+    return ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}" for k, v in params.items()) or DASH
+
+
+def iqm_text(r: CellRecord) -> str:
+    """The IQM over training runs with its interval and the runs, ``– (1 run)`` for one, ``–`` for a planner."""
+    if r.success_iqm is not None and len(r.runs or ()) > 1:
+        return f"{interval(r.success_iqm, r.success_iqm_ci95)} ({runs(len(r.runs))})"
+    return f"{DASH} (1 run)" if r.runs else DASH
+
+
+def markdown_table(records: Sequence[CellRecord]) -> str:
     """One row per record (planners, and agents summarised over their training runs by ``over_runs``)."""
-    head = ["env", "setting", "policy", "n", "success [95% CI]", "IQM over training seeds [95% CI]",
-            "collision", "fall", "timeout", "steps*", "path (m)*", "time (s)*", "mean T (s)",
-            "clearance mm", "ZMP margin mm", "PSO steps", "act ms median / p95 / p99"]
-    lines = ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] * 3 + ["---:"] * (len(head) - 3)) + "|"]
-    for r in records:
-        lo, hi = r["success_ci95"]
-        setting = ", ".join(f"{k}={v:g}" for k, v in r["params"].items()) or "–"
-        pso = "–" if r["pso_step_rate"] is None else f"{100 * r['pso_step_rate']:.0f} %"
-        if r.get("success_iqm") is not None and len(r["runs"]) > 1:
-            ilo, ihi = r["success_iqm_ci95"]
-            iqm = f"{r['success_iqm']:.2f} [{ilo:.2f}, {ihi:.2f}] ({len(r['runs'])} runs)"
-        else:
-            iqm = "– (1 run)" if r.get("runs") else "–"
-        lines.append("| " + " | ".join([
-            r["scenario"], setting, policy_label(r["policy"]), str(r["episodes"]),
-            f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]", iqm, f"{r['collision_rate']:.2f}",
-            f"{r['fall_rate']:.2f}", f"{r['timeout_rate']:.2f}", _fmt(r["mean_steps"], 1),
-            _fmt(r["mean_path_length"]), _fmt(r["mean_time"], 1), _fmt(r["mean_period"]),
-            f"{_mm(r['min_clearance_median'])} / {_mm(r['min_clearance_min'])}",
-            f"{_mm(r['min_zmp_margin_median'])} / {_mm(r['min_zmp_margin_min'])}", pso,
-            f"{_fmt(r['plan_ms_median'], 2)} / {_fmt(r['plan_ms_p95'], 1)} / {_fmt(r['plan_ms_p99'], 1)}",
-        ]) + " |")
-    return "\n".join(lines) + "\n"
+    rows = [{
+        "env": r.scenario, "setting": setting_text(r.params), "policy": policy_label(r.policy), "n": r.episodes,
+        "success [95% CI]": interval(r.success_rate, r.success_ci95), "IQM over training seeds [95% CI]": iqm_text(r),
+        "collision": num(r.collision_rate), "fall": num(r.fall_rate), "timeout": num(r.timeout_rate),
+        "steps*": num(r.mean_steps, 1), "path (m)*": num(r.mean_path_length), "time (s)*": num(r.mean_time, 1),
+        "mean T (s)": num(r.mean_period),
+        "clearance mm": f"{mm(r.min_clearance_median)} / {mm(r.min_clearance_min)}",
+        "ZMP margin mm": f"{mm(r.min_zmp_margin_median)} / {mm(r.min_zmp_margin_min)}",
+        "PSO steps": percent(r.pso_step_rate),
+        "act ms median / p95 / p99": f"{num(r.plan_ms_median)} / {num(r.plan_ms_p95, 1)} / {num(r.plan_ms_p99, 1)}",
+    } for r in records]
+    return markdown(pd.DataFrame(rows), left=3)
 
 
-def ablation_table(records: list[dict[str, Any]], base: str) -> str:
+def ablation_table(records: Sequence[CellRecord], base: str) -> str:
     """What each addition buys: one row per policy (``base``, then its variants), one column per setting.
 
     A cell gives the success rate with its Wilson 95 % interval, then steps / time [s] / path [m]
     (means over the successes) and the median planning time [ms]; a variant's success is followed
     by its difference to ``base`` in the same setting where they differ.
     """
-    settings = list(dict.fromkeys((r["scenario"], tuple(r["params"].items())) for r in records))
-    policies = list(dict.fromkeys(r["policy"] for r in records))
-    by_key = {(r["scenario"], tuple(r["params"].items()), r["policy"]): r for r in records}
-    names = [f"{scenario} {', '.join(f'{v:g}' for _, v in params)}".strip() for scenario, params in settings]
-    lines = ["| policy | " + " | ".join(names) + " |", "|---|" + "---:|" * len(names)]
-    for policy in policies:
-        cells = []
-        for scenario, params in settings:
-            r = by_key.get((scenario, params, policy))
-            if r is None:
-                cells.append("–")
-                continue
-            lo, hi = r["success_ci95"]
-            text = f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]"
-            ref = by_key.get((scenario, params, base))
-            if policy != base and ref is not None and ref["success_rate"] != r["success_rate"]:
-                text += f" ({r['success_rate'] - ref['success_rate']:+.2f})"
-            text += (f"; {_fmt(r['mean_steps'], 1)} / {_fmt(r['mean_time'], 1)} / {_fmt(r['mean_path_length'])}"
-                     f"; {_fmt(r['plan_ms_median'], 1)} ms")
-            cells.append(text)
-        lines.append(f"| {policy} | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    df = frame(records)
+    df["column"] = [f"{r.scenario} {', '.join(f'{v:g}' for v in r.params.values())}".strip() for r in records]
+    base_rate = {c: r.success_rate for c, r in zip(df["column"], records) if r.policy == base}
+
+    def text(r: CellRecord, column: str) -> str:
+        out = interval(r.success_rate, r.success_ci95)
+        ref = base_rate.get(column)
+        if r.policy != base and ref is not None and ref != r.success_rate:
+            out += f" ({r.success_rate - ref:+.2f})"
+        return (f"{out}; {num(r.mean_steps, 1)} / {num(r.mean_time, 1)} / {num(r.mean_path_length)}"
+                f"; {num(r.plan_ms_median, 1)} ms")
+
+    df["text"] = [text(r, c) for r, c in zip(records, df["column"])]
+    table = grid(df, index="policy", columns="column", values="text")
+    return markdown(table)
 
 
-def csv_rows(records: list[dict[str, Any]]) -> tuple[list[str], list[dict[str, Any]]]:
-    """``results.csv`` columns and rows: params flattened to ``param_<key>``, lists joined by spaces."""
-    param_keys = sorted({k for r in records for k in r["params"]})
+def csv_table(records: Sequence[CellRecord]) -> pd.DataFrame:
+    """``results.csv``: a row per record, params flattened to ``param_<key>``, ``success_ci95`` to ``_lo`` / ``_hi``,
+    lists joined by spaces, None empty; the columns of the records' fields in their order."""
+    keys = sorted({k for r in records for k in r.params})
     rows = []
     for r in records:
         row: dict[str, Any] = {}
-        for key, value in r.items():
+        for key, value in r.to_dict().items():
             if key == "params":
-                row.update({f"param_{k}": r["params"].get(k, "") for k in param_keys})
+                row.update({f"param_{k}": value.get(k, "") for k in keys})
             elif key == "success_ci95":
                 row["success_ci95_lo"], row["success_ci95_hi"] = value
             elif isinstance(value, list):
                 row[key] = " ".join(str(v) for v in value)
+            elif isinstance(value, dict):
+                row[key] = setting_text(value)
             else:
                 row[key] = "" if value is None else value
         rows.append(row)
-    columns = list(dict.fromkeys(k for row in rows for k in row))  # agents' rows add the over-runs fields
-    return columns, [{k: row.get(k, "") for k in columns} for row in rows]
+    columns = list(dict.fromkeys(k for row in rows for k in row))  # a pooled agent's row adds the over-runs fields
+    return pd.DataFrame([[row.get(k, "") for k in columns] for row in rows], columns=columns, dtype=object)
 
 
-def write_csv(path: Path, columns: list[str], rows: list[dict[str, Any]]) -> None:
-    with path.open("w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=columns)
-        writer.writeheader()
-        writer.writerows(rows)
+def write_csv(path: Path, table: pd.DataFrame) -> None:
+    table.to_csv(path, index=False, lineterminator="\r\n")
 
 
-def episode_rows(cells: list[Cell], results: list[EpisodeResult]) -> list[dict[str, Any]]:
+def episode_table(cells: Sequence[Cell], results: Sequence[EpisodeResult]) -> pd.DataFrame:
+    """``episodes.csv``: a row per episode."""
     rows = []
     for r in results:
         c = cells[r.cell_index]
@@ -136,7 +126,7 @@ def episode_rows(cells: list[Cell], results: list[EpisodeResult]) -> list[dict[s
             "plan_ms_mean": round(sum(r.plan_ms) / len(r.plan_ms), 3) if r.plan_ms else "",
             "plan_ms_max": round(max(r.plan_ms), 3) if r.plan_ms else "",
         })
-    return rows
+    return pd.DataFrame(rows, dtype=object)
 
 
 def showcase_seed(cells: list[Cell], results: list[EpisodeResult], indices: list[int], policy: str) -> int:
@@ -190,58 +180,54 @@ def write_pictures(out: Path, cells: list[Cell], results: list[EpisodeResult], s
     return written
 
 
-def _rate(r: dict[str, Any] | None) -> str:
-    if r is None:
-        return "not run"
-    lo, hi = r["success_ci95"]
-    return f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]"
+def _rate(r: CellRecord | None) -> str:
+    return "not run" if r is None else interval(r.success_rate, r.success_ci95)
 
 
 #: Door outcomes in the paper (§3.1): door speed [deg/s] -> (fixed-period, period-aware).
 PAPER_DOOR = {8.0: ("goal", "goal"), 14.0: ("collides", "goal"), 17.0: ("collides", "goal")}
 
 
-def paper_comparison(records: list[dict[str, Any]]) -> str:
+def paper_comparison(records: Sequence[CellRecord]) -> str:
     """The paper's results (docs/model.md §6) beside the numbers of this run, for the cells that were run."""
-    def find(scenario: str, policy: str, **params: float) -> dict[str, Any] | None:
-        return next((r for r in records if r["scenario"] == scenario and r["policy"] == policy
-                     and r["params"] == params), None)
+    def find(scenario: str, policy: str, **params: float) -> CellRecord | None:
+        return next((r for r in records if r.scenario == scenario and r.policy == policy and r.params == params),
+                    None)
 
     def settings_of(scenario: str) -> list[dict[str, float]]:
-        found = {tuple(sorted(r["params"].items())) for r in records if r["scenario"] == scenario}
-        return [dict(p) for p in sorted(found)]
+        return [dict(p) for p in sorted({tuple(sorted(r.params.items())) for r in records if r.scenario == scenario})]
 
-    def steps_path(r: dict[str, Any] | None) -> str:
-        if r is None or r["mean_steps"] is None:
+    def steps_path(r: CellRecord | None) -> str:
+        if r is None or r.mean_steps is None:
             return "no success" if r is not None else "not run"
-        return f"{r['mean_steps']:.1f} steps, {100 * r['mean_path_length']:.0f} cm"
+        return f"{r.mean_steps:.1f} steps, {100 * r.mean_path_length:.0f} cm"
 
     rows = []
-    speeds = sorted({r["params"]["door_speed"] for r in records if r["scenario"] == "door"})
-    for v in speeds:
+    for v in sorted({r.params["door_speed"] for r in records if r.scenario == "door" and "door_speed" in r.params}):
         fixed, aware = find("door", "fixed-period", door_speed=v), find("door", "period-aware", door_speed=v)
         paper = PAPER_DOOR.get(v)
-        paper_text = f"fixed-period {paper[0]}, period-aware {paper[1]}" if paper else "(speed not in the paper)"
-        rows.append(f"| door {v:g} deg/s: success | {paper_text} "
-                    f"| fixed-period {_rate(fixed)}, period-aware {_rate(aware)} |")
+        rows.append((f"door {v:g} deg/s: success",
+                     f"fixed-period {paper[0]}, period-aware {paper[1]}" if paper else "(speed not in the paper)",
+                     f"fixed-period {_rate(fixed)}, period-aware {_rate(aware)}"))
     for params in settings_of("crossing"):
         fixed, aware = find("crossing", "fixed-period", **params), find("crossing", "period-aware", **params)
-        rows.append(f"| crossing: success | both reach the goal | fixed-period {_rate(fixed)}, "
-                    f"period-aware {_rate(aware)} |")
-        rows.append(f"| crossing: steps, path (successes) | fixed-period 26 steps, 260 cm; period-aware 20 steps, "
-                    f"190 cm | fixed-period {steps_path(fixed)}; period-aware {steps_path(aware)} |")
+        rows.append(("crossing: success", "both reach the goal",
+                     f"fixed-period {_rate(fixed)}, period-aware {_rate(aware)}"))
+        rows.append(("crossing: steps, path (successes)",
+                     "fixed-period 26 steps, 260 cm; period-aware 20 steps, 190 cm",
+                     f"fixed-period {steps_path(fixed)}; period-aware {steps_path(aware)}"))
     for params in settings_of("crowd"):
         fixed, aware = find("crowd", "fixed-period", **params), find("crowd", "period-aware", **params)
         where = f" at {params['crowd_speed']:g} m/s" if "crowd_speed" in params else ""
-        rows.append(f"| crowd{where}: success | fixed-period collides, period-aware survives | "
-                    f"fixed-period {_rate(fixed)}, period-aware {_rate(aware)} |")
-        period = "not run" if aware is None else f"mean T {aware['mean_period']:.2f} s, min {aware['min_period']:.2f} s"
-        rows.append(f"| crowd{where}: period-aware period | T_SS 0.60 -> 0.54 s (T 0.80 -> 0.74 s), S 7.0 -> 5.6 cm "
-                    f"(Table 4) | {period} |")
+        rows.append((f"crowd{where}: success", "fixed-period collides, period-aware survives",
+                     f"fixed-period {_rate(fixed)}, period-aware {_rate(aware)}"))
+        period = "not run" if aware is None else f"mean T {aware.mean_period:.2f} s, min {aware.min_period:.2f} s"
+        rows.append((f"crowd{where}: period-aware period",
+                     "T_SS 0.60 -> 0.54 s (T 0.80 -> 0.74 s), S 7.0 -> 5.6 cm (Table 4)", period))
     if not rows:
         return ""
-    return ("## Against the paper\n\n| result | paper (one run each) | this run (success rate [95% CI]) |\n"
-            "|---|---|---|\n" + "\n".join(rows) + "\n")
+    table = pd.DataFrame(rows, columns=["result", "paper (one run each)", "this run (success rate [95% CI])"])
+    return "## Against the paper\n\n" + markdown(table, left=3)
 
 
 DEFINITIONS = """\

@@ -1,5 +1,5 @@
-"""The results pages, written from the committed result files: ``docs/results.md`` and the generated blocks of
-``docs/speed.md`` and ``README.md``.
+"""The results pages, written from the committed result files: ``docs/results.md``, the generated blocks of
+``docs/speed.md`` and ``README.md``, and each committed evaluation's ``summary.md``.
 
 Nothing here runs an episode: every number comes from a file under ``baselines/results/`` (each evaluation's
 ``run.json`` and ``results.json``, the speed run's ``speed/speed.md`` and its tiers run's ``speed_tiers/speed.md``,
@@ -10,11 +10,13 @@ committed without the pages shows up.
 
 ``docs/results.md`` is generated whole: one section per evaluation folder (those of :data:`EVALUATIONS` first,
 then any other folder holding a ``run.json`` and a ``results.json``), then the shipped agents' training runs.
-``docs/speed.md`` and ``README.md`` are written by hand around blocks that this module fills::
+``docs/speed.md`` and ``README.md`` are written by hand around blocks that `cog <https://cog.readthedocs.io>`_
+fills (``cog -r README.md`` does what the script does for that page), each block naming what fills it
+(:data:`BLOCKS`)::
 
-    <!-- BEGIN GENERATED benchmark: ... -->
+    <!-- [[[cog import footstep_gym.evaluation.results_doc as r; r.cog_block(cog, "headline") ]]] -->
     ...
-    <!-- END GENERATED benchmark -->
+    <!-- [[[end]]] -->
 """
 
 from __future__ import annotations
@@ -25,7 +27,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+import pandas as pd
+
+from footstep_gym.evaluation.records import CellRecord, frame, load_records
 from footstep_gym.evaluation.report import ablation_table, paper_comparison
+from footstep_gym.evaluation.tables import grid, interval, markdown, num
 
 #: The page :func:`results_markdown` writes, and the hand-written pages with generated blocks, relative to the repo.
 RESULTS_DOC = Path("docs") / "results.md"
@@ -71,7 +77,6 @@ EVALUATIONS = (
 HEADLINE = ("agents", ("period-aware", "fixed-period", "ppo", "ppo-fixed-period", "ppo-wide", "ppo-all", "sac",
                        "td3"))
 
-_BEGIN = re.compile(r"<!-- BEGIN GENERATED (?P<name>[a-z0-9_-]+)(?P<note>[^>]*)-->\n")
 
 
 # ---------------------------------------------------------------- reading the files
@@ -90,22 +95,12 @@ def evaluation_folders(results_dir: Path) -> list[Evaluation]:
 
 
 # ---------------------------------------------------------------- formatting
-def _num(v: float | None, digits: int) -> str:
-    return "–" if v is None else f"{v:.{digits}f}"
-
-
-def _table(head: list[str], rows: list[list[str]], align: str = "---") -> str:
-    lines = ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] + [align] * (len(head) - 1)) + "|"]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
-    return "\n".join(lines) + "\n"
-
-
-def setting_label(record: dict[str, Any]) -> str:
+def setting_label(record: CellRecord) -> str:
     """``door 8 deg/s``, ``crowd 0.16 m/s``, ``crossing``; ``crowd (default)`` for a scene with a sweep axis run
     at its YAML's value; several keys as ``key=value``."""
     from footstep_gym.scenarios import SCENARIOS, units
 
-    scene, params = record["scenario"], record["params"]
+    scene, params = record.scenario, record.params
     if len(params) == 1:
         (key, value), = params.items()
         unit = units(scene).get(key, "") if scene in SCENARIOS else ""
@@ -116,43 +111,37 @@ def setting_label(record: dict[str, Any]) -> str:
     return f"{scene} (default)" if swept else scene
 
 
-def success_text(r: dict[str, Any], failures: bool = True) -> str:
+def success_text(r: CellRecord, failures: bool = True) -> str:
     """``0.95 [0.76, 0.99]``, then the IQM over training runs where there are several, then the non-zero failure
     rates: ``(c 0.05, f 0.00)`` with c / f / t = collision / fall / timeout."""
-    lo, hi = r["success_ci95"]
-    text = f"{r['success_rate']:.2f} [{lo:.2f}, {hi:.2f}]"
-    if r.get("success_iqm") is not None and len(r.get("runs") or ()) > 1:
-        ilo, ihi = r["success_iqm_ci95"]
-        text += f"; IQM {r['success_iqm']:.2f} [{ilo:.2f}, {ihi:.2f}]"
+    text = interval(r.success_rate, r.success_ci95)
+    if r.success_iqm is not None and len(r.runs or ()) > 1:
+        text += f"; IQM {interval(r.success_iqm, r.success_iqm_ci95)}"
     if failures:
-        rates = [f"{tag} {r[key]:.2f}" for tag, key in (("c", "collision_rate"), ("f", "fall_rate"),
-                                                        ("t", "timeout_rate")) if r[key] > 0]
+        rates = [f"{tag} {rate:.2f}" for tag, rate in (("c", r.collision_rate), ("f", r.fall_rate),
+                                                       ("t", r.timeout_rate)) if rate > 0]
         if rates:
             text += f" ({', '.join(rates)})"
     return text
 
 
-def outcome_text(r: dict[str, Any]) -> str:
+def outcome_text(r: CellRecord) -> str:
     """``26.9 / 12.5 / 2.60 / 0.46``: steps / time [s] / path [m] over the successes, mean period [s] over all."""
-    return (f"{_num(r['mean_steps'], 1)} / {_num(r['mean_time'], 1)} / {_num(r['mean_path_length'], 2)} / "
-            f"{_num(r['mean_period'], 2)}")
+    return f"{num(r.mean_steps, 1)} / {num(r.mean_time, 1)} / {num(r.mean_path_length)} / {num(r.mean_period)}"
 
 
-def _grid(records: list[dict[str, Any]], policies: list[str],
-          cell: Callable[[dict[str, Any]], str]) -> tuple[list[str], list[list[str]]]:
-    """A row per setting (in the records' order), a column per policy."""
-    settings = list(dict.fromkeys((r["scenario"], tuple(r["params"].items())) for r in records))
-    by_key = {(r["scenario"], tuple(r["params"].items()), r["policy"]): r for r in records}
-    labels = {(r["scenario"], tuple(r["params"].items())): setting_label(r) for r in records}
-    rows = []
-    for key in settings:
-        rows.append([labels[key]] + [cell(by_key[(*key, p)]) if (*key, p) in by_key else "–" for p in policies])
-    return ["setting", *policies], rows
+def policy_grid(records: list[CellRecord], policies: list[str], cell: Callable[[CellRecord], str]) -> str:
+    """A markdown table with a row per setting (in the records' order) and a column per policy, each entry
+    ``cell(record)``."""
+    df = frame(records)
+    df["setting"] = [setting_label(r) for r in records]
+    df["text"] = [cell(r) for r in records]
+    return markdown(grid(df, index="setting", columns="policy", values="text", order=policies))
 
 
-def _policies(records: list[dict[str, Any]]) -> list[str]:
+def _policies(records: list[CellRecord]) -> list[str]:
     """The policies in a readable order: the staged planners first, then the other planners, then the agents."""
-    present = list(dict.fromkeys(r["policy"] for r in records))
+    present = list(dict.fromkeys(r.policy for r in records))
     first = [p for p in ("period-aware", "fixed-period", "pso-only", "paper-period-aware", "paper-fixed-period")
              if p in present]
     return first + [p for p in present if p not in first]
@@ -172,8 +161,8 @@ def _agent_runs(run: dict[str, Any]) -> str:
     return ", ".join(f"`{n}`" for n in names)
 
 
-def _provenance(folder: str, run: dict[str, Any], records: list[dict[str, Any]]) -> str:
-    episodes = sum(r["episodes"] for r in records)
+def _provenance(folder: str, run: dict[str, Any], records: list[CellRecord]) -> str:
+    episodes = sum(r.episodes for r in records)
     lines = [f"`{run['command']}`", "",
              f"- {len(records)} cells, {episodes:,} episodes: {_seeds(run)}; {run.get('workers', '?')} worker(s) "
              f"({run.get('backend', 'local')}), {run.get('wall_time_s', 0):.0f} s wall time; Python "
@@ -199,30 +188,29 @@ def evaluation_section(results_dir: Path, evaluation: Evaluation) -> str:
     """The section of one evaluation folder: what it is, how it was run, its tables, its figures."""
     folder = evaluation.folder
     run = load_json(results_dir / folder / "run.json")
-    records = load_json(results_dir / folder / "results.json")
+    records = load_records(load_json(results_dir / folder / "results.json"))
     out = [f"## {evaluation.title}", ""]
     if evaluation.about:
         out += [evaluation.about, ""]
     out += [_provenance(folder, run, records)]
     if evaluation.layout == "ablation":
         base = "period-aware"
-        order = [base] + sorted(p for p in dict.fromkeys(r["policy"] for r in records)
-                                if p != base and not p.startswith("paper-")) \
-            + sorted(p for p in dict.fromkeys(r["policy"] for r in records) if p.startswith("paper-"))
-        ordered = sorted(records, key=lambda r: order.index(r["policy"]))
+        present = list(dict.fromkeys(r.policy for r in records))
+        order = [base] + sorted(p for p in present if p != base and not p.startswith("paper-")) \
+            + sorted(p for p in present if p.startswith("paper-"))
+        ordered = sorted(records, key=lambda r: order.index(r.policy))
         out += ["Each cell: success [Wilson 95 % CI] (difference to `period-aware` where it differs); steps / "
                 "time (s) / path (m), means over the successes; median planning time per footstep.", "",
                 ablation_table(ordered, base)]
     else:
         policies = _policies(records)
-        head, rows = _grid(records, policies, success_text)
         out += ["**Success** [Wilson 95 % CI]; for an agent trained with several seeds the episodes are pooled "
                 "over its runs, followed by the interquartile mean of the runs' success rates with its "
                 "stratified-bootstrap interval (rliable); then the non-zero failure rates (c collision, "
-                "f fall, t timeout).", "", _table(head, rows)]
-        head, rows = _grid(records, policies, outcome_text)
+                "f fall, t timeout).", "", policy_grid(records, policies, success_text)]
         out += ["**How**: steps / time (s) / path of the robot centre (m), means over the successful episodes "
-                "(– without one); mean walking period T (s) over all footsteps.", "", _table(head, rows)]
+                "(– without one); mean walking period T (s) over all footsteps.", "",
+                policy_grid(records, policies, outcome_text)]
     if folder == "paper":
         comparison = paper_comparison(records).strip("\n")
         if comparison:
@@ -273,8 +261,8 @@ def training_section(agents_dir: Path) -> str:
            "evaluations; the final evaluation success is the zoo's last deterministic evaluation "
            "(on the randomised training distribution unless marked). The runs shared two cores with other "
            "work at different times, so their wall times are not comparable with each other.", "",
-           _table(["agent", "env trained on", "seed", "timesteps", "envs", "wall time", "env steps/s (wall)",
-                   "final eval success", "torch"], rows)]
+           markdown(pd.DataFrame(rows, columns=["agent", "env trained on", "seed", "timesteps", "envs", "wall time",
+                                                "env steps/s (wall)", "final eval success", "torch"]), left=2)]
     for note, mark in notes.items():
         out += [f"{mark} {note[0].upper()}{note[1:]}.", ""]
     return "\n".join(out).rstrip("\n") + "\n"
@@ -314,10 +302,9 @@ def headline_table(repo: Path) -> str:
     """The README's headline table: success [95 % CI] of the headline policies on every setting of
     :data:`HEADLINE`'s evaluation."""
     folder, policies = HEADLINE
-    records = load_json(repo / "baselines" / "results" / folder / "results.json")
-    present = [p for p in policies if any(r["policy"] == p for r in records)]
-    head, rows = _grid(records, present, lambda r: success_text(r, failures=False))
-    return _table(head, rows)
+    records = load_records(load_json(repo / "baselines" / "results" / folder / "results.json"))
+    present = [p for p in policies if any(r.policy == p for r in records)]
+    return policy_grid(records, present, lambda r: success_text(r, failures=False))
 
 
 #: The benchmark's leaderboard across policies (baselines/make_leaderboard.py), whose headline the README shows.
@@ -357,35 +344,73 @@ def speed_blocks(repo: Path) -> dict[str, str]:
             "soak": _include(results / "soak" / "soak.md", skip=lambda line: "current RSS [MiB] at steps" in line)}
 
 
-def fill_blocks(text: str, blocks: dict[str, str], where: str = "") -> str:
-    """``text`` with the body of each ``<!-- BEGIN GENERATED name ... -->`` ... ``<!-- END GENERATED name -->``
-    block replaced by ``blocks[name]``. A block without its end, or named in neither, raises ``ValueError``."""
-    out, pos = [], 0
-    for match in _BEGIN.finditer(text):
-        if match.start() < pos:
-            continue
-        name = match.group("name")
-        end_marker = f"<!-- END GENERATED {name} -->"
-        end = text.find(end_marker, match.end())
-        if end < 0:
-            raise ValueError(f"{where}: block {name!r} has no '{end_marker}'")
-        if name not in blocks:
-            raise ValueError(f"{where}: unknown generated block {name!r}; known: {', '.join(blocks)}")
-        out += [text[pos:match.end()], "\n", blocks[name].strip("\n"), "\n\n"]
-        pos = end
-    out.append(text[pos:])
-    return "".join(out)
+#: The blocks of the hand-written pages: name -> what fills it from the repository (under ``baselines/``).
+BLOCKS: dict[str, Callable[[Path], str]] = {
+    "headline": lambda repo: headline_table(repo),
+    "leaderboard": lambda repo: leaderboard_block(repo),
+    "speed": lambda repo: speed_blocks(repo)["speed"],
+    "speed_tiers": lambda repo: speed_blocks(repo)["speed_tiers"],
+    "soak": lambda repo: speed_blocks(repo)["soak"],
+}
+
+
+def repo_of(page: Path) -> Path:
+    """The repository a page is in: the nearest folder above it holding ``baselines/``."""
+    for folder in Path(page).absolute().parents:
+        if (folder / "baselines").is_dir():
+            return folder
+    raise ValueError(f"{page}: no baselines/ in any folder above it")
+
+
+def block(name: str, page: Path) -> str:
+    """The text of generated block ``name`` for ``page`` (a blank line before and after it)."""
+    if name not in BLOCKS:
+        raise ValueError(f"{page}: unknown generated block {name!r}; known: {', '.join(BLOCKS)}")
+    return "\n" + BLOCKS[name](repo_of(page)).strip("\n") + "\n\n"
+
+
+def cog_block(cog: Any, name: str) -> None:
+    """Write block ``name`` into the page cog is processing: the call a page's ``[[[cog ...]]]`` makes, with the
+    ``cog`` module cog gives it."""
+    cog.out(block(name, Path(cog.inFile)))
+
+
+def cog_page(path: Path, text: str | None = None) -> str:
+    """``path``'s text (or ``text``, as if it were at ``path``) with every cog block regenerated; a bad block raises
+    ``ValueError`` with cog's (or the block's own) one line."""
+    from cogapp import Cog
+    from cogapp.cogapp import CogError
+
+    source = path.read_text(encoding="utf-8") if text is None else text
+    try:
+        return Cog().process_string(source, fname=str(path))
+    except CogError as exc:
+        last = str(exc).strip().splitlines()[-1]
+        raise ValueError(last.removeprefix("ValueError: ")) from None
+
+
+def summary_page(folder: Path) -> str:
+    """An evaluation folder's ``summary.md`` written again from its ``run.json`` and ``results.json`` (its list of
+    files, which no JSON holds, as the committed page has it)."""
+    from footstep_gym.evaluation.outputs import summary_markdown
+
+    text = (folder / "summary.md").read_text(encoding="utf-8")
+    listing = re.findall(r"^- `([^`]+)`$", text.split("\n## Files\n", 1)[-1], re.M)
+    return summary_markdown(load_json(folder / "run.json"), load_records(load_json(folder / "results.json")), listing)
 
 
 def render_docs(repo: Path) -> dict[Path, str]:
-    """``{path relative to repo: the text it must have}`` for every page this module writes or fills."""
+    """``{path relative to repo: the text it must have}`` for every page this module writes or fills: the results
+    page, the blocks of the hand-written pages, and each committed evaluation's ``summary.md``."""
     pages = {RESULTS_DOC: results_markdown(repo)}
-    fills = {SPEED_DOC: speed_blocks(repo),
-             README: {"headline": headline_table(repo), "leaderboard": leaderboard_block(repo)}}
-    for rel, blocks in fills.items():
-        path = repo / rel
-        if path.is_file():
-            pages[rel] = fill_blocks(path.read_text(encoding="utf-8"), blocks, str(rel))
+    results_dir = repo / "baselines" / "results"
+    for evaluation in evaluation_folders(results_dir):
+        if (results_dir / evaluation.folder / "summary.md").is_file():
+            pages[Path("baselines") / "results" / evaluation.folder / "summary.md"] = \
+                summary_page(results_dir / evaluation.folder)
+    for rel in (SPEED_DOC, README):
+        if (repo / rel).is_file():
+            pages[rel] = cog_page(repo / rel)
     return pages
 
 

@@ -86,9 +86,12 @@ def scene_curves(agents_dir: str | Path, out_dir: str | Path) -> list[Path]:
             color = f"C{k % 10}"
             for ax, x, scale in ((axes[0], "timesteps", 1e3), (axes[1], "wall_time_s", 60.0)):
                 xs, mean, lo, hi = _mean_band(curves, x)
-                ax.plot(xs / scale, mean, style, color=color, lw=1.8, label=label)
-                if len(curves) > 1:
+                short = len(xs) <= training.SHORT_CURVE  # one point alone draws no line: mark every point
+                ax.plot(xs / scale, mean, style, color=color, lw=1.8, label=label, marker="o" if short else None)
+                if len(curves) > 1 and len(xs) > 1:
                     ax.fill_between(xs / scale, lo, hi, color=color, alpha=0.15, lw=0)
+                elif len(curves) > 1:  # the runs' range at the one point
+                    ax.errorbar(xs / scale, mean, yerr=[mean - lo, hi - mean], fmt="none", color=color, capsize=3)
             drawn += 1
         if not drawn:
             plt.close(fig)

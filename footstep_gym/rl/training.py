@@ -235,6 +235,8 @@ def eval_curve(run: Path) -> dict[str, list[float]]:
 
 #: The validation curve a run's ``ValidationCallback`` writes (footstep_gym/rl/callbacks.py), shipped with it.
 VALIDATION_CURVE = "validation.csv"
+#: A curve of at most this many points is drawn with a marker on each (one point alone is no line).
+SHORT_CURVE = 5
 
 
 def validation_curve(run: Path) -> dict[str, list[float]]:
@@ -417,11 +419,13 @@ def learning_curves(runs: Sequence[str | Path], out: str | Path, title: str,
     if not curves:
         raise ValueError(f"no evaluation successes recorded in {[str(r) for r in runs]}")
     for run, c in curves:
-        ax.plot(np.array(c["timesteps"]) / 1e3, c["success"], lw=0.8, alpha=0.6, label=run.name)
+        ax.plot(np.array(c["timesteps"]) / 1e3, c["success"], lw=0.8, alpha=0.6, label=run.name,
+                marker="o" if len(c["success"]) <= SHORT_CURVE else None)
     n = min(len(c["success"]) for _, c in curves)
     if len(curves) > 1 and n:
         mean = np.mean([c["success"][:n] for _, c in curves], axis=0)
-        ax.plot(np.array(curves[0][1]["timesteps"][:n]) / 1e3, mean, lw=2.2, color="black", label="mean of runs")
+        ax.plot(np.array(curves[0][1]["timesteps"][:n]) / 1e3, mean, lw=2.2, color="black", label="mean of runs",
+                marker="o" if n <= SHORT_CURVE else None)
     for (label, rate), style in zip((reference or {}).items(), ("--", ":", "-.", (0, (5, 1)))):
         ax.axhline(rate, ls=style, color="tab:red", lw=1.2, label=f"{label} ({rate:.2f})")
     ax.set_xlabel("env steps (thousands)")

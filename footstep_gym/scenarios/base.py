@@ -72,11 +72,11 @@ class ScenarioConfig:
             limit = getattr(self, max_key)
             value = self.largest(key)
             if value > limit:
-                what = (f"randomize.{key} reaches {value:g}" if key in self.randomize
-                        else f"{key}={value:g}")
                 unit = f" {units[key]}" if units[key] else ""
+                what = (f"randomize.{key} reaches {value:g}{unit}, above" if key in self.randomize
+                        else f"{key}={value:g}{unit} is above")
                 raise ConfigError(
-                    f"{type(self).__name__}: {what}{unit} is above {max_key}={limit:g}{unit} (the collision "
+                    f"{type(self).__name__}: {what} {max_key}={limit:g}{unit} (the collision "
                     f"sweep's cost grows with it; raise {max_key} to allow more, at a cost per step)")
 
     def draw(self, rng: np.random.Generator) -> "ScenarioConfig":

@@ -189,3 +189,16 @@ def empty_predictor_body(robot):
     env.close()
     return BodyModel(ObstaclePredictor(snap), robot, margin=0.02)
 
+
+
+def play(env: gym.Env, policy, seed: int, policy_seed: int) -> tuple[np.ndarray, str]:
+    """One episode of ``policy`` in ``env`` (reset with ``seed``, the policy with ``policy_seed``): the commands it
+    chose ``(K, 5)`` and how the episode ended."""
+    obs, _ = env.reset(seed=seed)
+    policy.reset(seed=policy_seed)
+    commands = []
+    while True:
+        commands.append(policy.act(obs, env.unwrapped.sensing()))
+        obs, _, terminated, truncated, info = env.step(commands[-1])
+        if terminated or truncated:
+            return np.array(commands), info["termination"]

@@ -15,6 +15,7 @@ from footstep_gym.errors import ConfigError
 from footstep_gym.planners.lattice import LatticeSearch, centre_speed_bound, lattice_size, transition_set
 from footstep_gym.planners.params import load_planner_config
 from footstep_gym.planners.prediction import ObstaclePredictor
+from planner_helpers import play
 
 
 def _snapshot(env_id: str = "FootstepDoor-v0", seed: int = 3, goal_ahead: float | None = None):
@@ -143,17 +144,7 @@ def test_a_wall_across_the_way_is_never_stepped_into():
 def test_lattice_episodes_replay_exactly_and_cross_the_crossing():
     env = gym.make("FootstepCrossing-v0")
     policy = make_policy("lattice", env.unwrapped.robot, seed=0)
-    runs = []
-    for _ in range(2):
-        obs, _ = env.reset(seed=10000)
-        policy.reset(seed=0)
-        commands = []
-        while True:
-            commands.append(policy.act(obs, env.unwrapped.sensing()))
-            obs, _, terminated, truncated, info = env.step(commands[-1])
-            if terminated or truncated:
-                break
-        runs.append((np.array(commands), info["termination"]))
+    runs = [play(env, policy, seed=10000, policy_seed=0) for _ in range(2)]
     assert np.array_equal(runs[0][0], runs[1][0])
     assert runs[0][1] == "goal"
     assert {"lattice_expanded", "lattice_generated", "lattice_depth", "plan_time_ms"} <= set(policy.last_info)

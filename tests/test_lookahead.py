@@ -15,6 +15,7 @@ from footstep_gym.planners.lookahead import SwayTable, roll_out
 from footstep_gym.planners.params import load_planner_config
 from footstep_gym.planners.prediction import ObstaclePredictor, sway_band
 from footstep_gym.sensing import ObstacleView
+from planner_helpers import play
 
 
 def _free_snapshot():
@@ -106,18 +107,8 @@ def test_the_greedy_command_is_kept_when_its_plan_holds():
 def test_lookahead_episodes_replay_exactly():
     env = gym.make("FootstepDoor-v0", tier="shifted", tier_cell="phase")
     policy = make_policy("lookahead", env.unwrapped.robot, seed=0)
-    runs = []
-    for _ in range(2):
-        obs, _ = env.reset(seed=10001)
-        policy.reset(seed=4)
-        commands = []
-        while True:
-            commands.append(policy.act(obs, env.unwrapped.sensing()))
-            obs, _, terminated, truncated, info = env.step(commands[-1])
-            if terminated or truncated:
-                break
-        runs.append(np.array(commands))
-    assert np.array_equal(runs[0], runs[1])
+    runs = [play(env, policy, seed=10001, policy_seed=4) for _ in range(2)]
+    assert np.array_equal(runs[0][0], runs[1][0]) and runs[0][1] == runs[1][1]
     env.close()
 
 

@@ -2,10 +2,11 @@
 
 A planner sees the world only through :class:`Snapshot` (``env.unwrapped.sensing()``):
 its own feet and CoM state, the goal, and each obstacle's shape, pose and *current*
-velocity. Nothing about the future is in it; :meth:`Snapshot.shapes_at` extrapolates at
-constant velocity and constant angular velocity, which is what a robot that measures
-velocities could do (the crowd's real motion is not constant, so the prediction can be
-wrong, as it would be on a robot).
+velocity. Nothing about the future is in it. :meth:`Snapshot.shapes_at` freezes the shapes
+at one instant, extrapolated at constant velocity and constant angular velocity (what a robot
+that measures velocities could do; the crowd's real motion is not constant, so the prediction
+can be wrong, as it would be on a robot); the planners predict each point at its own time with
+:class:`footstep_gym.planners.prediction.ObstaclePredictor`, which the tests hold equal to it.
 
 With the env's sensing options (``configs/env.yaml``: ``sensing_noise_*``, ``sensing_max_range``,
 ``sensing_fov``; off by default) the moving obstacles' views are what :func:`sense` makes of the truth:
@@ -16,7 +17,8 @@ observation's closest points from such views with ``World.nearest``'s arithmetic
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import functools
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -113,12 +115,6 @@ class Snapshot:
     goal_tolerance: float
     previous_command: tuple[float, float, float, float, float]
     obstacles: tuple[ObstacleView, ...]
-    _circles: _Bodies = field(init=False, repr=False, compare=False)
-    _segments: _Bodies = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "_circles", _Bodies.of([o for o in self.obstacles if o.kind == "circle"]))
-        object.__setattr__(self, "_segments", _Bodies.of([o for o in self.obstacles if o.kind == "segment"]))
 
     @property
     def centre(self) -> tuple[float, float]:
@@ -132,17 +128,13 @@ class Snapshot:
 
     def shapes_at(self, dt: float = 0.0) -> Shapes:
         """Obstacle shapes predicted ``dt`` [s] ahead at constant (angular) velocity."""
-        return _shapes(self._circles, self._segments, dt)
+        return _shapes(*self._groups, dt)
 
-    def max_obstacle_speed(self) -> float:
-        """Largest speed [m/s] of any point of any obstacle (``|v| + |omega| * reach``)."""
-        best = 0.0
-        for group in (self._circles, self._segments):
-            if len(group.radius):
-                reach = np.maximum(np.linalg.norm(group.a, axis=1), np.linalg.norm(group.b, axis=1)) + group.radius
-                speed = np.linalg.norm(group.velocity, axis=1) + np.abs(group.angular_velocity) * reach
-                best = max(best, float(speed.max()))
-        return best
+    @functools.cached_property
+    def _groups(self) -> tuple[_Bodies, _Bodies]:
+        """The circles' and the segments' arrays, built on the first :meth:`shapes_at` (not per snapshot)."""
+        return (_Bodies.of([o for o in self.obstacles if o.kind == "circle"]),
+                _Bodies.of([o for o in self.obstacles if o.kind == "segment"]))
 
 
 # ---------------------------------------------------------------- closest points from sensed views

@@ -238,8 +238,8 @@ class World:
         """Up to ``k`` shapes nearest ``point`` within ``max_distance``, nearest first.
 
         Each entry is ``(distance, closest_point, velocity_of_that_point, obstacle)``: the
-        answer of pymunk's ``Space.point_query``, computed here in plain arithmetic because
-        the query's per-shape Python callback was half the cost of an env step.
+        answer of pymunk's ``Space.point_query``, computed here in plain arithmetic, without
+        the query's per-shape Python callback.
         """
         px, py = point
         hypot = math.hypot

@@ -37,7 +37,7 @@ walk, and off only where the planner later changes the period (the PSO's repair,
 replanning). For constant motion the steps are the motion itself. (2) ORCA pedestrians react
 to the robot (``robot_visible``): the oracle cannot know its own future steps while planning
 them, so in the forward run the robot walks from its CoM straight at the goal at its nominal
-walking speed (the longest front stride per nominal period, 12.5 cm/s on the default robot)
+walking speed (the longest front stride per nominal period)
 and stops there; the env also cuts a footstep of ``T`` into ``ceil(T / orca_time_step)``
 equal ORCA steps where the forward run takes steps of exactly ``orca_time_step``. Beyond
 :data:`ORCA_HORIZON_S` (ORCA's own time horizon, 5 s) a pedestrian is not predicted, as the
@@ -48,8 +48,8 @@ other way has no true model here: the oracle raises ``NotImplementedError`` rath
 replans every footstep, its period search checks walks with a wider margin than its RRT, and its
 RRT's path need not be one the LIPM can follow. Knowing the truth, it walks closer to a crowd, and
 now and then a step it takes leaves no free walk a step later where period-aware's rougher guess
-had kept it farther off: on a few seeds it fails where period-aware does not (on validation, 2 of
-300 scripted-crowd episodes, against 4 of period-aware's that it saves).
+had kept it farther off: on a few seeds it fails where period-aware does not, so it bounds
+period-aware's success rate over many seeds, not its outcome on each (``tests/test_oracle.py``).
 
 **Route.** The compiled kernels read one constant-velocity row per shape, so the oracle plans
 on the numpy route (``kernels.compiled: false``, set by its registry entry; a config that asks

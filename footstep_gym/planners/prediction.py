@@ -246,8 +246,8 @@ def sway_band(robot: Robot, period: float, samples: int = 24) -> tuple[float, fl
 
     In the steady gait of stepping at ``period`` (``T_SS = period - nominal T_DS``, nominal
     side stride) the CoM sways towards the support foot by up to ``toward`` and away from
-    it by up to ``away`` (about 3.4 / 1.7 cm at the nominal period, 1.2 / 1.0 cm at
-    ``T_SS = 0.1 s``), closed forms of :class:`footstep_gym.lipm.StepTrajectory`.
+    it by up to ``away`` (both shrink with the period), from the closed forms of
+    :class:`footstep_gym.lipm.StepTrajectory`.
     """
     t_ds = robot.nominal_t_ds
     t_ss = max(period - t_ds, robot.t_ss[0])

@@ -278,7 +278,7 @@ class WorldPath:
 
     The same floating-point operations as ``origin + trajectory.state(t)[0] * rot`` (so the same
     bits), with the step's constants computed once. :attr:`sweep_params` hands them to the
-    compiled collision sweep (:mod:`footstep_gym.sweep_kernel`), which evaluates the same
+    compiled collision sweep (:mod:`footstep_gym.kernels.sweep`), which evaluates the same
     expressions.
     """
 
@@ -311,7 +311,7 @@ class WorldPath:
     @property
     def sweep_params(self) -> list[float]:
         """``[w, t_ss, end, p, pd, pd / w, a_xi, a_eta, b_xi, b_eta, origin, rot]``, complex ones as two floats
-        (the layout of :mod:`footstep_gym.sweep_kernel`'s parameters)."""
+        (the layout of :mod:`footstep_gym.kernels.sweep`'s parameters)."""
         p, pd, pdw, a_xi, a_eta, b_xi, b_eta, o, r = (self.p, self.pd, self.pdw, self.a_xi, self.a_eta, self.b_xi,
                                                      self.b_eta, self.origin, self.rot)
         return [self.w, self.t_ss, self.end, p.real, p.imag, pd.real, pd.imag, pdw.real, pdw.imag, a_xi.real,

@@ -23,7 +23,7 @@ checks are exactly those of the rule.
 footstep makes a few to a few hundred checks, and driving pymunk from Python costs
 microseconds per call (a query, a ``Space.step``, every attribute read or written), more
 than the geometry. For the env's path (a :class:`~footstep_gym.lipm.WorldPath`) the sweep reads
-each moving body once and runs the checks in a compiled loop (:mod:`footstep_gym.sweep_kernel`)
+each moving body once and runs the checks in a compiled loop (:mod:`footstep_gym.kernels.sweep`)
 that moves the bodies between checks as pymunk's kinematic integration does and computes each
 distance with the operations of Chipmunk's point queries; then it writes the bodies back and
 lets pymunk re-cache their shapes once, where ``Space.step`` would have left them. A shape's
@@ -64,15 +64,15 @@ _SET_POSITION = pymunk.Body.position.fset
 _SET_ANGLE = pymunk.Body.angle.fset
 _SET_VELOCITY = pymunk.Body.velocity.fset
 _SET_ANGULAR_VELOCITY = pymunk.Body.angular_velocity.fset
-_kernel = None  # footstep_gym.sweep_kernel, imported on the first compiled sweep (it imports numba)
+_kernel = None  # footstep_gym.kernels.sweep, imported on the first compiled sweep (it imports numba)
 
 
 def _sweep_kernel():
     global _kernel
     if _kernel is None:
-        from footstep_gym import sweep_kernel
+        from footstep_gym.kernels import sweep
 
-        _kernel = sweep_kernel
+        _kernel = sweep
     return _kernel
 
 
@@ -324,7 +324,7 @@ class World:
             self._cached_states = None
 
     def _table(self) -> tuple[np.ndarray, dict[int, int]]:
-        """Every obstacle as a row of the compiled sweep's shape table (:mod:`footstep_gym.sweep_kernel`), in
+        """Every obstacle as a row of the compiled sweep's shape table (:mod:`footstep_gym.kernels.sweep`), in
         :attr:`obstacles`' order, and each obstacle's row keyed by its pymunk shape (the object pymunk's query
         returns; hashed by identity). Not by ``id()``: a ``copy.deepcopy`` or a pickle of the world (of an env
         mid-episode) gets new objects, and a map keyed by the old ids would not find them, whereas a dict keyed

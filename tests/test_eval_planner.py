@@ -507,7 +507,7 @@ def test_each_process_warms_a_cell_up_once_before_timing_it(monkeypatch):
 
 WARM_PROBE = """
 import json, numba
-import footstep_gym.planners.kernels as K, footstep_gym.sweep_kernel as S
+import footstep_gym.kernels.numba_kernels as K, footstep_gym.kernels.sweep as S
 from footstep_gym.evaluation.runner import Cell, Task, default_factory, run_episode
 kernels = [f for m in (K, S) for f in vars(m).values() if isinstance(f, numba.core.registry.CPUDispatcher)]
 loaded = lambda: sum(len(k.overloads) for k in kernels)

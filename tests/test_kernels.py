@@ -1,10 +1,11 @@
-"""The compiled kernels (:mod:`footstep_gym.planners.kernels`) against their numpy references.
+"""The compiled kernels (:data:`NUMBA`, :mod:`footstep_gym.kernels.numba_kernels`) against the numpy ones
+(:data:`NUMPY`, :mod:`footstep_gym.kernels.numpy_kernels`), the test oracle.
 
-Each twin is chosen explicitly, as ``configs/planner.yaml``'s ``kernels.compiled`` chooses it for the
-planners (``compiled=True`` / ``False``, never the type of the body check). On real snapshots of the three
-scenes (with per-shape horizons), random points and times, and random walks: the same booleans and times as
-the numpy references, the same lane pursuit and the same RRT; and whole planner episodes on both routes: the
-same outcomes, the commands to a few ulps. The numpy route never imports numba.
+Both implement :class:`footstep_gym.kernels.Kernels`; each is selected explicitly, as ``configs/planner.yaml``'s
+``kernels.compiled`` selects it for the planners (:func:`~footstep_gym.kernels.select_kernels`). On real snapshots
+of the three scenes (with per-shape horizons), random points and times, and random walks: the same booleans and
+times as the numpy kernels, the same lane pursuit and the same RRT; and whole planner episodes with either: the
+same outcomes, the commands to a few ulps. Selecting the numpy kernels never imports numba.
 
 **What is exact, and where.** A kernel and its numpy twin do the same arithmetic, but not always through
 the same library: numpy picks SIMD kernels per CPU at run time (with AVX-512, ``np.arctan2``, ``np.exp`` and
@@ -12,12 +13,12 @@ the same library: numpy picks SIMD kernels per CPU at run time (with AVX-512, ``
 complex product is fused, ``a*c - b*d`` in one rounding, which the kernels' plain products are not), so their
 floats agree to a few ulps on one CPU and bit for bit on another. The tests therefore compare
 
-* floats from the two routes to a few ulps of their scale (:data:`LENGTH_TOL`, :data:`HEADING_ATOL`);
+* floats from the two implementations to a few ulps of their scale (:data:`LENGTH_TOL`, :data:`HEADING_ATOL`);
 * what is discrete (booleans, node counts, parents, sides, depths, goal nodes, which sample of a walk is
   blocked first, hence its time) exactly. A few-ulp difference flips such a decision only where the values
   it compares lie within about that of a tie, so each test also asserts that none of its decisions does
   by :data:`TIE_MARGIN` or less: on these inputs the discrete results are then the same on any CPU;
-* the same route twice (a compiled kernel against itself in another batching) exactly, on any CPU.
+* the same kernels twice (a compiled kernel against itself in another batching) exactly, on any CPU.
 """
 
 from __future__ import annotations
@@ -30,18 +31,18 @@ import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym import footstep
-from footstep_gym.planners import kernels
+from footstep_gym.kernels import SHAPE_COLUMNS, WalkStart, select_kernels
+from footstep_gym.kernels.numpy_kernels import NumpyKernels
 from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor
-from footstep_gym.planners.rollouts import GoalRollouts, pursue_lanes_numpy
-from footstep_gym.planners.walks import WalkStart, on_route, walks_free, walks_survival
+from footstep_gym.planners.rollouts import GoalRollouts
 from planner_helpers import LEFT, RIGHT, empty_predictor_body, robot  # noqa: F401
 
 SCENES = [("FootstepDoor-v0", dict(door_speed=17.0), 6), ("FootstepCrossing-v0", {}, 8), ("FootstepCrowd-v0", {}, 5)]
 
 EPS = np.finfo(float).eps  # 2.2e-16
-#: Coordinates, lengths and costs [m] of the two routes (|x| < 4 m here): within 8 eps (1.8e-15 m) plus 2 ulps
+#: Coordinates, lengths and costs [m] of the two kernels (|x| < 4 m here): within 8 eps (1.8e-15 m) plus 2 ulps
 #: of the value. Measured on the tests' inputs, with numpy's AVX-512 kernels: <= 1 eps (compiled RRT: 5.6e-17 m;
-#: lane pursuit: 2.2e-16 m); over 1,080 random trees, <= 4 eps. Without AVX-512 the routes agree bit for bit.
+#: lane pursuit: 2.2e-16 m); over 1,080 random trees, <= 4 eps. Without AVX-512 the two agree bit for bit.
 LENGTH_TOL = dict(rtol=2 * EPS, atol=8 * EPS)
 #: Headings [rad], compared modulo 2 pi: 16 ulps of pi (7.1e-15 rad). A turn re-drawn inside the limits adds to
 #: its parent's heading, so a difference can grow by an ulp a level. Measured: <= 1 ulp of pi (RRT) and 4 (the
@@ -51,6 +52,13 @@ HEADING_ATOL = 16 * math.ulp(math.pi)
 #: the nearest tree node to the next nearest, a turn to its limit, a body to the goal radius): hundreds of
 #: times the tolerances above, so that a different CPU cannot flip it.
 TIE_MARGIN = 1e-12
+
+NUMPY, NUMBA = select_kernels(False), select_kernels(True)
+
+
+def survival(kernels, body, start, nodes, headings, period, goal, goal_radius=0.1):
+    """``(R,)`` [s]: when each walk is first blocked (``inf``: free), at 3 samples per step."""
+    return kernels.walks_survival(body, start, [(nodes, headings)], [period], 3, goal, goal_radius)[0]
 
 
 def assert_headings_close(got, want, err_msg=""):
@@ -62,7 +70,7 @@ def assert_headings_close(got, want, err_msg=""):
 def clearance_gaps(pred, points, times, needed):
     """``|distance - (radius + needed)|`` [m] of each point (at its time) to each shape checked then (``inf``
     beyond a shape's horizon): how far each of its obstacle verdicts is from a tie."""
-    return np.abs(np.sqrt(pred._distance2(points, times)) - (pred._radius + needed))
+    return np.abs(np.sqrt(pred._distance2(points, times)) - (pred.shapes.radius + needed))
 
 
 def goal_gaps(bodies, goal, goal_radius):
@@ -71,11 +79,11 @@ def goal_gaps(bodies, goal, goal_radius):
 
 
 class RecordingBody:
-    """A :class:`BodyModel`'s check, on the numpy route, that remembers every point it was asked about (for the
-    walks' and the RRT's numpy routes, the references: not being a ``BodyModel``, the compiled ones refuse it)."""
+    """A :class:`BodyModel`'s check that remembers every point it was asked about (for the numpy kernels, the
+    oracle: not being a ``BodyModel``, it has no shape table and the compiled ones refuse it)."""
 
     def __init__(self, body: BodyModel) -> None:
-        self.body, self.asked = body.routed(False), []
+        self.body, self.asked = body, []
 
     def free(self, points, times, normals, period):
         self.asked.append((np.array(points, dtype=float), np.array(times, dtype=float), np.array(normals), period))
@@ -88,7 +96,7 @@ class RecordingBody:
         """The smallest :func:`clearance_gaps` [m] of everything asked."""
         gaps = [np.inf]
         for points, times, normals, period in self.asked:
-            centres, needed = self.body._body(points, normals, period)
+            centres, needed = self.body.centres(points, normals, period)
             gaps.append(clearance_gaps(self.body.predictor, centres, times, needed).min(initial=np.inf))
         return min(gaps)
 
@@ -125,10 +133,11 @@ def test_points_free_matches_numpy(env_id, kwargs, steps):
     pts = centre + rng.uniform(-1.0, 2.5, (20000, 2))
     times = rng.uniform(0.0, 5.0, 20000)
     for pred in predictors(snap):
-        assert pred.kernel_shapes.shape == (pred.n_shapes, kernels.SHAPE_COLUMNS)  # the table the kernels read
+        assert pred.shapes.rows.shape == (pred.n_shapes, SHAPE_COLUMNS)  # the table the kernels read
         for safe in (0.0, 0.11, 0.2):
-            got = pred.free(pts, times, safe)
-            want = pred.free_numpy(pts, times, safe)
+            got = NUMBA.points_free(pred.shapes, pts, times, safe)
+            want = NUMPY.points_free(pred.shapes, pts, times, safe)
+            np.testing.assert_array_equal(pred.free(pts, times, safe), want)  # the predictor's own check: numpy
             assert 0 < want.sum() < want.size
             assert clearance_gaps(pred, pts, times, safe).min() > TIE_MARGIN
             np.testing.assert_array_equal(got, want)
@@ -136,10 +145,10 @@ def test_points_free_matches_numpy(env_id, kwargs, steps):
 
 @pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
 @pytest.mark.parametrize("period", [0.3, 0.55, 0.8])
-def test_walks_free_matches_numpy(robot, env_id, kwargs, steps, period):
+def test_walks_survival_matches_numpy(robot, env_id, kwargs, steps, period):
     """Random walks of 10 cm steps from near the robot (some reaching a goal nearby): the booleans exactly (no
     body point within :data:`TIE_MARGIN` of a tie), and the time of each walk's first blocked point exactly
-    (the two routes compute the instants with the same operations: which point is first is all that could
+    (both kernels compute the instants with the same operations: which point is first is all that could
     differ)."""
     snap = snapshot_after(env_id, kwargs, steps)
     rng = np.random.default_rng(1)
@@ -155,17 +164,14 @@ def test_walks_free_matches_numpy(robot, env_id, kwargs, steps, period):
     blocked = 0
     for pred in predictors(snap):
         body = BodyModel(pred, robot, 0.02)
-        got = walks_free(body, start, nodes, headings, period, 3, goal, 0.1, compiled=True)
         asked = RecordingBody(body)
-        want = walks_free(asked, start, nodes, headings, period, 3, goal, 0.1, compiled=False)
-        assert asked.smallest_gap() > TIE_MARGIN
-        blocked += int(want.size - want.sum())
-        np.testing.assert_array_equal(got, want)
         # the time of each walk's first blocked point: the same instant, inf exactly for the free walks
-        survival = walks_survival(body, start, nodes, headings, period, 3, goal, 0.1, compiled=True)
-        want_survival = walks_survival(body, start, nodes, headings, period, 3, goal, 0.1, compiled=False)
-        np.testing.assert_array_equal(survival, want_survival)
-        np.testing.assert_array_equal(np.isinf(survival), want)
+        got = survival(NUMBA, body, start, nodes, headings, period, goal)
+        want = survival(NUMPY, asked, start, nodes, headings, period, goal)
+        assert asked.smallest_gap() > TIE_MARGIN
+        blocked += int(np.isfinite(want).sum())
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(survival(NUMPY, body, start, nodes, headings, period, goal), want)
     assert blocked > 0 or env_id == "FootstepCrossing-v0"  # the crossing's car may still be far at this time
 
 
@@ -173,18 +179,15 @@ def test_walks_free_matches_numpy(robot, env_id, kwargs, steps, period):
                                                (RIGHT, -1.0, (-1.0, -1.2))])
 @pytest.mark.parametrize("window", [None, (0.03, 0.06)])
 def test_pursue_lanes_matches_numpy(robot, side, heading, goal, window):
-    """:func:`kernels.pursue_lanes` (``compiled=True``) against :func:`pursue_lanes_numpy` (``compiled=False``)."""
+    """``pursue_lanes`` of the compiled kernels against the numpy ones, on the lanes of :class:`GoalRollouts`."""
     start = WalkStart(node=np.array([0.01, -0.02]), heading=heading, side=side, body=np.zeros(2),
                       previous_node=np.zeros(2))
-    routes = [GoalRollouts(empty_predictor_body(robot), robot, start, goal, 0.1, horizon=30.0, step_size=0.1,
-                           lane_offsets=(-0.13, -0.065, 0.0, 0.065, 0.13), stride_fractions=(0.7, 1.0),
-                           lookahead=0.3, edge_samples=3, wait_steps=(0, 3, 6), compiled=compiled)
-              for compiled in (True, False)]
+    rollouts = GoalRollouts(empty_predictor_body(robot), robot, start, goal, 0.1, horizon=30.0, step_size=0.1,
+                            lane_offsets=(-0.13, -0.065, 0.0, 0.065, 0.13), stride_fractions=(0.7, 1.0),
+                            lookahead=0.3, edge_samples=3, wait_steps=(0, 3, 6), kernels=NUMBA)
     depth = 40
-    got_nodes, got_headings = routes[0]._pursue(window, depth)
-    want_nodes, want_headings = routes[1]._pursue(window, depth)
-    np.testing.assert_array_equal(want_nodes, pursue_lanes_numpy(routes[0], window, depth)[0])  # the numpy route
-    rollouts = routes[1]
+    got_nodes, got_headings = NUMBA.pursue_lanes(rollouts.lanes, window, depth)
+    want_nodes, want_headings = NUMPY.pursue_lanes(rollouts.lanes, window, depth)
     # within a few ulps (np.angle, np.abs and complex products against libm's atan2 and hypot and plain products);
     # where a rollout stops (its body in the goal region) is discrete: a flip would move its nodes by a stride
     np.testing.assert_allclose(got_nodes, want_nodes, **LENGTH_TOL)
@@ -208,10 +211,9 @@ def test_survivals_of_many_periods_in_one_call_match_one_period_at_a_time(robot,
     periods = np.linspace(0.3, 0.8, 17)
     rollouts = GoalRollouts(body, robot, start, snap.goal, snap.goal_tolerance, horizon=30.0, step_size=0.1,
                             lane_offsets=(-0.13, 0.0, 0.13), stride_fractions=(0.7, 1.0), lookahead=0.3,
-                            edge_samples=3, wait_steps=(0, 3), compiled=True)
+                            edge_samples=3, wait_steps=(0, 3), kernels=NUMBA)
     got = rollouts.survivals(periods)
-    want = [walks_survival(body, start, *rollouts.nodes(T), T, 3, rollouts.goal, rollouts.goal_radius,
-                           compiled=True).max()
+    want = [survival(NUMBA, body, start, *rollouts.nodes(T), T, rollouts.goal, rollouts.goal_radius).max()
             for T in periods]
     np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(np.isinf(got), [not rollouts(T) for T in periods])
@@ -229,45 +231,37 @@ def random_seed_walks(start, rng, n_walks=3, steps=12):
     return walks
 
 
-def _tie_gaps_rrt():
-    """:class:`ModifiedRRT` (numpy route) that records how far each decision it takes is from a tie."""
-    from footstep_gym.planners.rrt import ModifiedRRT
+class TieGapsKernels(NumpyKernels):
+    """The numpy kernels, recording how far each decision of the RRT they grow is from a tie."""
 
-    class TieGapsRRT(ModifiedRRT):
-        def plan(self, start, goal, goal_radius, body, *args, **kwargs):
-            self.asked = RecordingBody(body)
-            self.gaps = {"nearest node": [np.inf], "turn limits": [np.inf], "goal region": [np.inf]}
-            return super().plan(start, goal, goal_radius, self.asked, *args, **kwargs)
+    def __init__(self, robot) -> None:
+        self.robot = robot
+        self.gaps = {"nearest node": [np.inf], "turn limits": [np.inf], "goal region": [np.inf]}
 
-        def _nearest_nodes(self, samples):
-            """The gap [m] between the distances to the nearest node and to the next nearest elsewhere (a
-            step in place leaves two nodes on one spot, with equal distances in both routes: no tie)."""
-            parents = super()._nearest_nodes(samples)
-            xy = self.tree.xy[: self.tree.n]
-            dist = np.linalg.norm(samples[:, None, :] - xy[None, :, :], axis=-1)
-            elsewhere = np.any(xy[None, :, :] != xy[parents][:, None, :], axis=-1)
-            runner_up = np.where(elsewhere, dist, np.inf).min(axis=1)
-            self.gaps["nearest node"].append(runner_up - dist[np.arange(len(samples)), parents])
-            return parents
+    def nearest_nodes(self, tree, samples):
+        """The gap [m] between the distances to the nearest node and to the next nearest elsewhere (a
+        step in place leaves two nodes on one spot, with equal distances in both kernels: no tie)."""
+        parents = super().nearest_nodes(tree, samples)
+        xy = tree.xy[: tree.n]
+        dist = np.linalg.norm(samples[:, None, :] - xy[None, :, :], axis=-1)
+        elsewhere = np.any(xy[None, :, :] != xy[parents][:, None, :], axis=-1)
+        runner_up = np.where(elsewhere, dist, np.inf).min(axis=1)
+        self.gaps["nearest node"].append(runner_up - dist[np.arange(len(samples)), parents])
+        return parents
 
-        def _restrict_to_angle_limits(self, parents, samples, redraw):
-            tree = self.tree
-            vec = samples - tree.xy[parents]
-            delta = footstep.wrap_angle(np.arctan2(vec[:, 1], vec[:, 0]) - tree.heading[parents])
-            lo, hi = footstep.turn_bounds(tree.side[parents], self.robot)
-            self.gaps["turn limits"].append(np.minimum(np.abs(delta - lo), np.abs(delta - hi)))
-            return super()._restrict_to_angle_limits(parents, samples, redraw)
+    def restrict_to_angle_limits(self, tree, step, parents, samples, redraw):
+        vec = samples - tree.xy[parents]
+        delta = footstep.wrap_angle(np.arctan2(vec[:, 1], vec[:, 0]) - tree.heading[parents])
+        lo, hi = footstep.turn_bounds(tree.side[parents], self.robot)
+        self.gaps["turn limits"].append(np.minimum(np.abs(delta - lo), np.abs(delta - hi)))
+        return super().restrict_to_angle_limits(tree, step, parents, samples, redraw)
 
-        def _in_goal(self, xy):
-            self.gaps["goal region"].append(goal_gaps(xy, self._goal, self._goal_radius))
-            return super()._in_goal(xy)
+    def in_goal(self, xy, goal, goal_radius):
+        self.gaps["goal region"].append(goal_gaps(xy, goal, goal_radius))
+        return super().in_goal(xy, goal, goal_radius)
 
-        def smallest_gaps(self):
-            gaps = {name: float(np.concatenate([np.ravel(g) for g in values]).min())
-                    for name, values in self.gaps.items()}
-            return {"obstacles": self.asked.smallest_gap(), **gaps}
-
-    return TieGapsRRT
+    def smallest_gaps(self):
+        return {name: float(np.concatenate([np.ravel(g) for g in values]).min()) for name, values in self.gaps.items()}
 
 
 def first_divergence(got, want):
@@ -281,8 +275,8 @@ def first_divergence(got, want):
 @pytest.mark.parametrize("env_id,kwargs,steps", SCENES)
 @pytest.mark.parametrize("time_aware", [True, False])
 def test_compiled_rrt_grows_the_numpy_tree(robot, env_id, kwargs, steps, time_aware):
-    """:func:`kernels.extend_tree` and :func:`kernels.insert_walks` against the RRT's numpy methods: from the
-    same generator, the same tree node for node, with seed walks, a first-stride window and short horizons.
+    """``extend_tree`` and ``insert_walks`` of the compiled kernels against the numpy ones: from the same
+    generator, the same tree node for node, with seed walks, a first-stride window and short horizons.
 
     Exact on any CPU: the tree's shape (node count, parents, sides, depths), its goal nodes and which nodes the
     path takes, since no decision of the numpy tree lies within :data:`TIE_MARGIN` of a tie. Within a few
@@ -300,15 +294,16 @@ def test_compiled_rrt_grows_the_numpy_tree(robot, env_id, kwargs, steps, time_aw
         for period, window, goal in [(0.8, None, goals[0]), (0.4, (0.04, 0.09), goals[1]), (0.55, None, goals[1])]:
             seeds = random_seed_walks(start, np.random.default_rng(int(period * 100)))
             trees = []
-            for rrt_class, compiled in ((_tie_gaps_rrt(), False), (ModifiedRRT, True)):
-                rrt = rrt_class(robot, iterations=300, batch_size=10, step_size=0.1, goal_sample_rate=0.2,
-                                n_paths=3, sample_margin=0.5, edge_samples=3, time_aware=time_aware,
-                                compiled=compiled)
-                path = rrt.plan(start, goal, snap.goal_tolerance, body, period, np.random.default_rng(5),
+            oracle, asked = TieGapsKernels(robot), RecordingBody(body)
+            for kernels, check in ((oracle, asked), (NUMBA, body)):
+                rrt = ModifiedRRT(robot, iterations=300, batch_size=10, step_size=0.1, goal_sample_rate=0.2,
+                                  n_paths=3, sample_margin=0.5, edge_samples=3, time_aware=time_aware,
+                                  kernels=kernels)
+                path = rrt.plan(start, goal, snap.goal_tolerance, check, period, np.random.default_rng(5),
                                 seeds=seeds, first_stride=window)
-                trees.append((rrt, rrt.tree, list(rrt.goal_nodes), path))
-            (reference, want, want_goals, want_path), (_, got, got_goals, got_path) = trees
-            gaps = reference.smallest_gaps()
+                trees.append((rrt.tree, list(rrt.goal_nodes), path))
+            (want, want_goals, want_path), (got, got_goals, got_path) = trees
+            gaps = {"obstacles": asked.smallest_gap(), **oracle.smallest_gaps()}
             assert min(gaps.values()) > TIE_MARGIN, gaps  # else a few ulps could flip a decision
             where = first_divergence(got, want)
             assert where is None, f"the trees part at node {where} (of {want.n} / {got.n})"
@@ -335,7 +330,7 @@ def test_compiled_rrt_grows_the_numpy_tree(robot, env_id, kwargs, steps, time_aw
                                                        ("FootstepCrowd-v0", {}, 3, 0.5)])
 def test_free_walks_from_the_scan_table_are_the_walks_checked_again(robot, env_id, kwargs, steps, ahead):
     """Stage 1 reads the free walks at the chosen period from the scan's survival table: the same walks, in the
-    same order, as checking that period again (the same compiled route both ways: exact on any CPU)."""
+    same order, as checking that period again (the same compiled kernels both ways: exact on any CPU)."""
     from footstep_gym.planners.walks import walk_start
 
     snap = snapshot_after(env_id, kwargs, steps)
@@ -344,7 +339,7 @@ def test_free_walks_from_the_scan_table_are_the_walks_checked_again(robot, env_i
     goal = start.node + [ahead, 0.0]  # a few steps away: some walks free, some blocked
     rollouts = GoalRollouts(body, robot, start, goal, 0.1, horizon=30.0, step_size=0.1,
                             lane_offsets=(-0.13, -0.065, 0.0, 0.065, 0.13), stride_fractions=(0.7, 1.0),
-                            lookahead=0.3, edge_samples=3, wait_steps=(0, 3), compiled=True)
+                            lookahead=0.3, edge_samples=3, wait_steps=(0, 3), kernels=NUMBA)
     periods = np.linspace(0.3, 0.8, 9)
     found = 0
     for T, blocked_at in zip(periods, rollouts.survival_table(periods)):
@@ -358,9 +353,9 @@ def test_free_walks_from_the_scan_table_are_the_walks_checked_again(robot, env_i
 
 
 # ====================================================================== the setting: kernels.compiled
-def test_the_compiled_route_refuses_a_body_check_that_is_not_a_body_model(robot):
-    """``compiled=True`` reads a :class:`BodyModel`'s shape table: any other body check is an error, not a silent
-    fall back to numpy; ``compiled=False`` takes it, and puts a ``BodyModel``'s own point checks on numpy."""
+def test_the_compiled_kernels_refuse_a_body_check_that_is_not_a_body_model(robot):
+    """The compiled kernels read a :class:`BodyModel`'s shape table: any other body check is an error, not a
+    silent fall back to numpy; the numpy kernels take it. Either is one shared object per setting."""
     from footstep_gym.planners.rrt import ModifiedRRT
 
     class Free:
@@ -370,21 +365,25 @@ def test_the_compiled_route_refuses_a_body_check_that_is_not_a_body_model(robot)
     start = WalkStart(node=np.zeros(2), heading=0.0, side=RIGHT, body=np.zeros(2), previous_node=np.zeros(2))
     nodes, headings = np.zeros((1, 3, 2)), np.zeros((1, 3))
     rrt = ModifiedRRT(robot, iterations=20, batch_size=10, step_size=0.1, goal_sample_rate=0.2, n_paths=1,
-                      sample_margin=0.5, edge_samples=3, compiled=True)
+                      sample_margin=0.5, edge_samples=3, kernels=NUMBA)
     with pytest.raises(TypeError, match="need a prediction.BodyModel.*got Free"):
         rrt.plan(start, (1.0, 0.0), 0.1, Free(), 0.5, np.random.default_rng(0))
     with pytest.raises(TypeError, match="need a prediction.BodyModel"):
-        walks_free(Free(), start, nodes, headings, 0.5, 3, np.ones(2), 0.1, compiled=True)
+        survival(NUMBA, Free(), start, nodes, headings, 0.5, np.ones(2))
+    with pytest.raises(TypeError, match="need a prediction.BodyModel"):
+        NUMBA.body_free(Free(), nodes[0], np.zeros(3), np.zeros((3, 2)), 0.5)
     with pytest.raises(TypeError, match="need a prediction.BodyModel"):
         GoalRollouts(Free(), robot, start, (1.0, 0.0), 0.1, horizon=3.0, step_size=0.1, lane_offsets=(0.0,),
-                     stride_fractions=(1.0,), lookahead=0.3, edge_samples=3, compiled=True)
-    assert walks_free(Free(), start, nodes, headings, 0.5, 3, np.ones(2), 0.1, compiled=False).all()
+                     stride_fractions=(1.0,), lookahead=0.3, edge_samples=3, kernels=NUMBA)
+    assert np.isinf(survival(NUMPY, Free(), start, nodes, headings, 0.5, np.ones(2))).all()
     body = empty_predictor_body(robot)
-    assert on_route(body, True) is body and body.compiled
-    assert not on_route(body, False).compiled and on_route(body, False).predictor is body.predictor
+    assert np.isinf(survival(NUMBA, body, start, nodes, headings, 0.5, np.ones(2))).all()
+    assert (NUMPY.name, NUMBA.name) == ("numpy", "numba") and select_kernels(True) is NUMBA
+    with pytest.raises(TypeError, match="takes a bool"):
+        select_kernels("yes")
 
 
-#: Episodes planned on both routes: each stage of each planner (the rollouts and the one-step fan, the scan and the
+#: Episodes planned with both kernels: each stage of each planner (the rollouts and the one-step fan, the scan and the
 #: bisection, batches of 10 and of 1, the path and the node check), goals and collisions. Crossing, fixed-period,
 #: seed 4 once parted: two goal paths of as many full strides, equally long but for rounding (rrt.COST_TIE_M).
 EPISODES = [("FootstepDoor-v0", dict(door_speed=17.0), "period-aware", 0),
@@ -401,7 +400,7 @@ def _episode(env_id, kwargs, name, seed, compiled):
 
     env = gym.make(env_id, **kwargs)
     policy = make_policy(name, env.unwrapped.robot, seed=seed, kernels_compiled=compiled)
-    assert policy.config.kernels.compiled is compiled
+    assert policy.kernels is select_kernels(compiled)
     obs, _ = env.reset(seed=seed)
     policy.reset(seed=seed)
     commands = []
@@ -414,12 +413,11 @@ def _episode(env_id, kwargs, name, seed, compiled):
 
 
 @pytest.mark.parametrize("env_id,kwargs,name,seed", EPISODES)
-def test_planner_episodes_are_the_same_on_both_routes(env_id, kwargs, name, seed):
+def test_planner_episodes_are_the_same_with_both_kernels(env_id, kwargs, name, seed):
     """``kernels.compiled: false`` (numpy everywhere) plans the episodes of ``true``: the same end (steps,
     goal / collision / fall) and every command to a few ulps (strides and times :data:`LENGTH_TOL`, turns
-    :data:`HEADING_ATOL`). Measured over 339 episodes (the three scenes, every planner and ablation variant):
-    strides and turns at most 4 ulps of pi apart, periods equal. An end could differ on another CPU only through
-    a decision within a few ulps of a tie."""
+    :data:`HEADING_ATOL`). An end could differ on another CPU only through a decision within a few ulps of a
+    tie."""
     want_end, want = _episode(env_id, kwargs, name, seed, compiled=False)
     got_end, got = _episode(env_id, kwargs, name, seed, compiled=True)
     assert got_end == want_end
@@ -427,7 +425,7 @@ def test_planner_episodes_are_the_same_on_both_routes(env_id, kwargs, name, seed
     assert_headings_close(got[:, 2], want[:, 2])
 
 
-def test_the_numpy_route_never_imports_numba():
+def test_the_numpy_kernels_never_import_numba():
     """With ``kernels.compiled: false`` and the env's ``compiled_sweep: false``, an episode runs without numba."""
     import subprocess
     import sys

@@ -22,6 +22,7 @@ import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym import config as fs_config
 from footstep_gym import make_policy
 from footstep_gym.errors import ConfigError
+from footstep_gym.kernels import select_kernels
 from footstep_gym.planners import POLICIES, load_planner_config
 from footstep_gym.planners.params import AdditionsParams, PlannerConfig
 
@@ -177,13 +178,14 @@ def test_reading_switches_are_validated_at_load(override, match):
 
 
 def test_kernels_compiled_is_a_boolean_on_by_default_and_reaches_both_searches():
-    """``kernels.compiled``: the compiled twins (default) or the numpy references, for the period search's walks and
-    the RRT alike (``tests/test_kernels.py`` plans the same episodes both ways)."""
+    """``kernels.compiled``: the compiled kernels (default) or the numpy ones, chosen once by the planner for the
+    period search's walks and the RRT alike (``tests/test_kernels.py`` plans the same episodes both ways)."""
     assert load_planner_config().kernels.compiled is True
     for compiled in (True, False):
         policy = make_policy("period-aware", seed=0, kernels_compiled=compiled)
-        assert policy.period_search.compiled is compiled and policy.path_search.rrt.compiled is compiled
-    assert make_policy("paper-period-aware", kernels={"compiled": False}).path_search.rrt.compiled is False
+        assert policy.kernels is select_kernels(compiled)
+        assert policy.period_search.kernels is policy.kernels and policy.path_search.rrt.kernels is policy.kernels
+    assert make_policy("paper-period-aware", kernels={"compiled": False}).path_search.rrt.kernels.name == "numpy"
     with pytest.raises(ConfigError, match="kernels.compiled must be true or false"):
         load_planner_config({"kernels_compiled": "no"})
 
@@ -218,10 +220,9 @@ def test_reachable_t0_is_the_shortest_period_one_step_can_reach(reachable):
     from footstep_gym.planners.walks import walk_start
 
     robot, snap = _door_start()
-    cfg = load_planner_config({"period_search_t0_reachable": reachable, "kernels_compiled": False},  # a toy body
-                              defaults={"additions": PAPER})
+    cfg = load_planner_config({"period_search_t0_reachable": reachable}, defaults={"additions": PAPER})
     start = walk_start(snap, 0.5 * robot.nominal_side_stride)
-    choice = PeriodSearch(robot, cfg)(snap, start, _Blocked())
+    choice = PeriodSearch(robot, cfg, select_kernels(False))(snap, start, _Blocked())  # a toy body: numpy
     ps = cfg.period_search
     floor = shortest_feasible_period(robot, snap.com_local, snap.vel_local, snap.support_side,
                                      (float(snap.previous_command[0]), cfg.rrt.step_size_m), ps.t0_s,
@@ -240,10 +241,9 @@ def test_one_step_check_asks_about_the_node_now_and_after_t_or_the_body_path(che
     from footstep_gym.planners.walks import walk_start
 
     robot, snap = _door_start()
-    cfg = load_planner_config({"prediction_check": check, "kernels_compiled": False},  # a toy body: numpy
-                              defaults={"additions": PAPER})
-    walks = PeriodSearch(robot, cfg).walks(snap, walk_start(snap, 0.5 * robot.nominal_side_stride), _Blocked(),
-                                           (0,), (1.0,))
+    cfg = load_planner_config({"prediction_check": check}, defaults={"additions": PAPER})
+    walks = PeriodSearch(robot, cfg, select_kernels(False)).walks(  # a toy body: numpy
+        snap, walk_start(snap, 0.5 * robot.nominal_side_stride), _Blocked(), (0,), (1.0,))
     body = walks.body
     assert walks(0.6)  # every node collides
     expected = {0.0, 0.6} if check == "node" else {0.0, 0.3, 0.6}
@@ -276,7 +276,7 @@ def test_rrt_node_check_refuses_a_node_blocked_now():
     for check_node in (False, True):
         rrt = ModifiedRRT(robot, iterations=200, batch_size=1, step_size=0.1, goal_sample_rate=0.2, n_paths=3,
                           sample_margin=0.5, edge_samples=3, time_aware=False, check_node=check_node,
-                          compiled=False)
+                          kernels=select_kernels(False))
         rrt.plan(start, start.node + [0.6, 0.0], 0.05, gate, 0.8, np.random.default_rng(0))
         reached[check_node] = float(rrt.tree.xy[: rrt.tree.n, 0].max())
     assert reached[True] < gate.x0 <= reached[False]
@@ -284,7 +284,7 @@ def test_rrt_node_check_refuses_a_node_blocked_now():
 
 @pytest.mark.parametrize("time_aware", [True, False])
 def test_compiled_rrt_with_node_check_grows_the_numpy_tree(time_aware):
-    """``check_node`` in :func:`kernels.extend_tree` against the RRT's numpy methods, one sample at a time
+    """``check_node`` in the compiled kernels' ``extend_tree`` against the numpy kernels, one sample at a time
     (``batch_size: 1``, the paper's reading): the same nodes, parents and goal nodes from the same generator."""
     from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor
     from footstep_gym.planners.rrt import ModifiedRRT
@@ -297,7 +297,7 @@ def test_compiled_rrt_with_node_check_grows_the_numpy_tree(time_aware):
     for compiled in (False, True):
         rrt = ModifiedRRT(robot, iterations=300, batch_size=1, step_size=0.1, goal_sample_rate=0.2, n_paths=3,
                           sample_margin=0.5, edge_samples=3, time_aware=time_aware, check_node=True,
-                          compiled=compiled)
+                          kernels=select_kernels(compiled))
         rrt.plan(start, snap.goal, snap.goal_tolerance, body, 0.5, np.random.default_rng(3))
         trees.append((rrt.tree, list(rrt.goal_nodes)))
     (want, want_goals), (got, got_goals) = trees

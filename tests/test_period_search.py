@@ -3,7 +3,7 @@ describes it) on hand-made monotone predicates ``collides(T) = T > T*`` whose an
 centred scan (:func:`centred_free_period`) on hand-made windows of free periods; the stage's record.
 
 The stage's body checks written here are not :class:`~footstep_gym.planners.prediction.BodyModel` s: the stage
-runs on the numpy route (:data:`NUMPY`, ``kernels.compiled: false``), which takes any body check.
+runs with the numpy kernels (:data:`NUMPY`, ``kernels.compiled: false``), which take any body check.
 """
 
 from __future__ import annotations
@@ -15,14 +15,15 @@ import numpy as np
 import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
+from footstep_gym.kernels import select_kernels
 from footstep_gym.planners.params import load_planner_config
 from footstep_gym.planners.period_search import PeriodSearch, centred_free_period, longest_free_period, stride_windows
 from footstep_gym.planners.registry import PAPER
 from footstep_gym.planners.walks import walk_start
 from planner_helpers import EPS, ZMP_TIE_MARGIN, zmp_edge_gaps
 
-#: The planner config override of the numpy route (the compiled one needs a BodyModel's shape table).
-NUMPY = {"kernels_compiled": False}
+#: The numpy kernels (the compiled ones need a BodyModel's shape table).
+NUMPY = select_kernels(False)
 
 T0, TN = 0.3, 0.8
 
@@ -132,7 +133,7 @@ def crossing_start():
 def paper_search(robot, vary_period=True):
     """Algorithm 1 with every addition off and T0 fixed at period_search.t0_s (T0 = 0.3 s: the bisection's bounds known)."""
     defaults = {"additions": PAPER, "period_search": {"t0_reachable": False}}
-    return PeriodSearch(robot, load_planner_config(NUMPY, defaults=defaults), vary_period=vary_period)
+    return PeriodSearch(robot, load_planner_config(defaults=defaults), NUMPY, vary_period=vary_period)
 
 
 @pytest.mark.parametrize("t_star", [0.42, 0.55, 0.7])
@@ -172,28 +173,29 @@ def test_second_tier_finds_a_waiting_walk_when_no_period_clears_the_way(crossing
     nominal steps (4.8 s) lets it clear. With the switch off the search gives up at the shortest period."""
     robot, snap, start = crossing_start
     zone = Zone(0.1, 0.6, 4.0)
-    on = PeriodSearch(robot, load_planner_config(NUMPY))
+    on = PeriodSearch(robot, load_planner_config(), NUMPY)
     choice = on(snap, start, zone)
     assert choice.any_free and choice.waiting_walks
     steps = np.linalg.norm(np.diff(choice.free_walks[0], axis=0), axis=1)
     assert np.all(steps[:3] == 0.0)  # the best free walk first steps in place
-    off = PeriodSearch(robot, load_planner_config({"additions_waiting_walks": False, **NUMPY}))
+    off = PeriodSearch(robot, load_planner_config({"additions_waiting_walks": False}), NUMPY)
     blocked = off(snap, start, zone)
     assert not blocked.any_free and not blocked.waiting_walks and blocked.period == blocked.floor
 
 
 @pytest.mark.parametrize("compiled", [True, False])
-def test_the_stage_checks_its_walks_on_the_route_kernels_compiled_names(crossing_start, compiled):
-    """``kernels.compiled`` reaches the walks (rollouts and the paper's fan); the compiled route refuses a body check
+def test_the_stage_checks_its_walks_with_the_kernels_it_is_given(crossing_start, compiled):
+    """The stage's kernels reach the walks (rollouts and the paper's fan); the compiled kernels refuse a body check
     that is not a BodyModel instead of falling back to numpy."""
     robot, snap, start = crossing_start
+    kernels = select_kernels(compiled)
     for defaults in ({}, {"additions": PAPER}):
-        search = PeriodSearch(robot, load_planner_config({"kernels_compiled": compiled}, defaults=defaults))
+        search = PeriodSearch(robot, load_planner_config(defaults=defaults), kernels)
         if compiled:
             with pytest.raises(TypeError, match="need a prediction.BodyModel"):
                 search(snap, start, Closes(np.inf))
         else:
-            assert search.walks(snap, start, Closes(np.inf), (0,), (1.0,)).compiled is False
+            assert search.walks(snap, start, Closes(np.inf), (0,), (1.0,)).kernels is NUMPY
             assert search(snap, start, Closes(np.inf)).nominal_free
 
 
@@ -268,8 +270,8 @@ def test_centred_scan_rejects_a_grid_that_is_not_ascending():
 def test_the_stage_scans_the_configured_periods_from_the_reachable_floor(crossing_start):
     """``scan_periods`` periods from the LIPM's floor to T_n, every one asked once."""
     robot, snap, start = crossing_start
-    config = load_planner_config(NUMPY)
-    choice = PeriodSearch(robot, config)(snap, start, Closes(np.inf))
+    config = load_planner_config()
+    choice = PeriodSearch(robot, config, NUMPY)(snap, start, Closes(np.inf))
     assert choice.evaluations == config.period_search.scan_periods
     assert choice.any_free and choice.nominal_free
     grid = np.linspace(choice.floor, TN, config.period_search.scan_periods)

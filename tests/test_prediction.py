@@ -320,7 +320,7 @@ def test_an_accelerating_shape_is_predicted_at_p_v_t_plus_half_a_t_squared_up_to
     pts = np.asarray(snap.com) + np.random.default_rng(0).uniform(-1, 1, (50, 2))
     times = np.linspace(0, 3, 50)
     np.testing.assert_array_equal(off.clearance(pts, times), plain.clearance(pts, times))
-    np.testing.assert_array_equal(off.kernel_shapes, plain.kernel_shapes)
+    np.testing.assert_array_equal(off.shapes.rows, plain.shapes.rows)
     env.close()
 
 

@@ -1,6 +1,6 @@
 """The walks of stage 1 (:mod:`footstep_gym.planners.rollouts`): waiting rollouts, and the paper's one-step fan
 of next nodes (Fig. 2), with body checks written here (not :class:`~footstep_gym.planners.prediction.BodyModel` s:
-on the numpy route, ``compiled=False``; the compiled one is held equal to it in ``tests/test_kernels.py``).
+with the numpy kernels; the compiled ones are held equal to them in ``tests/test_kernels.py``).
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from footstep_gym.kernels.numpy_kernels import NUMPY
 from footstep_gym.planners.rollouts import GoalRollouts, NextNodeFan
 from planner_helpers import LEFT, RIGHT, AlwaysFree, angle_limits, make_start, robot, wrap  # noqa: F401
 
@@ -30,7 +31,7 @@ class Blocks:
 def make_rollouts(robot, body, wait_steps=(0,), horizon=3.2, lanes=(-0.065, 0.0, 0.065)):
     return GoalRollouts(body, robot, make_start(RIGHT, 0.0), (2.0, 0.0), 0.1, horizon=horizon, step_size=0.1,
                         lane_offsets=lanes, stride_fractions=(0.7, 1.0), lookahead=0.3, edge_samples=3,
-                        wait_steps=wait_steps, compiled=False)
+                        wait_steps=wait_steps, kernels=NUMPY)
 
 
 def test_waiting_rollouts_step_in_place_first(robot):
@@ -68,7 +69,7 @@ class Closes:
 
 def make_fan(robot, body, side=RIGHT, heading=0.0, directions=9, fractions=(1.0,), goal=(2.0, 0.0), window=None):
     return NextNodeFan(body, robot, make_start(side, heading), goal, 0.1, step_size=0.1, stride_fractions=fractions,
-                       directions=directions, edge_samples=3, first_stride=window, compiled=False)
+                       directions=directions, edge_samples=3, first_stride=window, kernels=NUMPY)
 
 
 @pytest.mark.parametrize("side,heading", [(RIGHT, 0.0), (LEFT, 0.0), (RIGHT, 0.7), (LEFT, -2.0)])
@@ -134,8 +135,11 @@ def test_a_walk_is_checked_until_its_body_reaches_the_goal(robot):
     """The env ends an episode when the robot centre (the midpoint of the feet) is within the goal tolerance,
     not the support foot's node: node 2 of this walk lies in the goal region (8 cm from the goal), but its body
     (midpoint of nodes 1 and 2) is 13 cm away, so step 3 still counts; after step 3 the body is in. (The numpy
-    route; the compiled check is held equal to it in test_kernels.py.)"""
-    from footstep_gym.planners.walks import trim_at_goal, walks_free as check
+    kernels; the compiled ones are held equal to them in test_kernels.py.)"""
+    from footstep_gym.planners.walks import trim_at_goal
+
+    def check(body):
+        return np.isinf(NUMPY.walks_survival(body, start, [(nodes, headings)], [period], 3, goal, radius)[0])
     start = make_start(RIGHT, 0.0)
     nodes = np.array([[[0.0, 0.0], [0.1, 0.0], [0.2, 0.0], [0.3, 0.0], [0.3, 0.0]]])
     headings = np.zeros((1, 5))
@@ -143,8 +147,8 @@ def test_a_walk_is_checked_until_its_body_reaches_the_goal(robot):
     assert np.linalg.norm(nodes[0, 2] - goal) <= radius < np.linalg.norm(0.5 * (nodes[0, 1] + nodes[0, 2]) - goal)
     during_step_3 = BlocksDuring(2 * period + 0.01, 3 * period - 0.01)
     after_step_3 = BlocksDuring(3 * period + 0.01, 4 * period)
-    assert not check(during_step_3, start, nodes, headings, period, 3, goal, radius, compiled=False)[0]
-    assert check(after_step_3, start, nodes, headings, period, 3, goal, radius, compiled=False)[0]
+    assert not check(during_step_3)[0]
+    assert check(after_step_3)[0]
     np.testing.assert_array_equal(trim_at_goal(nodes[0], goal, radius), nodes[0, :4])
     # several walks at once: the step that brings each body in (the walk's own length if none does)
     from footstep_gym.planners.walks import steps_to_goal

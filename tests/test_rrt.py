@@ -4,7 +4,7 @@ coordinates and checked against the hardware angle limits written out from docs/
 Fig. 4 (and cross-checked with ``footstep.turn_bounds``); the fallback branch when no path reaches the goal.
 
 The body checks written here are not :class:`~footstep_gym.planners.prediction.BodyModel` s, so these trees
-grow on the numpy route (``compiled=False``, :data:`NUMPY_RRT`); the compiled one is held equal to it in
+grow with the numpy kernels (:data:`NUMPY_RRT`); the compiled ones are held equal to them in
 ``tests/test_kernels.py``.
 """
 
@@ -15,6 +15,7 @@ import math
 import numpy as np
 import pytest
 
+from footstep_gym.kernels import select_kernels
 from footstep_gym.planners.rrt import ModifiedRRT
 from footstep_gym.planners.walks import WalkStart
 from planner_helpers import (  # noqa: F401  (robot is a fixture)
@@ -22,8 +23,8 @@ from planner_helpers import (  # noqa: F401  (robot is a fixture)
     empty_predictor_body, make_start, robot, wrap,
 )
 
-#: The RRT settings of the tests on the numpy route (``kernels.compiled: false``), which takes any body check.
-NUMPY_RRT = {**RRT_SETTINGS, "compiled": False}
+#: The RRT settings of the tests with the numpy kernels (``kernels.compiled: false``), which take any body check.
+NUMPY_RRT = {**RRT_SETTINGS, "kernels": select_kernels(False)}
 
 
 @pytest.mark.parametrize("body_kind,compiled", [("always_free", False), ("empty_snapshot", False),
@@ -33,7 +34,7 @@ def test_rrt_free_space_reaches_goal_within_hardware_limits(robot, body_kind, co
     body = AlwaysFree() if body_kind == "always_free" else empty_predictor_body(robot)
     start = make_start(side, heading, node=(0.2, -0.1))
     goal, radius = np.array([1.6, 0.4]), 0.1  # ~1.5 m away
-    rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 800, "compiled": compiled})
+    rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 800, "kernels": select_kernels(compiled)})
     path = rrt.plan(start, goal, radius, body, period=0.8, rng=np.random.default_rng(1))
     assert path is not None and path.reached_goal
     check_path(path, start, goal, radius, robot, RRT_SETTINGS["step_size"])
@@ -274,7 +275,7 @@ def test_rrt_goal_nodes_are_distinct_paths(robot):
 def test_rrt_takes_the_first_of_equally_long_goal_paths(robot, compiled):
     """Two seed walks of ten full strides reach the goal: equally long, but for rounding (the one 0.02 rad off
     the axis sums to 0.9999999999999998 m in numpy, the straight one to 1.0). The first found is taken either
-    way round, on both routes: rounding, which differs between the routes, does not choose the path."""
+    way round, with both kernels: rounding, which differs between them, does not choose the path."""
     from footstep_gym.planners.rrt import COST_TIE_M
 
     start = make_start(RIGHT, 0.0)
@@ -283,14 +284,15 @@ def test_rrt_takes_the_first_of_equally_long_goal_paths(robot, compiled):
     tilted = start.node + k * [math.cos(0.02), math.sin(0.02)]
     goal = start.node + 0.95 * 0.5 * (np.array([1.0, 0.0]) + [math.cos(0.02), math.sin(0.02)])  # by both last bodies
     for seeds in ([straight, tilted], [tilted, straight]):
-        rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 1, "n_paths": 2, "compiled": compiled})
+        rrt = ModifiedRRT(robot, **{**RRT_SETTINGS, "iterations": 1, "n_paths": 2,
+                                     "kernels": select_kernels(compiled)})
         path = rrt.plan(start, goal, 0.03, empty_predictor_body(robot), period=0.8, rng=np.random.default_rng(0),
                         seeds=seeds)
         costs = rrt.tree.cost[rrt.goal_nodes[:2]]
         assert rrt.goal_nodes[:2] == [10, 20] and abs(costs[0] - costs[1]) < COST_TIE_M
         np.testing.assert_array_equal(path.nodes, seeds[0])
     if not compiled:
-        assert costs[0] != costs[1]  # the numpy route's costs do differ by rounding (as measured above)
+        assert costs[0] != costs[1]  # the numpy kernels' costs do differ by rounding (as the docstring says)
 
 
 # ====================================================================== stage 3: PSO
@@ -401,7 +403,7 @@ def test_path_search_without_fallback_takes_the_branch_nearest_the_goal(robot):
     zone = LateZone(0.5, 1.0)
     out = {}
     for fallback in (False, True):
-        stage = PathSearch(robot, load_planner_config({"additions_fallback": fallback, "kernels_compiled": False}))
+        stage = PathSearch(robot, load_planner_config({"additions_fallback": fallback}), select_kernels(False))
         out[fallback] = stage(snap, start, zone, 0.1, (), None, np.random.default_rng(0))
         assert not out[fallback].reached_goal and out[fallback].path.n_steps > 0
     assert out[False].path.nodes[-1, 0] > 0.5  # the greedy branch enters the zone that closes after 1 s

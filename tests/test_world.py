@@ -5,7 +5,7 @@ known speed first touches another shape and the angle at which a rotating rod re
 point. (The instant a revolving-door wing meets a robot stepping in place, through the env,
 and the door's half drum are tested in test_scenario_door.py.)
 
-The tests named "bit for bit" compare the compiled sweep (:mod:`footstep_gym.sweep_kernel`, numba without
+The tests named "bit for bit" compare the compiled sweep (:mod:`footstep_gym.kernels.sweep`, numba without
 fast-math: no fused multiply-adds) with pymunk's (Chipmunk's C) and CPython's arithmetic exactly, on any CPU:
 both do the same IEEE operations and call the same libm in one process (``sin``, ``cos``, ``exp``, ``sqrt``);
 numpy's SIMD kernels, chosen per CPU at run time, do not enter. (Checked with numpy's AVX2/AVX-512 kernels
@@ -437,7 +437,7 @@ def test_compiled_sweep_covers_contacts_and_far_footsteps():
 def test_shape_distance_is_pymunks_point_query_bit_for_bit():
     """The kernel's distance to a static segment, a turned and moved segment and a circle, at random points
     (and at points on the segment's line and ends), against pymunk's ``Shape.point_query``."""
-    from footstep_gym import sweep_kernel as kernel
+    from footstep_gym.kernels import sweep as kernel
 
     rng = np.random.default_rng(7)
     world = _random_world(3)
@@ -457,7 +457,7 @@ def test_shape_distance_is_pymunks_point_query_bit_for_bit():
 
 def test_world_path_is_the_trajectory_bit_for_bit():
     """``WorldPath`` (Python) and the kernel's path give ``origin + state(t)[0] * rot`` exactly."""
-    from footstep_gym import sweep_kernel as kernel
+    from footstep_gym.kernels import sweep as kernel
 
     rng = np.random.default_rng(3)
     for _ in range(50):

@@ -51,9 +51,9 @@ now and then a step it takes leaves no free walk a step later where period-aware
 had kept it farther off: on a few seeds it fails where period-aware does not, so it bounds
 period-aware's success rate over many seeds, not its outcome on each (``tests/test_oracle.py``).
 
-**Route.** The compiled kernels read one constant-velocity row per shape, so the oracle plans
-on the numpy route (``kernels.compiled: false``, set by its registry entry; a config that asks
-for the compiled route is refused): :class:`TruthBody` is a
+**Kernels.** The compiled kernels read one constant-velocity row per shape, so the oracle plans
+with the numpy kernels (``kernels.compiled: false``, set by its registry entry; a config that asks
+for the compiled ones is refused): :class:`TruthBody` is a
 :class:`~footstep_gym.planners.prediction.BodyModel` whose checks pass the walk's period down to
 :class:`TruthPredictor`, an :class:`~footstep_gym.planners.prediction.ObstaclePredictor` whose
 shapes stand where the truth puts them at each point's own time.
@@ -68,6 +68,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from footstep_gym.kernels import ShapeTable
 from footstep_gym.planners.params import PlannerConfig
 from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor, centre_line_gap2
 from footstep_gym.planners.staged import PeriodAwarePlanner
@@ -241,8 +242,8 @@ class TruthPredictor(ObstaclePredictor):
     Its shapes (geometry, order) are the snapshot's; their poses at a point's time come from the
     truth, on the chords of a walk of period ``T`` (:meth:`free_at`, :meth:`clearance_at`). A moving
     shape is left out beyond ``horizon`` [s] (and beyond its own truth's horizon), as the planner's
-    predictor leaves it out. Numpy only: the compiled kernels' shape table would be the constant-velocity
-    prediction, so :meth:`free` is refused.
+    predictor leaves it out. Its shape table would be the constant-velocity prediction: the checks that
+    do not pass the walk's period (:meth:`free`, :meth:`clearance`) are refused.
     """
 
     def __init__(self, snapshot: Snapshot, truth: TruthModel, horizon: float) -> None:
@@ -286,9 +287,6 @@ class TruthPredictor(ObstaclePredictor):
         return (np.sqrt(self._distance2_at(pts, times, period)) - self._r).min(axis=1)
 
     def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
-        raise TypeError("the oracle's truth has no compiled route (kernels.compiled must be false): use free_at")
-
-    def free_numpy(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
         raise TypeError("the oracle's truth depends on the walk's period: use free_at (TruthBody passes it)")
 
     def clearance(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -296,24 +294,22 @@ class TruthPredictor(ObstaclePredictor):
 
 
 class TruthBody(BodyModel):
-    """:class:`BodyModel` over a :class:`TruthPredictor`: each check passes its walk's period to the truth."""
+    """:class:`BodyModel` over a :class:`TruthPredictor`: each check passes its walk's period to the truth.
+    It has no shape table, so only the numpy kernels check it."""
 
     predictor: TruthPredictor
 
-    def __init__(self, predictor: TruthPredictor, robot: Robot, margin: float, sway: bool = True) -> None:
-        super().__init__(predictor, robot, margin, sway=sway, compiled=False)
-
-    def routed(self, compiled: bool) -> BodyModel:
-        if compiled:
-            raise TypeError("the oracle plans on the numpy route only (kernels.compiled: false)")
-        return self
+    @property
+    def shapes(self) -> ShapeTable:
+        raise TypeError("the oracle's truth has no shape table for the compiled kernels: it plans with the numpy "
+                        "kernels only (kernels.compiled: false)")
 
     def free(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray, period: float) -> np.ndarray:
-        pts, needed = self._body(points, support_normals, period)
+        pts, needed = self.centres(points, support_normals, period)
         return self.predictor.free_at(pts, times, needed, period)
 
     def slack(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray, period: float) -> np.ndarray:
-        pts, needed = self._body(points, support_normals, period)
+        pts, needed = self.centres(points, support_normals, period)
         return self.predictor.clearance_at(pts, times, period) - needed
 
 
@@ -330,7 +326,7 @@ class OraclePlanner(PeriodAwarePlanner):
 
     def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None, name: str | None = None) -> None:
         if config.kernels.compiled:
-            raise ValueError("the oracle plans on the numpy route: kernels.compiled must be false (its registry "
+            raise ValueError("the oracle plans with the numpy kernels: kernels.compiled must be false (its registry "
                              "entry sets it; the compiled kernels assume constant velocities)")
         super().__init__(robot, config, seed, name)
         self._env: Any = None

@@ -57,6 +57,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from footstep_gym import lipm
+from footstep_gym.kernels import Kernels
 from footstep_gym.planners.params import PlannerConfig
 from footstep_gym.planners.rollouts import GoalRollouts, NextNodeFan
 from footstep_gym.planners.walks import BodyCheck, WalkStart
@@ -220,13 +221,13 @@ class PeriodChoice:
 
 
 class PeriodSearch:
-    """Stage 1 with the parameters of ``configs/planner.yaml`` (sections ``period_search``, ``additions``;
-    ``kernels``: the walks pursued and checked in compiled loops or by their numpy references).
+    """Stage 1 with the parameters of ``configs/planner.yaml`` (sections ``period_search``, ``additions``),
+    its walks pursued and checked by the planner's ``kernels``.
 
     ``vary_period=False`` is the fixed-period planner: ``T = T_n``, only checked.
     """
 
-    def __init__(self, robot: Robot, config: PlannerConfig, vary_period: bool = True) -> None:
+    def __init__(self, robot: Robot, config: PlannerConfig, kernels: Kernels, vary_period: bool = True) -> None:
         ps, add = config.period_search, config.additions
         self.robot = robot
         self.vary_period = vary_period
@@ -253,7 +254,7 @@ class PeriodSearch:
         self.t0_reachable = ps.t0_reachable or add.lipm_windows
         self.check_node = config.prediction.check == "node"
         self.centred_period = add.centred_period
-        self.compiled = config.kernels.compiled
+        self.kernels = kernels
         waits = tuple(int(w) for w in ps.rollout_wait_steps if w > 0)
         fractions = tuple(ps.rollout_stride_fractions)
         if not self.long_lookahead:
@@ -317,7 +318,7 @@ class PeriodSearch:
               fractions: Sequence[float]) -> GoalRollouts | NextNodeFan:
         """``ObstacleCollision``: the rollouts (``long_lookahead``) or the paper's one-step fan."""
         window = (lambda T: self.stride_window(snapshot, T)) if self.lipm_windows else None
-        common = dict(edge_samples=self.edge_samples, first_stride=window, compiled=self.compiled)
+        common = dict(edge_samples=self.edge_samples, first_stride=window, kernels=self.kernels)
         if not self.long_lookahead:
             return NextNodeFan(search_body, self.robot, start, snapshot.goal, snapshot.goal_tolerance,
                                step_size=self.step_size, stride_fractions=fractions,

@@ -14,8 +14,9 @@ there and only obstacles that do not move (walls, posts) are checked. A greedy p
 replans every step, so what it needs from the far future is only "is there a way
 around the static scene".
 
-Every shape is held as a thick segment (a circle is a segment of zero length) and 2D
-points as complex numbers ``x + iy``, so one vectorised expression serves all shapes.
+Every shape is held as a thick segment (a circle is a segment of zero length), one row of a
+:class:`~footstep_gym.kernels.ShapeTable` (:attr:`ObstaclePredictor.shapes`): the table both the
+numpy and the compiled kernels (:mod:`footstep_gym.kernels`) read.
 """
 
 from __future__ import annotations
@@ -26,6 +27,14 @@ from typing import Sequence
 import numpy as np
 
 from footstep_gym import footstep, lipm
+from footstep_gym.kernels import SHAPE_COLUMNS, ShapeTable, step_fractions
+from footstep_gym.kernels.numpy_kernels import (  # noqa: F401  (step_fractions, centre_line_gap2: re-exported)
+    NUMPY,
+    body_path_points,
+    centre_line_gap2,
+    shape_gap2,
+    support_normal,
+)
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import ObstacleView, Snapshot
 
@@ -91,21 +100,6 @@ def sensed_accelerations(history: Sequence[Snapshot], snapshot: Snapshot,
     return out
 
 
-def centre_line_gap2(p: np.ndarray, centre: np.ndarray, rot: np.ndarray, a: np.ndarray, ab: np.ndarray,
-                     ab2: np.ndarray) -> np.ndarray:
-    """Squared distances ``(N, S)`` [m^2] from points ``p`` (N,) to shapes' centre lines (complex, world frame).
-
-    A shape's body sits at ``centre`` turned by ``rot`` (unit complex; both (N, S) or broadcastable); its centre
-    line runs from ``a`` to ``a + ab`` in the body frame, ``ab2 = |ab|^2`` (a circle: ``ab = 0``).
-    """
-    ap = p[:, None] - (centre + rot * a)
-    ab_world = rot * ab
-    u = (ap * ab_world.conj()).real / np.where(ab2 > 0, ab2, 1.0)
-    np.clip(u, 0.0, 1.0, out=u)
-    d = ap - u * ab_world
-    return d.real ** 2 + d.imag ** 2
-
-
 class ObstaclePredictor:
     """Clearance of body points at given times against the obstacles of a :class:`Snapshot`.
 
@@ -129,8 +123,8 @@ class ObstaclePredictor:
         views = [v for v in snapshot.obstacles if _moves(v) or not moving_only]
         n = len(views)
         # Per shape: moving shapes are predicted up to their own horizon (``horizons[name]``, else ``horizon``).
-        self._horizon = np.array([min(self.horizon, horizons.get(v.name, np.inf)) if _moves(v) else np.inf
-                                  for v in views], dtype=float).reshape(n)
+        horizon_of = np.array([min(self.horizon, horizons.get(v.name, np.inf)) if _moves(v) else np.inf
+                               for v in views], dtype=float).reshape(n)
 
         def col(values: list) -> np.ndarray:
             return np.array(values, dtype=float).reshape(n)
@@ -139,48 +133,34 @@ class ObstaclePredictor:
             arr = np.array(pairs, dtype=float).reshape(n, 2)
             return arr[:, 0] + 1j * arr[:, 1]
 
-        self._position = cplx([v.position for v in views])
-        self._velocity = cplx([v.velocity for v in views])
-        self._angle = col([v.angle for v in views])
-        self._omega = col([v.angular_velocity for v in views])
-        self._a = cplx([v.a for v in views])  # body frame
-        self._ab = cplx([v.b if v.kind == "segment" else v.a for v in views]) - self._a  # 0 for a circle
-        self._ab2 = np.abs(self._ab) ** 2
-        self._radius = col([v.radius for v in views])
+        position = cplx([v.position for v in views])
+        velocity = cplx([v.velocity for v in views])
+        angle = col([v.angle for v in views])
+        a = cplx([v.a for v in views])  # body frame
+        ab = cplx([v.b if v.kind == "segment" else v.a for v in views]) - a  # 0 for a circle
         # Sensed accelerations, each held for acceleration_horizon [s] (0: none; the prediction is p + v t).
         cap = float(acceleration_horizon)
         accelerating = [v.name in accelerations and _moves(v) and cap > 0 for v in views]
-        self._acceleration = cplx([accelerations[v.name] if on else (0.0, 0.0) for v, on in zip(views, accelerating)])
-        self._acceleration_cap = col([cap if on else 0.0 for on in accelerating])
-        self._accelerates = bool(any(accelerating))
-        # The shapes as the compiled kernels read them: one row per shape, its 16 columns named in kernels.py
-        # (kernels.SHAPE_COLUMNS; built here without importing kernels, which imports numba).
-        self.kernel_radius = np.ascontiguousarray(self._radius)
-        self.kernel_horizon = np.ascontiguousarray(self._horizon)
-        self.kernel_shapes = np.ascontiguousarray(np.stack([
-            self._position.real, self._position.imag, self._velocity.real, self._velocity.imag, self._angle,
-            self._omega, np.cos(self._angle), np.sin(self._angle), self._a.real, self._a.imag, self._ab.real,
-            self._ab.imag, self._ab2, self._acceleration.real, self._acceleration.imag, self._acceleration_cap],
-            axis=1).reshape(n, 16))
+        acceleration = cplx([accelerations[v.name] if on else (0.0, 0.0) for v, on in zip(views, accelerating)])
+        rows = np.stack([
+            position.real, position.imag, velocity.real, velocity.imag, angle, col([v.angular_velocity for v in views]),
+            np.cos(angle), np.sin(angle), a.real, a.imag, ab.real, ab.imag, np.abs(ab) ** 2, acceleration.real,
+            acceleration.imag, col([cap if on else 0.0 for on in accelerating])], axis=1).reshape(n, SHAPE_COLUMNS)
+        #: The shapes as the kernels read them.
+        self.shapes = ShapeTable(np.ascontiguousarray(rows), np.ascontiguousarray(col([v.radius for v in views])),
+                                 np.ascontiguousarray(horizon_of))
 
     @property
     def n_shapes(self) -> int:
-        return self._radius.size
+        return self.shapes.n_shapes
+
+    @property
+    def _radius(self) -> np.ndarray:
+        return self.shapes.radius
 
     def _distance2(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
         """Squared distances ``(N, S)`` from each point to each shape's centre line (``inf``: not checked)."""
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        p = pts[:, 0] + 1j * pts[:, 1]
-        tt = np.broadcast_to(np.asarray(times, dtype=float), p.shape)[:, None]
-        rot = np.exp(1j * (self._angle + self._omega * tt))
-        centre = self._position + self._velocity * tt
-        if self._accelerates:  # accelerating for tau = min(t, cap), then at the velocity reached
-            tau = np.minimum(tt, self._acceleration_cap)
-            centre = centre + self._acceleration * (tau * (tt - 0.5 * tau))
-        d2 = centre_line_gap2(p, centre, rot, self._a, self._ab, self._ab2)
-        if np.isfinite(self._horizon).any():
-            d2[tt > self._horizon] = np.inf
-        return d2
+        return shape_gap2(self.shapes, points, times)
 
     def distances(self, points: np.ndarray, times: np.ndarray) -> np.ndarray:
         """Signed distance [m] from point ``i`` at time ``times[i]`` to each shape's surface: ``(N, S)``.
@@ -197,47 +177,8 @@ class ObstaclePredictor:
         return (np.sqrt(self._distance2(pts, times)) - self._radius).min(axis=1)
 
     def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
-        """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots).
-
-        One compiled loop (:func:`.kernels.points_free`) over points and shapes; its numpy twin is
-        :meth:`free_numpy` (the tests hold the two equal).
-        """
-        from footstep_gym.planners import kernels  # imports numba: only on the compiled route
-
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        times = np.broadcast_to(np.asarray(times, dtype=float), pts.shape[:1])
-        out = np.empty(len(pts), dtype=bool)
-        kernels.points_free(np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]),
-                            np.ascontiguousarray(times), self.kernel_shapes, (self._radius + safe_distance) ** 2,
-                            self.kernel_horizon, out)
-        return out
-
-    def free_numpy(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
-        """:meth:`free` in plain numpy: the reference implementation, the test oracle of :meth:`free`
-        (``tests/test_kernels.py``), and the route of ``kernels.compiled: false``."""
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        return (self._distance2(pts, times) >= (self._radius + safe_distance) ** 2).all(axis=1)
-
-
-@functools.lru_cache(maxsize=8)
-def step_fractions(samples: int) -> np.ndarray:
-    """``samples`` fractions of a step, ends included (read-only: shared between calls)."""
-    out = np.linspace(0.0, 1.0, samples)
-    out.flags.writeable = False
-    return out
-
-
-def body_path_points(starts: np.ndarray, ends: np.ndarray, t_start: np.ndarray, t_end: np.ndarray,
-                     samples: int) -> tuple[np.ndarray, np.ndarray]:
-    """Points and times along straight body-path segments, ``samples`` per segment, ends included.
-
-    ``starts``/``ends`` ``(N, 2)``, ``t_start``/``t_end`` ``(N,)``; returns ``(N * samples, 2)``
-    points and ``(N * samples,)`` times, segment by segment.
-    """
-    s = step_fractions(samples)
-    pts = starts[:, None, :] + s[None, :, None] * (ends - starts)[:, None, :]
-    times = t_start[:, None] + s[None, :] * (t_end - t_start)[:, None]
-    return pts.reshape(-1, 2), times.reshape(-1)
+        """``clearance >= safe_distance`` for each point, ``(N,)`` bool (no square roots; the numpy kernels)."""
+        return NUMPY.points_free(self.shapes, points, times, safe_distance)
 
 
 @functools.lru_cache(maxsize=4096)
@@ -271,24 +212,20 @@ class BodyModel:
     ``additions.com_sway`` off; the paper's "robot radius"): one circle on the centre line at
     every period, grown by the larger sway of the nominal gait so that it holds the body there.
 
-    ``compiled``: :meth:`free` asks :meth:`ObstaclePredictor.free` (the compiled kernel) or its numpy
-    twin :meth:`ObstaclePredictor.free_numpy`. The planners' stages put every body check on the route
-    of ``configs/planner.yaml``'s ``kernels.compiled`` (:func:`.walks.on_route`, :meth:`routed`).
+    :meth:`free` and :meth:`slack` are numpy; the compiled kernels read :attr:`shapes` and
+    :meth:`shift_and_clearance` and check the same circles (:mod:`footstep_gym.kernels`).
     """
 
-    def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float, sway: bool = True,
-                 compiled: bool = True) -> None:
+    def __init__(self, predictor: ObstaclePredictor, robot: Robot, margin: float, sway: bool = True) -> None:
         self.predictor = predictor
         self.robot = robot
         self.margin = margin
         self.with_sway = sway
-        self.compiled = compiled
 
-    def routed(self, compiled: bool) -> BodyModel:
-        """This body check with its points checked by the compiled kernel (``compiled``) or in numpy."""
-        if compiled == self.compiled:
-            return self
-        return BodyModel(self.predictor, self.robot, self.margin, sway=self.with_sway, compiled=compiled)
+    @property
+    def shapes(self) -> ShapeTable:
+        """The predictor's shape table (what the compiled kernels read)."""
+        return self.predictor.shapes
 
     def sway(self, period: float) -> tuple[float, float]:
         """``(shift towards the support foot, radius growth)`` [m] at ``period`` (cached per 0.1 ms of period)."""
@@ -302,7 +239,7 @@ class BodyModel:
         shift, grow = self.sway(period)
         return shift, self.robot.body_radius + self.margin + grow
 
-    def _body(self, points: np.ndarray, support_normals: np.ndarray, period: float) -> tuple[np.ndarray, float]:
+    def centres(self, points: np.ndarray, support_normals: np.ndarray, period: float) -> tuple[np.ndarray, float]:
         """Body centres ``(N, 2)`` shifted by the sway, and the clearance [m] each one needs."""
         shift, needed = self.shift_and_clearance(period)
         pts = np.asarray(points, dtype=float).reshape(-1, 2) + shift * np.asarray(support_normals).reshape(-1, 2)
@@ -314,19 +251,11 @@ class BodyModel:
         ``support_normals (N, 2)``: unit vectors from the centre line towards the support
         foot of the step each point belongs to (zero vectors: no sway shift).
         """
-        pts, needed = self._body(points, support_normals, period)
-        if self.compiled:
-            return self.predictor.free(pts, times, needed)
-        return self.predictor.free_numpy(pts, times, needed)
+        pts, needed = self.centres(points, support_normals, period)
+        return self.predictor.free(pts, times, needed)
 
     def slack(self, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray, period: float) -> np.ndarray:
         """Clearance [m] beyond what :meth:`free` requires at each point, ``(N,)`` (negative: not free)."""
-        pts, needed = self._body(points, support_normals, period)
+        pts, needed = self.centres(points, support_normals, period)
         return self.predictor.clearance(pts, times) - needed
 
-
-def support_normal(heading: np.ndarray, side: np.ndarray) -> np.ndarray:
-    """Unit vectors ``(N, 2)`` towards the support foot: ``side`` (+1 left) times the left normal of ``heading``."""
-    heading = np.asarray(heading, dtype=float)
-    side = np.asarray(side, dtype=float)
-    return np.stack([-side * np.sin(heading), side * np.cos(heading)], axis=-1)

@@ -17,10 +17,9 @@ that scans rather than bisects):
 Both evaluate from scratch at every call (the walk geometry is memoised, the verdicts
 are not): the period search (:mod:`.period_search`) keeps what it needs in its record.
 
-``compiled`` (``configs/planner.yaml``'s ``kernels.compiled``): the walks are pursued and checked in
-compiled loops (:func:`.kernels.pursue_lanes`, :func:`.kernels.walks_survival`), which need a
-:class:`~.prediction.BodyModel`, or by their numpy references (:func:`pursue_lanes_numpy`,
-:mod:`.walks`), with any body check.
+The walks are pursued and checked by the planner's kernels (:class:`footstep_gym.kernels.Kernels`:
+:meth:`~footstep_gym.kernels.Kernels.pursue_lanes`, :meth:`~footstep_gym.kernels.Kernels.walks_survival`),
+the compiled ones (which need a :class:`~.prediction.BodyModel`) or the numpy ones (any body check).
 """
 
 from __future__ import annotations
@@ -34,8 +33,9 @@ import numpy as np
 
 from footstep_gym import footstep
 from footstep_gym.footstep import LEFT, RIGHT
+from footstep_gym.kernels import BodyCheck, Kernels, Lanes, WalkStart
 from footstep_gym.planners.prediction import support_normal
-from footstep_gym.planners.walks import BodyCheck, WalkStart, on_route, steps_to_goal, walks_free, walks_survival_at
+from footstep_gym.planners.walks import steps_to_goal
 from footstep_gym.robot import Robot
 
 #: ``(lo, hi)`` [m] of the first step's front stride the LIPM accepts at period ``T``, or ``None`` (no limit).
@@ -43,13 +43,14 @@ StrideWindow = Callable[[float], "tuple[float, float] | None"]
 
 
 class _Walks(ABC):
-    """What both predicates share: the body check, its route and the ordering of free walks."""
+    """What both predicates share: the body check, the kernels that check it and the ordering of free walks."""
 
     def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
-                 goal_radius: float, *, edge_samples: int, compiled: bool,
+                 goal_radius: float, *, edge_samples: int, kernels: Kernels,
                  first_stride: StrideWindow | None = None) -> None:
-        self.compiled = compiled
-        self.body = on_route(body, compiled)
+        kernels.check_body(body)
+        self.kernels = kernels
+        self.body = body
         self.robot = robot
         self.start = start
         self.goal = np.asarray(goal, dtype=float)
@@ -62,8 +63,9 @@ class _Walks(ABC):
         """Walk nodes ``(R, D + 1, 2)`` [m] and headings ``(R, D + 1)`` [rad] (index 0: the start) at ``period`` [s]."""
 
     def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float) -> np.ndarray:
-        return walks_free(self.body, self.start, nodes, headings, period, self.edge_samples, self.goal,
-                          self.goal_radius, compiled=self.compiled)
+        """``(R,)`` bool: each walk's body stays free (until it reaches the goal region)."""
+        return np.isinf(self.kernels.walks_survival(self.body, self.start, [(nodes, headings)], [period],
+                                                    self.edge_samples, self.goal, self.goal_radius)[0])
 
     def free_walks(self, period: float, limit: int | None = None,
                    blocked_at: np.ndarray | None = None) -> list[np.ndarray]:
@@ -91,8 +93,8 @@ class _Walks(ABC):
         All walks of all periods are checked in one call (compiled: one loop)."""
         periods = [float(T) for T in periods]
         groups = [self.nodes(T) for T in periods]
-        return walks_survival_at(self.body, self.start, groups, periods, self.edge_samples, self.goal,
-                                 self.goal_radius, compiled=self.compiled)
+        return self.kernels.walks_survival(self.body, self.start, groups, periods, self.edge_samples, self.goal,
+                                           self.goal_radius)
 
     def survivals(self, periods: Sequence[float]) -> np.ndarray:
         """``(P,)`` [s]: for each of ``periods`` [s], how long the walk at that period that stays free
@@ -117,10 +119,10 @@ class GoalRollouts(_Walks):
 
     def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
                  goal_radius: float, *, horizon: float, step_size: float, lane_offsets: Sequence[float],
-                 stride_fractions: Sequence[float], lookahead: float, edge_samples: int, compiled: bool,
+                 stride_fractions: Sequence[float], lookahead: float, edge_samples: int, kernels: Kernels,
                  wait_steps: Sequence[int] = (0,), depth_slack: float = 1.2, extra_steps: int = 2,
                  first_stride: StrideWindow | None = None) -> None:
-        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, compiled=compiled,
+        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, kernels=kernels,
                          first_stride=first_stride)
         self.horizon = horizon
         self.lookahead = lookahead
@@ -133,68 +135,19 @@ class GoalRollouts(_Walks):
                            + int(self._waits.max()) + extra_steps)
         self._dir = axis / self._length if self._length > 0 else np.array([np.cos(start.heading),
                                                                            np.sin(start.heading)])
+        self.lanes = Lanes(node=start.node, axis=self._dir, length=self._length, goal=self.goal,
+                           goal_radius=float(goal_radius), lookahead=float(lookahead), heading=float(start.heading),
+                           side=int(start.side), offsets=self._offsets, strides=self._strides, waits=self._waits,
+                           left=footstep.turn_bounds(LEFT, robot), right=footstep.turn_bounds(RIGHT, robot))
         self._walk_cache: dict[tuple[float, float] | None, tuple[np.ndarray, np.ndarray]] = {}
 
     def nodes(self, period: float) -> tuple[np.ndarray, np.ndarray]:
         depth = max(1, min(math.ceil(self.horizon / period - 1e-9), self._max_depth))
         window = self.first_stride(period) if self.first_stride is not None else None
         if window not in self._walk_cache:  # the walks depend on the period only through the first stride
-            self._walk_cache[window] = self._pursue(window, self._max_depth)
+            self._walk_cache[window] = self.kernels.pursue_lanes(self.lanes, window, self._max_depth)
         nodes, headings = self._walk_cache[window]
         return nodes[:, : depth + 1], headings[:, : depth + 1]
-
-    def _pursue(self, window: tuple[float, float] | None, depth: int) -> tuple[np.ndarray, np.ndarray]:
-        """Pure pursuit of every rollout's lane for ``depth`` steps (compiled: :func:`.kernels.pursue_lanes`;
-        else :func:`pursue_lanes_numpy`)."""
-        if not self.compiled:
-            return pursue_lanes_numpy(self, window, depth)
-        from footstep_gym.planners import kernels  # imports numba: only on the compiled route
-
-        (l_lo, l_hi), (r_lo, r_hi) = (footstep.turn_bounds(side, self.robot) for side in (LEFT, RIGHT))
-        w_lo, w_hi = window if window is not None else (0.0, 0.0)
-        return kernels.pursue_lanes(
-            float(self.start.node[0]), float(self.start.node[1]), float(self._dir[0]), float(self._dir[1]),
-            float(self.goal[0]), float(self.goal[1]), self._length, float(self.lookahead), float(self.goal_radius),
-            float(self.start.heading), int(self.start.side), self._offsets, self._strides,
-            self._waits, float(l_lo), float(l_hi), float(r_lo), float(r_hi), window is not None,
-            float(w_lo), float(w_hi), int(depth))
-
-
-def pursue_lanes_numpy(rollouts: GoalRollouts, window: tuple[float, float] | None,
-                       depth: int) -> tuple[np.ndarray, np.ndarray]:
-    """The lane pursuit of ``rollouts`` (:class:`GoalRollouts`) for ``depth`` steps in numpy, all rollouts at once:
-    the reference implementation, the test oracle of :func:`.kernels.pursue_lanes` (``tests/test_kernels.py``),
-    and the route of ``kernels.compiled: false``. Nodes ``(R, depth + 1, 2)`` [m], headings ``(R, depth + 1)``
-    [rad]; ``window``: ``(lo, hi)`` [m] of the first stride, or ``None``. 2D points are complex numbers."""
-    n_roll = rollouts._offsets.size
-    node0 = complex(*rollouts.start.node)
-    axis = complex(*rollouts._dir)
-    goal = complex(*rollouts.goal)
-    lane = rollouts._offsets * (1j * axis)
-    limits = {side: footstep.turn_bounds(side, rollouts.robot) for side in (LEFT, RIGHT)}
-    pos = np.full(n_roll, node0)
-    heading = np.full(n_roll, float(rollouts.start.heading))
-    out = np.empty((n_roll, depth + 1), dtype=complex)
-    headings = np.empty((n_roll, depth + 1))
-    out[:, 0], headings[:, 0] = pos, heading
-    side = rollouts.start.side
-    arrived = np.zeros(n_roll, dtype=bool)
-    for d in range(1, depth + 1):
-        ahead = ((pos - node0) * axis.conjugate()).real + rollouts.lookahead  # along the axis, plus the lookahead
-        taper = np.clip((rollouts._length - ahead) / rollouts.lookahead, 0.0, 1.0)  # the lane closes onto the goal
-        aim = node0 + np.minimum(ahead, rollouts._length) * axis + taper * lane
-        lo, hi = limits[side]
-        heading = np.where(arrived, heading, heading + np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi))
-        stride = np.where(d <= rollouts._waits, 0.0, rollouts._strides)
-        if d == 1 and window is not None:
-            stride = np.clip(stride, *window)
-        stride = np.where(arrived, 0.0, np.minimum(stride, np.abs(goal - pos)))  # never past the goal
-        new = pos + stride * np.exp(1j * heading)
-        arrived |= np.abs(0.5 * (pos + new) - goal) <= rollouts.goal_radius  # the body is in: it stands still
-        pos = new
-        out[:, d], headings[:, d] = pos, heading
-        side = -side
-    return np.stack([out.real, out.imag], axis=-1), headings
 
 
 @functools.lru_cache(maxsize=16)
@@ -225,9 +178,9 @@ class NextNodeFan(_Walks):
 
     def __init__(self, body: BodyCheck, robot: Robot, start: WalkStart, goal: Sequence[float],
                  goal_radius: float, *, step_size: float, stride_fractions: Sequence[float], directions: int,
-                 edge_samples: int, compiled: bool, first_stride: StrideWindow | None = None,
+                 edge_samples: int, kernels: Kernels, first_stride: StrideWindow | None = None,
                  check_node: bool = False) -> None:
-        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, compiled=compiled,
+        super().__init__(body, robot, start, goal, goal_radius, edge_samples=edge_samples, kernels=kernels,
                          first_stride=first_stride)
         self.check_node = check_node
         lo, hi = footstep.turn_bounds(start.side, robot)
@@ -254,7 +207,8 @@ class NextNodeFan(_Walks):
         pts = np.repeat(nodes[:, 1], 2, axis=0)
         times = np.tile([0.0, float(period)], len(nodes))
         normal = support_normal(np.array([float(self.start.heading)]), np.array([self.start.side]))
-        free = self.body.free(pts, times, np.repeat(normal, len(pts), axis=0), period).reshape(-1, 2)
+        free = self.kernels.body_free(self.body, pts, times, np.repeat(normal, len(pts), axis=0),
+                                      period).reshape(-1, 2)
         return np.where(~free[:, 0], 0.0, np.where(~free[:, 1], float(period), np.inf))
 
     def _free(self, nodes: np.ndarray, headings: np.ndarray, period: float) -> np.ndarray:

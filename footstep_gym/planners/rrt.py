@@ -5,14 +5,18 @@ the support foot's node towards the goal:
 
 1. :meth:`ModifiedRRT._sample_points` — random coordinates (the goal with probability
    ``goal_sample_rate``) in the box around start and goal;
-2. :meth:`_nearest_nodes` — the closest tree node of each;
-3. :meth:`_restrict_to_angle_limits` — if the direction from that node lies outside the
+
+then, one batch of samples in one call of the kernels (:meth:`footstep_gym.kernels.Kernels.extend_tree`,
+its steps named in the numpy one, :class:`~footstep_gym.kernels.numpy_kernels.NumpyKernels`):
+
+2. :meth:`~footstep_gym.kernels.numpy_kernels.NumpyKernels.nearest_nodes` — the closest tree node of each;
+3. :meth:`~footstep_gym.kernels.numpy_kernels.NumpyKernels.restrict_to_angle_limits` — if the direction from that node lies outside the
    hardware angle limits relative to the node's heading (the previous support foot's
    direction; ``-θ_inner … θ_outer`` mirrored by the side that swings, paper Fig. 4),
    a direction is re-drawn uniformly inside the limits (Algorithm 2, steps 6-8);
-4. :meth:`_steer` — the distance is clamped to ``step_size`` (steps 9-10);
-5. :meth:`_edges_free` — node and edge are checked against the obstacles (steps 11-12);
-6. :meth:`_insert` — the node joins the tree with cost = parent's cost + edge length
+4. ``steer`` — the distance is clamped to ``step_size`` (steps 9-10);
+5. ``edges_free`` — node and edge are checked against the obstacles (steps 11-12);
+6. ``insert`` — the node joins the tree with cost = parent's cost + edge length
    (step 13); nodes whose step brings the body within ``goal_radius`` of the goal are
    remembered (steps 14-16; the env measures the robot centre, the midpoint of the feet,
    so the body and not the node must reach the goal);
@@ -51,32 +55,31 @@ short edges (small steps) let it wait for an obstacle to pass.
   if any can), then the roomiest, then the nearest the goal, so that the greedy planner
   advances as far as it safely can and waits there instead of walking into a closing gap.
 
-**Batched and compiled.** Samples are drawn ``batch_size`` at a time, each extended from its
+**Batched, on the planner's kernels.** Samples are drawn ``batch_size`` at a time, each extended from its
 nearest node in the tree as it was at the start of the batch (``batch_size=1`` is Algorithm 2
 verbatim). Each batch extends the tree by at most one level, so ``iterations / batch_size``
-bounds the depth of the tree. With ``compiled`` (``configs/planner.yaml``'s ``kernels.compiled``), a
-batch (steps 5-16) and the seed walks are one compiled call each (:func:`.kernels.extend_tree`,
-:func:`.kernels.insert_walks`) on the tree's arrays and the predictor's shape table, so the body
-check must be a :class:`~footstep_gym.planners.prediction.BodyModel`; without, the numpy methods
-run: the reference implementation the compiled calls are held equal to, node for node, which takes
-any body check and never imports numba. The random numbers are drawn in
-numpy in the same order either way, so a seed grows the same tree: the same nodes, parents and goal
-nodes, with coordinates and headings equal to a few ulps (bit for bit unless numpy's ``arctan2``
-takes its AVX-512 kernel, which rounds an ulp otherwise than libm's now and then).
+bounds the depth of the tree. A batch (steps 5-16) and the seed walks are one call each of the
+planner's kernels (:meth:`~footstep_gym.kernels.Kernels.extend_tree`,
+:meth:`~footstep_gym.kernels.Kernels.insert_walks`) on the tree's arrays: the compiled ones read the
+predictor's shape table, so their body check must be a
+:class:`~footstep_gym.planners.prediction.BodyModel`; the numpy ones take any body check. The random
+numbers are drawn here, in the same order either way, so a seed grows the same tree: the same nodes,
+parents and goal nodes, with coordinates and headings equal to a few ulps (bit for bit unless numpy's
+``arctan2`` takes its AVX-512 kernel, which rounds an ulp otherwise than libm's now and then).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from footstep_gym import footstep
+from footstep_gym.kernels import BodyCheck, Kernels, TreeStep, WalkStart
 from footstep_gym.planners.params import PlannerConfig
-from footstep_gym.planners.prediction import BodyModel, body_path_points, step_fractions, support_normal
+from footstep_gym.planners.prediction import body_path_points, support_normal
 from footstep_gym.planners.pso import clip_command
-from footstep_gym.planners.walks import BodyCheck, WalkStart, on_route
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot
 
@@ -153,14 +156,13 @@ class ModifiedRRT:
     every point at ``T``); ``check_node`` (``prediction.check: node``, Algorithm 2 step 11): the new
     node itself is checked, at the start and the end of its step (``0`` and ``T`` if not
     ``time_aware``: the obstacles now and predicted after ``T``, §2.2), instead of the body's path;
-    ``compiled`` (``kernels.compiled``): each batch is one compiled call (:func:`.kernels.extend_tree`),
-    which needs a :class:`~footstep_gym.planners.prediction.BodyModel` (:func:`.walks.on_route` raises
-    otherwise); ``False``: the numpy methods, the reference it is tested against, with any body check.
-    Both grow the same tree, its floats to a few ulps.
+    ``kernels``: what grows the tree (:func:`footstep_gym.kernels.select_kernels`); the compiled kernels
+    need a :class:`~footstep_gym.planners.prediction.BodyModel` (and raise ``TypeError`` otherwise), the
+    numpy ones take any body check. Both grow the same tree, its floats to a few ulps.
     """
 
     def __init__(self, robot: Robot, *, iterations: int, batch_size: int, step_size: float,
-                 goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int, compiled: bool,
+                 goal_sample_rate: float, n_paths: int, sample_margin: float, edge_samples: int, kernels: Kernels,
                  clearance_weight: float = 0.0, clearance_cap: float = 0.0,
                  time_aware: bool = True, check_node: bool = False) -> None:
         self.robot = robot
@@ -175,7 +177,7 @@ class ModifiedRRT:
         self.clearance_cap = clearance_cap
         self.time_aware = time_aware
         self.check_node = check_node
-        self.compiled = compiled
+        self.kernels = kernels
         self.tree: Tree | None = None
         self.goal_nodes: list[int] = []
 
@@ -191,25 +193,26 @@ class ModifiedRRT:
         After a ``None``, :meth:`best_partial_path` gives the branch that got closest.
         """
         goal = np.asarray(goal, dtype=float)
+        kernels = self.kernels
+        kernels.check_body(body)
         n_seeded = sum(max(len(sd) - 1, 0) for sd in seeds)
         self.tree = tree = Tree(start, self.iterations + 1 + n_seeded)
-        self.goal_nodes = []
-        self._goal, self._goal_radius, self._period = goal, goal_radius, period
-        compiled = self.compiled
-        self._body = body = on_route(body, compiled)
-        self._first_stride = first_stride
+        self._goal, self._period, self._body = goal, period, body
+        step = TreeStep(goal=goal, goal_radius=float(goal_radius), step_size=float(self.step_size),
+                        first_stride=None if first_stride is None else (float(first_stride[0]), float(first_stride[1])),
+                        left=footstep.turn_bounds(footstep.LEFT, self.robot),
+                        right=footstep.turn_bounds(footstep.RIGHT, self.robot), period=float(period),
+                        time_aware=bool(self.time_aware), edge_samples=int(self.edge_samples),
+                        check_node=bool(self.check_node))
         self._box = self._sampling_box(start.node, goal)
-        seeds = [np.asarray(seed, dtype=float) for seed in seeds]
-        (self._insert_seeds_compiled if compiled else self._insert_seeds)(seeds)
-        extend = None
+        self.goal_nodes = kernels.insert_walks(tree, [np.asarray(seed, dtype=float) for seed in seeds], goal,
+                                               goal_radius)
         done = 0
         while done < self.iterations and len(self.goal_nodes) < self.n_paths:
             batch = min(self.batch_size, self.iterations - done)
             done += batch
             samples = self._sample_points(batch, rng)
-            if extend is None:
-                extend = self._compiled_batch(body) if compiled else self._numpy_batch
-            extend(samples, rng.random(batch))
+            self.goal_nodes += kernels.extend_tree(tree, step, body, samples, rng.random(batch))
         if not self.goal_nodes:
             return None
         # The least cost; among costs equal to within COST_TIE_M (common: paths of as many full strides), the goal node
@@ -217,45 +220,6 @@ class ModifiedRRT:
         costs = tree.cost[self.goal_nodes]
         best = self.goal_nodes[int(np.argmax(costs <= costs.min() + COST_TIE_M))]
         return tree.path_to(best, reached_goal=True)
-
-    def _numpy_batch(self, samples: np.ndarray, redraw: np.ndarray) -> None:
-        """Steps 5-16 for one batch of ``samples`` [m]; ``redraw`` (uniform in [0, 1)) re-draws the turns
-        outside the limits. In numpy: the reference implementation, the test oracle of :func:`.kernels.extend_tree`
-        (``tests/test_kernels.py``), and the route of ``kernels.compiled: false``."""
-        tree = self.tree
-        parents = self._nearest_nodes(samples)
-        delta = self._restrict_to_angle_limits(parents, samples, redraw)
-        new_xy, new_heading, length = self._steer(parents, samples, delta)
-        # A node whose body is already in the goal region ends its path: extending it would only add
-        # steps in place that count as more "paths" (n_paths) without being any.
-        free = ~self._in_goal(tree.body[parents]) | (parents == 0)
-        free[free] = self._edges_free(parents[free], new_xy[free])
-        self._insert(parents[free], new_xy[free], new_heading[free], length[free])
-
-    def _compiled_batch(self, body: BodyModel) -> Callable[[np.ndarray, np.ndarray], None]:
-        """:meth:`_numpy_batch` as one compiled call per batch (:func:`.kernels.extend_tree`), for a
-        :class:`BodyModel`: the same tree (its floats to a few ulps)."""
-        from footstep_gym.planners import kernels  # imports numba: only on the compiled route
-
-        tree, pred = self.tree, body.predictor
-        shift, needed = body.shift_and_clearance(self._period)
-        need2 = (pred.kernel_radius + needed) ** 2
-        (l_lo, l_hi), (r_lo, r_hi) = (footstep.turn_bounds(side, self.robot)
-                                      for side in (footstep.LEFT, footstep.RIGHT))
-        first_lo, first_hi = self._first_stride if self._first_stride is not None else (0.0, 0.0)
-        fractions = step_fractions(self.edge_samples)
-        goal_nodes = np.empty(self.batch_size, dtype=np.int64)
-        fixed = (float(self._goal[0]), float(self._goal[1]), float(self._goal_radius), float(self.step_size),
-                 self._first_stride is not None, float(first_lo), float(first_hi), float(l_lo), float(l_hi),
-                 float(r_lo), float(r_hi), float(self._period), bool(self.time_aware), fractions, float(shift),
-                 pred.kernel_shapes, need2, pred.kernel_horizon, goal_nodes, bool(self.check_node))
-
-        def extend(samples: np.ndarray, redraw: np.ndarray) -> None:
-            tree.n, n_goal = kernels.extend_tree(tree.xy, tree.heading, tree.side, tree.parent, tree.cost, tree.depth,
-                                                 tree.body, tree.n, samples, redraw, *fixed)
-            self.goal_nodes.extend(goal_nodes[:n_goal].tolist())
-
-        return extend
 
     def best_partial_path(self, stay_until: float | None = None) -> RRTPath:
         """For when :meth:`plan` fails: the branch to the node closest to the goal (ties: least cost).
@@ -315,123 +279,6 @@ class ModifiedRRT:
             pts[0] = self._goal
         return pts
 
-    def _nearest_nodes(self, samples: np.ndarray) -> np.ndarray:
-        """Step 5: index of the nearest tree node of each sample."""
-        xy = self.tree.xy[: self.tree.n]
-        d2 = ((samples[:, None, :] - xy[None, :, :]) ** 2).sum(axis=-1)
-        return np.argmin(d2, axis=1)
-
-    def _restrict_to_angle_limits(self, parents: np.ndarray, samples: np.ndarray, redraw: np.ndarray) -> np.ndarray:
-        """Steps 6-8: turn ``delta`` [rad] of each extension relative to the parent's heading.
-
-        The foot placed at the new node swings opposite the parent's foot, so the limits
-        are :func:`footstep.turn_bounds` of the parent's side. Outside them, a turn is
-        re-drawn uniformly inside them (``lo + (hi - lo) * redraw``, ``redraw`` uniform in [0, 1)).
-        """
-        tree = self.tree
-        vec = samples - tree.xy[parents]
-        delta = footstep.wrap_angle(np.arctan2(vec[:, 1], vec[:, 0]) - tree.heading[parents])
-        lo, hi = footstep.turn_bounds(tree.side[parents], self.robot)
-        outside = (delta < lo) | (delta > hi)
-        return np.where(outside, lo + (hi - lo) * redraw, delta)
-
-    def _steer(self, parents: np.ndarray, samples: np.ndarray,
-               delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Steps 9-10: new node at ``min(distance, step_size)`` along the (restricted) direction."""
-        tree = self.tree
-        base = tree.xy[parents]
-        length = np.minimum(np.linalg.norm(samples - base, axis=1), self.step_size)
-        if self._first_stride is not None:
-            root = parents == 0
-            length = np.where(root, np.clip(length, *self._first_stride), length)
-        heading = footstep.wrap_angle(tree.heading[parents] + delta)
-        new_xy = base + length[:, None] * np.stack([np.cos(heading), np.sin(heading)], axis=1)
-        return new_xy, heading, length
-
-    def _edges_free(self, parents: np.ndarray, new_xy: np.ndarray) -> np.ndarray:
-        """Step 11: the body segment of each extension clears every obstacle at its own time."""
-        tree = self.tree
-        t0 = tree.depth[parents] * self._period
-        if self.check_node:  # the node itself, now and after T (at the start and end of its step if time-aware)
-            k = 2
-            pts = np.repeat(new_xy, k, axis=0)
-            times = (np.stack([t0, t0 + self._period], axis=1).reshape(-1) if self.time_aware
-                     else np.tile([0.0, self._period], len(parents)))
-        else:
-            k = self.edge_samples
-            starts = tree.body[parents]
-            ends = 0.5 * (tree.xy[parents] + new_xy)
-            pts, times = body_path_points(starts, ends, t0, t0 + self._period, k)
-            if not self.time_aware:
-                times = np.full_like(times, self._period)  # the obstacles predicted after one period
-        normals = np.repeat(support_normal(tree.heading[parents], tree.side[parents]), k, axis=0)
-        free = self._body.free(pts, times, normals, self._period)
-        return free.reshape(len(parents), k).all(axis=1)
-
-    def _insert_seeds(self, seeds: Sequence[np.ndarray]) -> None:
-        """Insert known-free walks (row 0 of each = the root) as chains of nodes from the root, all in one batch.
-
-        A step of zero length is a step in place: the new node keeps its parent's heading. In numpy: the
-        reference implementation, the test oracle of :func:`.kernels.insert_walks`.
-        """
-        tree = self.tree
-        chains = [nodes for nodes in seeds if len(nodes) >= 2]
-        if not chains:
-            return
-        steps = np.array([len(nodes) - 1 for nodes in chains])
-        first = np.concatenate([[0], np.cumsum(steps)[:-1]])  # each chain's first step
-        new_xy = np.concatenate([nodes[1:] for nodes in chains])
-        vec = np.concatenate([np.diff(nodes, axis=0) for nodes in chains])
-        length = np.hypot(vec[:, 0], vec[:, 1])
-        heading = np.arctan2(vec[:, 1], vec[:, 0])
-        index = np.arange(len(vec))
-        chain_start = np.repeat(first, steps)
-        # a step in place inherits the heading of its chain's last step that moved (the root's if none did)
-        last = np.maximum.accumulate(np.where(length > 1e-9, index, -1))
-        heading = np.where(last >= chain_start, heading[np.maximum(last, 0)], tree.heading[0])
-        in_chain = index - chain_start
-        parents = np.where(in_chain == 0, 0, tree.n + index - 1)
-        previous_xy = np.where((in_chain == 0)[:, None], tree.xy[0], np.roll(new_xy, 1, axis=0))
-        self._append(parents, new_xy, heading, side=-tree.side[0] * (-1) ** in_chain,
-                     cost=np.concatenate([np.cumsum(length[a:a + k]) for a, k in zip(first, steps)]),
-                     depth=in_chain + 1, body=0.5 * (previous_xy + new_xy))
-
-    def _insert_seeds_compiled(self, seeds: Sequence[np.ndarray]) -> None:
-        """:meth:`_insert_seeds` in one compiled call (:func:`.kernels.insert_walks`)."""
-        if not seeds:
-            return
-        from footstep_gym.planners import kernels  # imports numba: only on the compiled route
-
-        tree = self.tree
-        walk_nodes = np.concatenate(seeds).reshape(-1, 2)
-        walk_first = np.cumsum([0, *(len(nodes) for nodes in seeds)])
-        goal_nodes = np.empty(len(walk_nodes), dtype=np.int64)
-        tree.n, n_goal = kernels.insert_walks(tree.xy, tree.heading, tree.side, tree.parent, tree.cost, tree.depth,
-                                              tree.body, tree.n, walk_nodes, walk_first, float(self._goal[0]),
-                                              float(self._goal[1]), float(self._goal_radius), goal_nodes)
-        self.goal_nodes.extend(goal_nodes[:n_goal].tolist())
-
-    def _in_goal(self, xy: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(xy - self._goal, axis=1) <= self._goal_radius
-
-    def _insert(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray,
-                length: np.ndarray) -> None:
-        """Steps 12-16: append the nodes, with cumulative length as cost; note goal nodes."""
-        tree = self.tree
-        self._append(parents, new_xy, heading, side=-tree.side[parents],
-                     cost=tree.cost[parents] + length, depth=tree.depth[parents] + 1,
-                     body=0.5 * (tree.xy[parents] + new_xy))
-
-    def _append(self, parents: np.ndarray, new_xy: np.ndarray, heading: np.ndarray, *, side: np.ndarray,
-                cost: np.ndarray, depth: np.ndarray, body: np.ndarray) -> None:
-        """Write the new nodes after the last one and remember those whose body is in the goal region."""
-        tree = self.tree
-        sl = slice(tree.n, tree.n + len(parents))
-        tree.xy[sl], tree.heading[sl], tree.parent[sl] = new_xy, heading, parents
-        tree.side[sl], tree.cost[sl], tree.depth[sl], tree.body[sl] = side, cost, depth, body
-        self.goal_nodes.extend((tree.n + np.flatnonzero(self._in_goal(body))).tolist())
-        tree.n += len(parents)
-
 
 # ---------------------------------------------------------------------- stage 2
 @dataclass(frozen=True)
@@ -451,10 +298,10 @@ class PathChoice:
 
 
 class PathSearch:
-    """Stage 2 with the parameters of ``configs/planner.yaml`` (sections ``rrt``, ``additions``; ``kernels``: the
-    compiled RRT or its numpy reference)."""
+    """Stage 2 with the parameters of ``configs/planner.yaml`` (sections ``rrt``, ``additions``), growing its
+    tree with the planner's ``kernels``."""
 
-    def __init__(self, robot: Robot, config: PlannerConfig) -> None:
+    def __init__(self, robot: Robot, config: PlannerConfig, kernels: Kernels) -> None:
         c, add = config, config.additions
         self.robot = robot
         self.rrt = ModifiedRRT(
@@ -462,7 +309,7 @@ class PathSearch:
             goal_sample_rate=c.rrt.goal_sample_rate, n_paths=c.rrt.n_paths,
             sample_margin=c.rrt.sample_margin_m, edge_samples=c.prediction.edge_samples,
             clearance_weight=c.rrt.fallback_clearance_weight, clearance_cap=c.rrt.fallback_clearance_cap_m,
-            time_aware=add.time_aware_rrt, check_node=c.prediction.check == "node", compiled=c.kernels.compiled)
+            time_aware=add.time_aware_rrt, check_node=c.prediction.check == "node", kernels=kernels)
         self.seed_paths = c.rrt.seed_paths if add.rrt_seeds else 0
         self.stay_until = c.prediction.horizon_s if add.fallback else None
         self.half_width = 0.5 * robot.nominal_side_stride

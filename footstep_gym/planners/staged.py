@@ -63,6 +63,7 @@ from typing import Any, Callable
 import numpy as np
 
 from footstep_gym import footstep, lipm
+from footstep_gym.kernels import select_kernels
 from footstep_gym.planners import pso
 from footstep_gym.planners.params import PlannerConfig
 from footstep_gym.planners.period_search import PeriodSearch
@@ -128,8 +129,9 @@ class PeriodAwarePlanner(SnapshotPlanner):
 
     def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None, name: str | None = None) -> None:
         super().__init__(robot, config, seed, name)
-        self.period_search = PeriodSearch(robot, config, vary_period=self.vary_period)  # stage 1
-        self.path_search = PathSearch(robot, config)  # stage 2
+        self.kernels = select_kernels(config.kernels.compiled)  # numpy or compiled, for every stage
+        self.period_search = PeriodSearch(robot, config, self.kernels, vary_period=self.vary_period)  # stage 1
+        self.path_search = PathSearch(robot, config, self.kernels)  # stage 2
         self.repair = CommandRepair(robot, config.pso, vary_period=self.vary_period,  # stage 3
                                     rescue=config.additions.feasibility_rescue)
         self.half_width = 0.5 * robot.nominal_side_stride

@@ -16,8 +16,9 @@ The kernel does not decide what pymunk alone knows: which shape a contact is (ti
 first check of a sweep against shapes pymunk cached elsewhere. It stops and returns
 :data:`ASK` there; the caller asks pymunk and calls it again with that answer.
 
-Compiled on first use and cached on disk (``cache=True``): a few seconds once per install,
-then loaded in a fraction of a second by each new process.
+Its test oracle is pymunk itself (:meth:`footstep_gym.world.World.sweep_pymunk`, which a world made
+with ``compiled=False`` runs at every check). Compiled on first use and cached on disk
+(``cache=True``): compiled once per install, then loaded from the cache by each new process.
 """
 
 from __future__ import annotations

@@ -1,33 +1,22 @@
-"""Compiled inner loops of the planners (numba): the same arithmetic as their numpy references.
+"""The planners' kernels compiled (numba): :class:`NumbaKernels`, the same arithmetic as :mod:`.numpy_kernels`.
 
-The planners ask tens of thousands of small questions per footstep ("is this body point,
-at this time, clear of every predicted shape?"); in numpy each question costs a dozen
-array temporaries and Python-level calls. These kernels loop over points and shapes
-once, stopping at the first shape that blocks a point:
+The loops run over points and shapes once, stopping at the first shape that blocks a point:
 
-* :func:`points_free` — :meth:`.prediction.ObstaclePredictor.free` (numpy reference:
-  :meth:`~.prediction.ObstaclePredictor.free_numpy`): points against thick segments moving at
-  constant velocity and angular velocity, or accelerating as sensed for a while (docs/model.md §5);
-* :func:`walks_survival` — :func:`.walks.walks_survival_at` (numpy reference:
-  ``walks._walks_survival_numpy``): the body points of whole walks (each at its own period)
-  generated and checked in one loop, each walk stopping at its first blocked point;
-* :func:`pursue_lanes` — the pure pursuit of :class:`.rollouts.GoalRollouts` (numpy reference:
-  :func:`.rollouts.pursue_lanes_numpy`);
-* :func:`extend_tree` and :func:`insert_walks` — a batch of the modified RRT
-  (:class:`.rrt.ModifiedRRT`) and its seed walks, on the tree's arrays (numpy reference: the RRT's
-  own methods).
+* :func:`points_free` — :meth:`NumbaKernels.points_free` (and :meth:`~NumbaKernels.body_free`): points
+  against thick segments moving at constant velocity and angular velocity, or accelerating as sensed
+  for a while (docs/model.md §5);
+* :func:`walks_survival` — :meth:`NumbaKernels.walks_survival`: the body points of whole walks (each
+  at its own period) generated and checked in one loop, each walk stopping at its first blocked point;
+* :func:`pursue_lanes` — :meth:`NumbaKernels.pursue_lanes`: the pure pursuit of the rollouts' lanes;
+* :func:`extend_tree` and :func:`insert_walks` — a batch of the modified RRT and its seed walks, on the
+  tree's arrays.
 
-Which twin runs is the setting ``kernels.compiled`` of ``configs/planner.yaml``, passed down by the
-stages as ``compiled`` (never the type of the body check, :func:`.walks.on_route`); with it off,
-this module (and numba) is never imported. The kernels read the shapes from one table ``(S, 16)``
-(:attr:`.prediction.ObstaclePredictor.kernel_shapes`), one row per shape, its columns named by the
-constants below: so the compiled route needs a :class:`.prediction.BodyModel`. Every kernel is held
-equal to its numpy reference by ``tests/test_kernels.py``: the same booleans, instants and tree
-shapes exactly, the floats to a few ulps, and whole planner episodes the same on both routes. The
-kernels call libm (``math.cos``, ``math.atan2``, ...) and never fuse a multiply-add; numpy picks SIMD
+They read the shapes from a :class:`~footstep_gym.kernels.ShapeTable`, so they take a body check that
+has one (``body.shapes``: a :class:`footstep_gym.planners.prediction.BodyModel`) and refuse any other.
+The kernels call libm (``math.cos``, ``math.atan2``, ...) and never fuse a multiply-add; numpy picks SIMD
 kernels per CPU at run time, which round some results an ulp otherwise (``arctan2``, ``exp`` with
-AVX-512; complex products fused with AVX2), so the two agree bit for bit on some CPUs and not on
-others.
+AVX-512; complex products fused with AVX2), so the two implementations agree bit for bit on some CPUs
+and to a few ulps on others (``tests/test_kernels.py``).
 
 Compiled on first use and cached on disk (``cache=True``): the first call of a fresh install
 pays the compilation, later processes load them from the cache.
@@ -37,17 +26,36 @@ from __future__ import annotations
 
 import math
 
+from typing import Sequence
+
 import numba
 import numpy as np
 
-
-#: Columns of the shape table: position [m] and velocity [m/s] of the body origin, yaw [rad] and yaw rate
-#: [rad/s], the cosine and sine of the yaw (of a shape that does not turn), the segment's start ``a`` and
-#: its vector ``ab`` in the body frame [m], ``|ab|^2`` [m^2] (0 for a circle), the sensed acceleration
-#: [m/s^2] and how long it is held [s] (0: none, the shape moves at constant velocity).
-(POS_X, POS_Y, VEL_X, VEL_Y, ANGLE, OMEGA, COS0, SIN0, A_X, A_Y, AB_X, AB_Y, AB2,
- ACC_X, ACC_Y, ACC_T) = range(16)
-SHAPE_COLUMNS = 16
+from footstep_gym.kernels import (
+    AB2,
+    AB_X,
+    AB_Y,
+    ACC_T,
+    ACC_X,
+    ACC_Y,
+    ANGLE,
+    A_X,
+    A_Y,
+    COS0,
+    OMEGA,
+    POS_X,
+    POS_Y,
+    SIN0,
+    VEL_X,
+    VEL_Y,
+    BodyCheck,
+    Lanes,
+    ShapeTable,
+    TreeArrays,
+    TreeStep,
+    WalkStart,
+    step_fractions,
+)
 
 
 @numba.njit(cache=True, fastmath=False, inline="always")
@@ -173,7 +181,7 @@ def walks_survival(prev_x: float, prev_y: float, body_x: float, body_y: float, n
                    headings: np.ndarray, n_nodes: np.ndarray, side0: int, period: np.ndarray, samples: np.ndarray,
                    goal_x: float, goal_y: float, goal_radius: float, shift: np.ndarray, needed: np.ndarray,
                    shapes: np.ndarray, radius: np.ndarray, horizon: np.ndarray, blocked_at: np.ndarray) -> None:
-    """:func:`.walks.walks_survival_at` for a :class:`.prediction.BodyModel`, one walk after the other: into
+    """:meth:`NumbaKernels.walks_survival`, one walk after the other: into
     ``blocked_at[r]`` [s] the time of walk ``r``'s first blocked point (``inf`` if it stays free).
 
     Walk ``r`` has its own period ``T = period[r]`` [s] and its first ``n_nodes[r]`` nodes (so that
@@ -252,7 +260,7 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
                 period: float, time_aware: bool, fractions: np.ndarray, shift: float, shapes: np.ndarray,
                 need2: np.ndarray, horizon: np.ndarray, goal_nodes: np.ndarray,
                 check_node: bool = False) -> tuple[int, int]:
-    """One batch of :meth:`.rrt.ModifiedRRT.plan` (Algorithm 2, steps 5-16) on the tree's arrays, in place.
+    """One batch of the modified RRT (Algorithm 2, steps 5-16) on the tree's arrays, in place.
 
     Each sample ``samples[i]`` [m] extends from its nearest node among the first ``n`` (the tree as
     it was at the start of the batch); a turn outside the limits of the parent's support side
@@ -268,7 +276,7 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
     ``(depth + 1) T``; ``0`` and ``T`` if not ``time_aware``). Free extensions are appended from index
     ``n`` on; those whose body lands in the goal region are written to ``goal_nodes``. Returns the
     new node count and how many goal nodes were written: the same arithmetic, in the same order, as
-    the numpy methods of the RRT.
+    :meth:`.numpy_kernels.NumpyKernels.extend_tree`.
     """
     n0 = n
     n_goal = 0
@@ -329,7 +337,7 @@ def extend_tree(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: n
 def insert_walks(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: np.ndarray, cost: np.ndarray,
                  depth: np.ndarray, body: np.ndarray, n: int, walk_nodes: np.ndarray, walk_first: np.ndarray,
                  goal_x: float, goal_y: float, goal_radius: float, goal_nodes: np.ndarray) -> tuple[int, int]:
-    """:meth:`.rrt.ModifiedRRT._insert_seeds` on the tree's arrays, in place: walk ``w`` (rows
+    """:meth:`.numpy_kernels.NumpyKernels.insert_walks` on the tree's arrays, in place: walk ``w`` (rows
     ``walk_first[w]`` .. ``walk_first[w + 1] - 1`` of ``walk_nodes`` [m], its first row the root) becomes a chain
     of nodes from the root, each the parent of the next; a step of zero length keeps the heading of the
     walk's last step that moved (the root's if none did). Appended from index ``n`` on; nodes whose
@@ -362,3 +370,108 @@ def insert_walks(xy: np.ndarray, heading: np.ndarray, side: np.ndarray, parent: 
                 n_goal += 1
             n += 1
     return n, n_goal
+
+
+# ---------------------------------------------------------------------- the interface
+def shape_table_of(body: BodyCheck) -> ShapeTable:
+    """The shape table ``body`` checks against (``body.shapes``), or ``TypeError``: the compiled loops read it."""
+    shapes = getattr(body, "shapes", None)
+    if not isinstance(shapes, ShapeTable):
+        raise TypeError(f"the compiled kernels (kernels.compiled: true) need a prediction.BodyModel, whose shape "
+                        f"table they read; got {type(body).__name__}: plan with kernels.compiled false (the numpy "
+                        f"kernels) to check walks with any BodyCheck")
+    return shapes
+
+
+class NumbaKernels:
+    """:class:`~footstep_gym.kernels.Kernels` as compiled loops (this module's functions) over a body check's
+    :class:`~footstep_gym.kernels.ShapeTable`."""
+
+    name = "numba"
+
+    def check_body(self, body: BodyCheck) -> None:
+        shape_table_of(body)
+
+    def points_free(self, shapes: ShapeTable, points: np.ndarray, times: np.ndarray,
+                    safe_distance: float | np.ndarray) -> np.ndarray:
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        times = np.broadcast_to(np.asarray(times, dtype=float), pts.shape[:1])
+        out = np.empty(len(pts), dtype=bool)
+        points_free(np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]), np.ascontiguousarray(times),
+                    shapes.rows, (shapes.radius + safe_distance) ** 2, shapes.horizon, out)
+        return out
+
+    def body_free(self, body: BodyCheck, points: np.ndarray, times: np.ndarray, support_normals: np.ndarray,
+                  period: float) -> np.ndarray:
+        shapes = shape_table_of(body)
+        centres, needed = body.centres(points, support_normals, period)
+        return self.points_free(shapes, centres, times, needed)
+
+    def walks_survival(self, body: BodyCheck, start: WalkStart, walks: Sequence[tuple[np.ndarray, np.ndarray]],
+                       periods: Sequence[float], edge_samples: int, goal: np.ndarray,
+                       goal_radius: float) -> list[np.ndarray]:
+        """All groups in one compiled call (a period search asks about many periods)."""
+        shapes = shape_table_of(body)
+        counts = [len(n) for n, _ in walks]
+        widths = [n.shape[1] for n, _ in walks]
+        rows, depth = sum(counts), max(widths)
+        first = np.cumsum([0, *counts])
+        if min(widths) == depth:  # the usual case: one call each
+            nodes, headings = np.concatenate([n for n, _ in walks]), np.concatenate([h for _, h in walks])
+        else:
+            nodes = np.empty((rows, depth, 2))  # a row's nodes beyond its own n_nodes are never read
+            headings = np.empty((rows, depth))
+            for (n, h), a, b in zip(walks, first[:-1], first[1:]):
+                nodes[a:b, : n.shape[1]], headings[a:b, : n.shape[1]] = n, h
+        n_nodes = np.repeat(np.asarray(widths, dtype=np.int64), counts)
+        period = np.repeat(np.asarray(periods, dtype=float), counts)
+        shift, needed = np.repeat(np.array([body.shift_and_clearance(T) for T in periods]).reshape(-1, 2), counts,
+                                  axis=0).T
+        blocked_at = np.empty(rows)
+        walks_survival(float(start.previous_node[0]), float(start.previous_node[1]), float(start.body[0]),
+                       float(start.body[1]), nodes, headings, n_nodes, int(start.side), period,
+                       step_fractions(edge_samples), float(goal[0]), float(goal[1]), float(goal_radius),
+                       np.ascontiguousarray(shift), np.ascontiguousarray(needed), shapes.rows, shapes.radius,
+                       shapes.horizon, blocked_at)
+        return [blocked_at[a:b] for a, b in zip(first[:-1], first[1:])]
+
+    def pursue_lanes(self, lanes: Lanes, window: tuple[float, float] | None,
+                     depth: int) -> tuple[np.ndarray, np.ndarray]:
+        (l_lo, l_hi), (r_lo, r_hi) = lanes.left, lanes.right
+        w_lo, w_hi = window if window is not None else (0.0, 0.0)
+        return pursue_lanes(float(lanes.node[0]), float(lanes.node[1]), float(lanes.axis[0]), float(lanes.axis[1]),
+                            float(lanes.goal[0]), float(lanes.goal[1]), float(lanes.length), float(lanes.lookahead),
+                            float(lanes.goal_radius), float(lanes.heading), int(lanes.side), lanes.offsets,
+                            lanes.strides, lanes.waits, float(l_lo), float(l_hi), float(r_lo), float(r_hi),
+                            window is not None, float(w_lo), float(w_hi), int(depth))
+
+    def extend_tree(self, tree: TreeArrays, step: TreeStep, body: BodyCheck, samples: np.ndarray,
+                    redraw: np.ndarray) -> list[int]:
+        shapes = shape_table_of(body)
+        shift, needed = body.shift_and_clearance(step.period)
+        (l_lo, l_hi), (r_lo, r_hi) = step.left, step.right
+        first_lo, first_hi = step.first_stride if step.first_stride is not None else (0.0, 0.0)
+        goal_nodes = np.empty(len(samples), dtype=np.int64)
+        tree.n, n_goal = extend_tree(
+            tree.xy, tree.heading, tree.side, tree.parent, tree.cost, tree.depth, tree.body, tree.n, samples, redraw,
+            float(step.goal[0]), float(step.goal[1]), float(step.goal_radius), float(step.step_size),
+            step.first_stride is not None, float(first_lo), float(first_hi), float(l_lo), float(l_hi), float(r_lo),
+            float(r_hi), float(step.period), bool(step.time_aware), step_fractions(step.edge_samples), float(shift),
+            shapes.rows, (shapes.radius + needed) ** 2, shapes.horizon, goal_nodes, bool(step.check_node))
+        return goal_nodes[:n_goal].tolist()
+
+    def insert_walks(self, tree: TreeArrays, walks: Sequence[np.ndarray], goal: np.ndarray,
+                     goal_radius: float) -> list[int]:
+        if not walks:
+            return []
+        walk_nodes = np.concatenate(walks).reshape(-1, 2)
+        walk_first = np.cumsum([0, *(len(nodes) for nodes in walks)])
+        goal_nodes = np.empty(len(walk_nodes), dtype=np.int64)
+        tree.n, n_goal = insert_walks(tree.xy, tree.heading, tree.side, tree.parent, tree.cost, tree.depth, tree.body,
+                                      tree.n, walk_nodes, walk_first, float(goal[0]), float(goal[1]),
+                                      float(goal_radius), goal_nodes)
+        return goal_nodes[:n_goal].tolist()
+
+
+#: The compiled kernels (:func:`footstep_gym.kernels.select_kernels` with ``compiled=True``).
+NUMBA = NumbaKernels()

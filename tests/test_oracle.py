@@ -1,4 +1,4 @@
-"""The oracle (issue 19 §1): period-aware told the truth, an upper bound that reads it only through bind_truth.
+"""The oracle: period-aware told the truth, an upper bound that reads it only through bind_truth.
 
 * it is registered with a description saying it is an upper bound, and it is the only registered policy that
   declares ``reads_truth``; the evaluation runner binds it (and nothing else) to the env;
@@ -7,8 +7,11 @@
 * its truth is the env's own: the poses it predicts at the ends of the steps of a walk of period T are where
   the env puts the obstacles (scripted crowd, door, steady traffic exactly; ORCA to float32 when the robot is
   invisible to the pedestrians);
-* it does at least as well as period-aware where period-aware fails on the scripted crowd (seeds picked on the
-  validation split).
+* where what period-aware senses misleads its prediction (sensing noise, the door and the scripted crowd), the
+  oracle reaches the goal at least as often as period-aware, and on nearly every episode, over the first seeds
+  of the validation split (:data:`RATE_SEEDS`, whatever their outcome; :data:`ORACLE_RATE`). On the noise-free
+  crowd it is not an upper bound episode by episode (as greedy as period-aware, it loses a few; see the
+  module doc of :mod:`footstep_gym.planners.oracle`), so no test claims that.
 """
 
 from __future__ import annotations
@@ -29,9 +32,16 @@ from footstep_gym.policy import Policy
 from footstep_gym.rl import AGENTS, ZooAgent
 
 REPO = Path(__file__).resolve().parents[1]
-#: Validation seeds (configs/eval.yaml) on which period-aware collided with the scripted crowd at its default
-#: 0.16 m/s when they were picked, both early (steps 4 and 5, the crowd speeding up from rest).
-CROWD_SEEDS_PERIOD_AWARE_FAILED = (10057, 10122)
+#: The episodes of the success-rate tests: the first seeds of the validation split (configs/eval.yaml's
+#: ``validation``), whatever their outcome.
+RATE_SEEDS = range(10000, 10008)
+#: [share of RATE_SEEDS] The oracle reaches the goal on at least this share where sensing noise misleads
+#: period-aware's prediction (the hard tier's noisy cells).
+ORACLE_RATE = 0.85
+#: The sensing noise of the hard tier's noisy cells (configs/benchmark.yaml's ``x-noise``: Gaussian stds [m, m/s,
+#: rad, rad/s] of the moving obstacles' sensed state).
+NOISE = dict(sensing_noise_position=0.02, sensing_noise_velocity=0.05, sensing_noise_angle=0.01,
+             sensing_noise_angular_velocity=0.01)
 
 
 # ---------------------------------------------------------------- registry: labelled, and the only one
@@ -192,9 +202,30 @@ def test_on_constant_motion_the_oracle_walks_as_period_aware():
                                                                            10000)
 
 
-@pytest.mark.parametrize("seed", CROWD_SEEDS_PERIOD_AWARE_FAILED)
-def test_the_oracle_is_at_least_period_aware_where_that_fails_on_the_scripted_crowd(seed):
-    oracle, _ = _outcome("oracle", "FootstepCrowd-v0", "crowd", seed)
-    aware, _ = _outcome("period-aware", "FootstepCrowd-v0", "crowd", seed)
-    assert oracle == "goal"
-    assert (oracle == "goal") >= (aware == "goal")
+def _successes(policy: str, env_id: str, seeds, **env_kwargs) -> list[bool]:
+    """Whether each episode of ``policy`` (bound to the truth if it reads it) reached the goal, one per seed."""
+    env = gym.make(env_id, **env_kwargs)
+    planner = make_policy(policy, env.unwrapped.robot)
+    bind_truth(planner, env)
+    reached = []
+    for seed in seeds:
+        obs, _ = env.reset(seed=seed)
+        planner.reset(seed=seed)
+        while True:
+            obs, _, terminated, truncated, info = env.step(planner.act(obs, env.unwrapped.sensing()))
+            if terminated or truncated:
+                reached.append(info["termination"] == "goal")
+                break
+    env.close()
+    return reached
+
+
+@pytest.mark.parametrize("env_id, kwargs", [("FootstepDoor-v0", dict(door_speed=17.0, **NOISE)),
+                                            ("FootstepCrowd-v0", NOISE)])
+def test_where_sensing_noise_misleads_period_aware_the_oracle_reaches_the_goal_at_least_as_often(env_id, kwargs):
+    """Noise corrupts period-aware's constant-velocity prediction, not the oracle's truth: over :data:`RATE_SEEDS`
+    the oracle succeeds on at least :data:`ORACLE_RATE` of the episodes and on at least as many as period-aware."""
+    oracle = _successes("oracle", env_id, RATE_SEEDS, **kwargs)
+    aware = _successes("period-aware", env_id, RATE_SEEDS, **kwargs)
+    assert sum(oracle) >= ORACLE_RATE * len(oracle), oracle
+    assert sum(oracle) >= sum(aware), (oracle, aware)

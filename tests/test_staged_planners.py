@@ -1,10 +1,9 @@
 """The staged planners of :mod:`footstep_gym.planners.staged` end to end, and their registry.
 
-The episodes' outcomes are discrete and compared exactly. On another CPU numpy's SIMD kernels (and libm's code
-path) round some of the planners' floats an ulp otherwise; an outcome could change only through a decision
-within a few ulps of a tie. Measured: the period-aware planner's commands in 120 episodes (the three scenes,
-seeds 0-39, 3,199 steps) came out bit for bit the same with numpy's AVX-512 or AVX2 kernels or neither, and with
-glibc's code path for CPUs without FMA.
+The end-to-end claims are success rates over :data:`SEEDS` (a rule, the first seeds of the train split, not
+seeds picked by outcome) held to a stated bound (:data:`RATE`): one seed decides nothing. On another CPU
+numpy's SIMD kernels (and libm's code path) round some of the planners' floats an ulp otherwise; an outcome
+could change only through a decision within a few ulps of a tie.
 """
 
 from __future__ import annotations
@@ -14,20 +13,41 @@ import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
 
+#: The episode seeds of the end-to-end tests: the first ten of the train split (configs/eval.yaml's ``train``),
+#: whatever their outcome. Each seed draws a different start (the door's phase, the car's and the crowd's places).
+SEEDS = range(10)
+#: [share of SEEDS] A planner passes a scene when it reaches the goal on at least this share of the seeds, and
+#: fails it when it reaches the goal on at most ``1 - RATE``.
+RATE = 0.9
+
+
 # ====================================================================== the policies end to end
-def run_policy(name: str, env_id: str, seed: int, **env_kwargs) -> dict:
-    """One episode of policy ``name`` on ``env_id``; the final step's info."""
+def run_policy(name: str, env_id: str, seeds=SEEDS, **env_kwargs) -> list[dict]:
+    """One episode of policy ``name`` on ``env_id`` per seed: each episode's final step's info, with the periods
+    of its commands (``policy.last_info["period"]``, [s]) as ``"periods"``."""
     from footstep_gym import make_policy
 
     env = gym.make(env_id, **env_kwargs)
-    policy = make_policy(name, env.unwrapped.robot, seed=seed)
-    obs, info = env.reset(seed=seed)
-    policy.reset(seed=seed)
-    while True:
-        obs, _, terminated, truncated, info = env.step(policy.act(obs, env.unwrapped.sensing()))
-        if terminated or truncated:
-            env.close()
-            return info
+    policy = make_policy(name, env.unwrapped.robot)
+    ends = []
+    for seed in seeds:
+        obs, info = env.reset(seed=seed)
+        policy.reset(seed=seed)
+        periods = []
+        while True:
+            obs, _, terminated, truncated, info = env.step(policy.act(obs, env.unwrapped.sensing()))
+            periods.append(policy.last_info["period"])
+            if terminated or truncated:
+                ends.append({**info, "periods": periods})
+                break
+    env.close()
+    return ends
+
+
+def success_rate(ends: list[dict]) -> float:
+    """The share of episodes that reached the goal (``is_success`` and a ``"goal"`` termination agree)."""
+    assert all(bool(e["is_success"]) == (e["termination"] == "goal") for e in ends)
+    return sum(e["termination"] == "goal" for e in ends) / len(ends)
 
 
 @pytest.mark.parametrize("env_id, kwargs", [
@@ -36,16 +56,21 @@ def run_policy(name: str, env_id: str, seed: int, **env_kwargs) -> dict:
     ("FootstepCrowd-v0", {}),
 ])
 def test_period_aware_planner_reaches_the_goal_in_each_env(env_id, kwargs):
-    info = run_policy("period-aware", env_id, 0, **kwargs)
-    assert info["termination"] == "goal" and info["is_success"], info["termination"]
+    ends = run_policy("period-aware", env_id, **kwargs)
+    assert success_rate(ends) >= RATE, [e["termination"] for e in ends]
 
 
-@pytest.mark.parametrize("door_speed, outcome", [(5.0, "goal"), (14.0, "collision")])
-def test_fixed_period_planner_passes_a_slow_door_and_not_a_fast_one(door_speed, outcome):
-    """The paper's Fig. 8 in one seed: at T_n the robot cannot cross the disc at 14 deg/s."""
-    info = run_policy("fixed-period", "FootstepDoor-v0", 0, door_speed=door_speed)
-    assert info["termination"] == outcome
-    assert info["period"] == pytest.approx(0.8)
+def test_fixed_period_planner_passes_a_slow_door_and_not_a_fast_one_that_period_aware_passes():
+    """The paper's Fig. 8 over :data:`SEEDS`: at T_n the robot crosses the disc turning at 5 deg/s and not at
+    14 deg/s, which the period-aware planner crosses by shortening the period."""
+    slow, fast = (run_policy("fixed-period", "FootstepDoor-v0", door_speed=v) for v in (5.0, 14.0))
+    assert success_rate(slow) >= RATE, [e["termination"] for e in slow]
+    assert success_rate(fast) <= 1.0 - RATE, [e["termination"] for e in fast]
+    assert {e["termination"] for e in fast} <= {"goal", "collision"}  # a failure here is the door's, not a fall
+    assert all(e["periods"] == pytest.approx([0.8] * len(e["periods"])) for e in slow + fast)  # T_n throughout
+    aware = run_policy("period-aware", "FootstepDoor-v0", door_speed=14.0)
+    assert success_rate(aware) >= RATE, [e["termination"] for e in aware]
+    assert all(min(e["periods"]) < 0.8 for e in aware if e["termination"] == "goal")
 
 
 # ====================================================================== the registry and the ablation variants
@@ -115,24 +140,26 @@ def test_unknown_names_are_rejected_with_the_known_ones(name):
 
 @pytest.mark.parametrize("name", ["paper-period-aware", "paper-fixed-period"])
 def test_paper_planners_walk_to_the_goal_when_nothing_is_in_the_way(name):
-    """The crossing with its car crossing 5 m away (beyond the goal): both paper planners walk the 1.9 m straight
-    to the goal at the nominal period, in full 10 cm strides (19-20 steps)."""
+    """The crossing with its car crossing 5 m away (beyond the goal): on every one of the first seeds, both paper
+    planners walk the 1.9 m straight to the goal at the nominal period, in full 10 cm strides (19-20 steps),
+    without the PSO. Nothing is in the way, so no seed may fail."""
     from footstep_gym import make_policy
 
     env = gym.make("FootstepCrossing-v0", crossing_x=5.0)
-    policy = make_policy(name, env.unwrapped.robot, seed=0)
-    obs, _ = env.reset(seed=0)
-    policy.reset(seed=0)
-    periods = []
-    while True:
-        obs, _, terminated, truncated, info = env.step(policy.act(obs, env.unwrapped.sensing()))
-        periods.append(policy.last_info["period"])
-        assert not policy.last_info["pso_ran"]
-        if terminated or truncated:
-            break
+    policy = make_policy(name, env.unwrapped.robot)
+    for seed in SEEDS[:3]:
+        obs, _ = env.reset(seed=seed)
+        policy.reset(seed=seed)
+        periods = []
+        while True:
+            obs, _, terminated, truncated, info = env.step(policy.act(obs, env.unwrapped.sensing()))
+            periods.append(policy.last_info["period"])
+            assert not policy.last_info["pso_ran"], seed
+            if terminated or truncated:
+                break
+        assert info["termination"] == "goal" and 19 <= info["steps"] <= 20, (seed, info["termination"], info["steps"])
+        assert periods == pytest.approx([0.8] * len(periods)), seed
     env.close()
-    assert info["termination"] == "goal" and 19 <= info["steps"] <= 20
-    assert periods == pytest.approx([0.8] * len(periods))
 
 
 def test_every_ablation_variant_plans_an_episode_start():

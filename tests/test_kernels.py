@@ -9,7 +9,7 @@ same outcomes, the commands to a few ulps. Selecting the numpy kernels never imp
 
 **What is exact, and where.** A kernel and its numpy twin do the same arithmetic, but not always through
 the same library: numpy picks SIMD kernels per CPU at run time (with AVX-512, ``np.arctan2``, ``np.exp`` and
-``np.expm1`` round 5-12 % of their results an ulp otherwise than libm, which the kernels call; with AVX2 a
+``np.expm1`` round some of their results an ulp otherwise than libm, which the kernels call; with AVX2 a
 complex product is fused, ``a*c - b*d`` in one rounding, which the kernels' plain products are not), so their
 floats agree to a few ulps on one CPU and bit for bit on another. The tests therefore compare
 
@@ -41,12 +41,10 @@ SCENES = [("FootstepDoor-v0", dict(door_speed=17.0), 6), ("FootstepCrossing-v0",
 
 EPS = np.finfo(float).eps  # 2.2e-16
 #: Coordinates, lengths and costs [m] of the two kernels (|x| < 4 m here): within 8 eps (1.8e-15 m) plus 2 ulps
-#: of the value. Measured on the tests' inputs, with numpy's AVX-512 kernels: <= 1 eps (compiled RRT: 5.6e-17 m;
-#: lane pursuit: 2.2e-16 m); over 1,080 random trees, <= 4 eps. Without AVX-512 the two agree bit for bit.
+#: of the value: a few roundings of one ulp each, which is all that differs between the two arithmetics.
 LENGTH_TOL = dict(rtol=2 * EPS, atol=8 * EPS)
 #: Headings [rad], compared modulo 2 pi: 16 ulps of pi (7.1e-15 rad). A turn re-drawn inside the limits adds to
-#: its parent's heading, so a difference can grow by an ulp a level. Measured: <= 1 ulp of pi (RRT) and 4 (the
-#: 40 steps of lane pursuit) on the tests' inputs, <= 7 over 1,080 random trees of up to 30 levels.
+#: its parent's heading, so a difference can grow by an ulp a level (the trees here are a few tens deep).
 HEADING_ATOL = 16 * math.ulp(math.pi)
 #: [m, rad] No decision of these tests may lie this close to a tie (a shape's clearance to the required one,
 #: the nearest tree node to the next nearest, a turn to its limit, a body to the goal radius): hundreds of
@@ -385,7 +383,7 @@ def test_the_compiled_kernels_refuse_a_body_check_that_is_not_a_body_model(robot
 
 #: Episodes planned with both kernels: each stage of each planner (the rollouts and the one-step fan, the scan and the
 #: bisection, batches of 10 and of 1, the path and the node check), goals and collisions. Crossing, fixed-period,
-#: seed 4 once parted: two goal paths of as many full strides, equally long but for rounding (rrt.COST_TIE_M).
+#: seed 4 meets two goal paths of as many full strides, equally long but for rounding (rrt.COST_TIE_M).
 EPISODES = [("FootstepDoor-v0", dict(door_speed=17.0), "period-aware", 0),
             ("FootstepDoor-v0", dict(door_speed=17.0), "paper-period-aware", 1),
             ("FootstepCrossing-v0", {}, "fixed-period", 4),

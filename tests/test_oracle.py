@@ -26,8 +26,9 @@ import pytest
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym import make_policy, policies
 from footstep_gym.evaluation.runner import Cell, Task, bind_truth, run_episode
+from footstep_gym.kernels import select_kernels
 from footstep_gym.planners import POLICIES
-from footstep_gym.planners.oracle import OraclePlanner, TruthModel, true_snapshot
+from footstep_gym.planners.oracle import OraclePlanner, TruthBody, TruthModel, TruthPredictor, true_snapshot
 from footstep_gym.policy import Policy
 from footstep_gym.rl import AGENTS, ZooAgent
 
@@ -49,7 +50,7 @@ def test_the_oracle_is_registered_as_an_upper_bound_and_alone_in_reading_the_tru
     spec = POLICIES["oracle"]
     assert spec.planner is OraclePlanner and spec.description.startswith("UPPER BOUND, not a baseline")
     assert policies.describe("oracle") == spec.description and policies.reads_truth("oracle")
-    assert spec.readings["kernels"] == {"compiled": False}  # the numpy route: the kernels assume constant velocity
+    assert spec.readings["kernels"] == {"compiled": False}  # the numpy kernels: the compiled ones assume constant velocity
     readers = [name for name, s in POLICIES.items() if getattr(s.planner, "reads_truth", False)]
     assert readers == ["oracle"]
     assert not any(policies.reads_truth(name) for name in AGENTS)
@@ -57,7 +58,7 @@ def test_the_oracle_is_registered_as_an_upper_bound_and_alone_in_reading_the_tru
     assert not policies.reads_truth("period-aware-no-fallback") and not policies.reads_truth("agent:mine")
 
 
-def test_the_oracle_refuses_to_act_unbound_and_the_compiled_route():
+def test_the_oracle_refuses_to_act_unbound_and_the_compiled_kernels():
     env = gym.make("FootstepCrowd-v0")
     oracle = make_policy("oracle", env.unwrapped.robot, seed=0)
     obs, _ = env.reset(seed=0)
@@ -67,6 +68,15 @@ def test_the_oracle_refuses_to_act_unbound_and_the_compiled_route():
     assert not oracle.bound
     with pytest.raises(ValueError, match="kernels.compiled must be false"):
         make_policy("oracle", kernels={"compiled": True})
+    # its body check has no shape table: the compiled kernels refuse it, the numpy ones check it with the truth
+    snap = true_snapshot(env.unwrapped)
+    body = TruthBody(TruthPredictor(snap, TruthModel(env.unwrapped, snap.obstacles, 30.0), 30.0), env.unwrapped.robot,
+                     0.02)
+    with pytest.raises(TypeError, match="no shape table for the compiled kernels"):
+        select_kernels(True).check_body(body)
+    select_kernels(False).check_body(body)
+    point = np.asarray(snap.com)[None]
+    assert select_kernels(False).body_free(body, point, np.zeros(1), np.zeros((1, 2)), 0.8).shape == (1,)
     env.close()
 
 

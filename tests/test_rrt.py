@@ -360,7 +360,7 @@ def test_best_partial_path_takes_the_spot_hit_last(robot):
 # ====================================================================== the paper's RRT (switches off)
 def test_rrt_not_time_aware_checks_every_node_against_the_obstacles_after_one_period(robot):
     """``time_aware=False`` (the paper: the obstacle predicted after T, then the tree): the same tree as the
-    time-aware one in free space, every body point asked at t = T (the same numpy route both ways, only the
+    time-aware one in free space, every body point asked at t = T (the same numpy kernels both ways, only the
     times differ: exact on any CPU)."""
     period = 0.55
     start = make_start(RIGHT, 0.0)

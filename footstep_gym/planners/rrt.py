@@ -216,7 +216,7 @@ class ModifiedRRT:
         if not self.goal_nodes:
             return None
         # The least cost; among costs equal to within COST_TIE_M (common: paths of as many full strides), the goal node
-        # found first, so that rounding, which differs between the two routes, does not pick the path.
+        # found first, so that rounding, which differs between the two kernels, does not pick the path.
         costs = tree.cost[self.goal_nodes]
         best = self.goal_nodes[int(np.argmax(costs <= costs.min() + COST_TIE_M))]
         return tree.path_to(best, reached_goal=True)

@@ -39,7 +39,8 @@ RRT_SETTINGS = dict(iterations=400, batch_size=10, step_size=0.10, goal_sample_r
 
 
 #: [m] The scalar LIPM check (``math``, ``cmath``) and the batched one (numpy) give ZMP offsets an ulp or so
-#: apart, so their verdicts agree unless an offset lies that close to the stable region's edge; tests comparing the two verdicts exactly assert no offset lies within this.
+#: apart, so their verdicts agree unless an offset lies that close to the stable region's edge; tests comparing
+#: the two verdicts exactly assert no offset lies within this.
 ZMP_TIE_MARGIN = 1e-12
 
 

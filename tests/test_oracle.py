@@ -50,7 +50,7 @@ def test_the_oracle_is_registered_as_an_upper_bound_and_alone_in_reading_the_tru
     spec = POLICIES["oracle"]
     assert spec.planner is OraclePlanner and spec.description.startswith("UPPER BOUND, not a baseline")
     assert policies.describe("oracle") == spec.description and policies.reads_truth("oracle")
-    assert spec.readings["kernels"] == {"compiled": False}  # the numpy kernels: the compiled ones assume constant velocity
+    assert spec.readings["kernels"] == {"compiled": False}  # numpy: the compiled kernels assume constant velocity
     readers = [name for name, s in POLICIES.items() if getattr(s.planner, "reads_truth", False)]
     assert readers == ["oracle"]
     assert not any(policies.reads_truth(name) for name in AGENTS)

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Protocol, Sequence
+from typing import Any, Protocol, Sequence
 
 import numpy as np
 
@@ -63,7 +63,7 @@ class ShapeTable:
         return len(self.rows)
 
     @functools.cached_property
-    def complex_form(self) -> dict[str, np.ndarray]:
+    def complex_form(self) -> dict[str, Any]:
         """The columns as the numpy kernels read them: 2D vectors as complex numbers ``x + iy`` (``position``,
         ``velocity``, ``a``, ``ab``, ``acceleration``), the rest as they are (``angle``, ``omega``, ``ab2``,
         ``acceleration_time``); ``accelerates``: whether any shape has a sensed acceleration."""

@@ -142,7 +142,8 @@ class NumpyKernels:
             taper = np.clip((lanes.length - ahead) / lanes.lookahead, 0.0, 1.0)  # the lane closes onto the goal
             aim = node0 + np.minimum(ahead, lanes.length) * axis + taper * lane
             lo, hi = limits[side]
-            heading = np.where(arrived, heading, heading + np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi))
+            turn = np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi)
+            heading = np.where(arrived, heading, heading + turn)
             stride = np.where(d <= lanes.waits, 0.0, lanes.strides)
             if d == 1 and window is not None:
                 stride = np.clip(stride, *window)

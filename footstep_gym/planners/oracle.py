@@ -72,7 +72,8 @@ import numpy as np
 
 from footstep_gym.kernels import ShapeTable
 from footstep_gym.planners.params import PlannerConfig
-from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor, centre_line_gap2
+from footstep_gym.kernels.numpy_kernels import centre_line_gap2
+from footstep_gym.planners.prediction import BodyModel, ObstaclePredictor
 from footstep_gym.planners.staged import PeriodAwarePlanner
 from footstep_gym.planners.walks import WalkStart
 from footstep_gym.robot import Robot

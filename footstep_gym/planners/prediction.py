@@ -27,14 +27,8 @@ from typing import Sequence
 import numpy as np
 
 from footstep_gym import footstep, lipm
-from footstep_gym.kernels import SHAPE_COLUMNS, ShapeTable, step_fractions
-from footstep_gym.kernels.numpy_kernels import (  # noqa: F401  (step_fractions, centre_line_gap2: re-exported)
-    NUMPY,
-    body_path_points,
-    centre_line_gap2,
-    shape_gap2,
-    support_normal,
-)
+from footstep_gym.kernels import SHAPE_COLUMNS, ShapeTable
+from footstep_gym.kernels.numpy_kernels import NUMPY, body_path_points, shape_gap2  # noqa: F401  (re-exported)
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import ObstacleView, Snapshot
 

@@ -34,7 +34,7 @@ import numpy as np
 from footstep_gym import footstep
 from footstep_gym.footstep import LEFT, RIGHT
 from footstep_gym.kernels import BodyCheck, Kernels, Lanes, WalkStart
-from footstep_gym.planners.prediction import support_normal
+from footstep_gym.kernels.numpy_kernels import support_normal
 from footstep_gym.planners.walks import steps_to_goal
 from footstep_gym.robot import Robot
 

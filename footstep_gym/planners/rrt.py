@@ -6,11 +6,11 @@ the support foot's node towards the goal:
 1. :meth:`ModifiedRRT._sample_points` — random coordinates (the goal with probability
    ``goal_sample_rate``) in the box around start and goal;
 
-then, one batch of samples in one call of the kernels (:meth:`footstep_gym.kernels.Kernels.extend_tree`,
-its steps named in the numpy one, :class:`~footstep_gym.kernels.numpy_kernels.NumpyKernels`):
+then, one batch of samples in one call of the kernels (:meth:`footstep_gym.kernels.Kernels.extend_tree`;
+the steps are methods of the numpy kernels, :class:`~footstep_gym.kernels.numpy_kernels.NumpyKernels`):
 
-2. :meth:`~footstep_gym.kernels.numpy_kernels.NumpyKernels.nearest_nodes` — the closest tree node of each;
-3. :meth:`~footstep_gym.kernels.numpy_kernels.NumpyKernels.restrict_to_angle_limits` — if the direction from that node lies outside the
+2. ``nearest_nodes`` — the closest tree node of each;
+3. ``restrict_to_angle_limits`` — if the direction from that node lies outside the
    hardware angle limits relative to the node's heading (the previous support foot's
    direction; ``-θ_inner … θ_outer`` mirrored by the side that swings, paper Fig. 4),
    a direction is re-drawn uniformly inside the limits (Algorithm 2, steps 6-8);
@@ -78,7 +78,7 @@ import numpy as np
 from footstep_gym import footstep
 from footstep_gym.kernels import BodyCheck, Kernels, TreeStep, WalkStart
 from footstep_gym.planners.params import PlannerConfig
-from footstep_gym.planners.prediction import body_path_points, support_normal
+from footstep_gym.kernels.numpy_kernels import body_path_points, support_normal
 from footstep_gym.planners.pso import clip_command
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot

@@ -45,15 +45,17 @@ def wrap_angle(a: Any) -> Any:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def place_foot(support_pose: Any, support_side: Any, S: Any, L: Any, theta: Any) -> tuple[Any, Any, Any]:
+def place_foot(support_pose: Any, support_side: Any, S: Any, L: Any, theta: Any, xp: Any = np
+               ) -> tuple[Any, Any, Any]:
     """World pose ``(x, y, yaw)`` of the foot that command ``(S, L, theta)`` places.
 
-    ``support_pose`` is ``(x, y, yaw)`` (each scalar or array), ``support_side`` +1/-1.
+    ``support_pose`` is ``(x, y, yaw)`` (each scalar or array), ``support_side`` +1/-1; ``xp`` the array
+    namespace (``numpy``, or ``jax.numpy`` for the batched backend).
     """
     x, y, yaw = support_pose
     swing = -support_side
     lat = swing * L
-    c, s = np.cos(yaw), np.sin(yaw)
+    c, s = xp.cos(yaw), xp.sin(yaw)
     return (x + c * S - s * lat, y + s * S + c * lat, wrap_angle(yaw + theta))
 
 
@@ -89,19 +91,20 @@ def command_between(support_pose: Any, support_side: Any, new_pose: Any) -> tupl
     return (S, -support_side * lat, wrap_angle(nyaw - yaw))
 
 
-def turn_bounds(support_side: Any, robot: Robot) -> tuple[Any, Any]:
-    """``(theta_min, theta_max)`` [rad] for the foot that swings opposite ``support_side``."""
+def turn_bounds(support_side: Any, robot: Robot, xp: Any = np) -> tuple[Any, Any]:
+    """``(theta_min, theta_max)`` [rad] for the foot that swings opposite ``support_side`` (``xp``: the array
+    namespace of a batch of sides)."""
     if isinstance(support_side, (int, np.integer)):  # one side (the planners' per-call case): no arrays
         return (-robot.turn_inner, robot.turn_outer) if support_side < 0 else (-robot.turn_outer, robot.turn_inner)
-    swing = -np.asarray(support_side)
-    lo = np.where(swing > 0, -robot.turn_inner, -robot.turn_outer)
-    hi = np.where(swing > 0, robot.turn_outer, robot.turn_inner)
-    if lo.ndim == 0:
+    swing = -xp.asarray(support_side)
+    lo = xp.where(swing > 0, -robot.turn_inner, -robot.turn_outer)
+    hi = xp.where(swing > 0, robot.turn_outer, robot.turn_inner)
+    if lo.ndim == 0 and xp is np:
         return float(lo), float(hi)
     return lo, hi
 
 
-def feet_overlap(S: Any, L: Any, theta: Any, support_side: Any, robot: Robot) -> Any:
+def feet_overlap(S: Any, L: Any, theta: Any, support_side: Any, robot: Robot, xp: Any = np) -> Any:
     """True where the two foot rectangles (plus ``foot_clearance``) would overlap.
 
     Separating-axis test between the support foot (at the origin, yaw 0) and the new
@@ -111,14 +114,14 @@ def feet_overlap(S: Any, L: Any, theta: Any, support_side: Any, robot: Robot) ->
     hx = 0.5 * (robot.foot_length + robot.foot_clearance)
     hy = 0.5 * (robot.foot_width + robot.foot_clearance)
     t = -support_side * theta
-    c, s = np.cos(t), np.sin(t)
-    ac, as_ = np.abs(c), np.abs(s)
+    c, s = xp.cos(t), xp.sin(t)
+    ac, as_ = xp.abs(c), xp.abs(s)
     dx, dy = S, L
     # Axes of the support foot (x, y), then of the new foot (c, s), (-s, c).
-    sep_x = np.abs(dx) > hx + hx * ac + hy * as_
-    sep_y = np.abs(dy) > hy + hx * as_ + hy * ac
-    sep_u = np.abs(c * dx + s * dy) > hx * ac + hy * as_ + hx
-    sep_v = np.abs(-s * dx + c * dy) > hx * as_ + hy * ac + hy
+    sep_x = xp.abs(dx) > hx + hx * ac + hy * as_
+    sep_y = xp.abs(dy) > hy + hx * as_ + hy * ac
+    sep_u = xp.abs(c * dx + s * dy) > hx * ac + hy * as_ + hx
+    sep_v = xp.abs(-s * dx + c * dy) > hx * as_ + hy * ac + hy
     return ~(sep_x | sep_y | sep_u | sep_v)
 
 
@@ -159,19 +162,27 @@ def kinematic_violation(robot: Robot, S: float, L: float, theta: float, t_ss: fl
     return "overlap"
 
 
-def kinematically_feasible(commands: np.ndarray, support_side: Any, robot: Robot) -> np.ndarray:
+def kinematically_feasible(commands: Any, support_side: Any, robot: Robot, xp: Any = np) -> Any:
     """Batch verdict of the kinematic limits for commands ``(N, 5)`` ``[S, L, theta, T_SS, T_DS]``.
 
-    Inside the action box, inside the side-dependent turn limits, and no foot overlap.
+    Inside the action box, inside the side-dependent turn limits, and no foot overlap. With ``xp`` another
+    array namespace (``jax.numpy``) the commands keep their float dtype and every limit is rounded to it, so a
+    float32 command at a float32-rounded limit is inside.
     """
-    cmd = np.asarray(commands, dtype=float)
-    low, high = robot.command_low, robot.command_high
+    if xp is np:
+        cmd = np.asarray(commands, dtype=float)
+        low, high = robot.command_low, robot.command_high
+    else:
+        cmd = xp.asarray(commands)
+        low, high = (xp.asarray(b, dtype=cmd.dtype) for b in (robot.command_low, robot.command_high))
     eps = 1e-9
-    ok = np.all((cmd >= low - eps) & (cmd <= high + eps), axis=-1)
-    lo, hi = turn_bounds(support_side, robot)
+    ok = xp.all((cmd >= low - eps) & (cmd <= high + eps), axis=-1)
+    lo, hi = turn_bounds(support_side, robot, xp)
     theta = cmd[..., 2]
+    if xp is not np:
+        lo, hi = xp.asarray(lo, dtype=cmd.dtype), xp.asarray(hi, dtype=cmd.dtype)
     ok &= (theta >= lo - eps) & (theta <= hi + eps)
-    ok &= ~feet_overlap(cmd[..., 0], cmd[..., 1], theta, support_side, robot)
+    ok &= ~feet_overlap(cmd[..., 0], cmd[..., 1], theta, support_side, robot, xp)
     return ok
 
 
@@ -185,10 +196,10 @@ def robot_centre(foot_a: Any, foot_b: Any) -> tuple[float, float]:
     return (0.5 * (foot_a[0] + foot_b[0]), 0.5 * (foot_a[1] + foot_b[1]))
 
 
-def foot_from_node(node_xy: Any, heading: Any, side: Any, half_width: float) -> tuple[Any, Any, Any]:
+def foot_from_node(node_xy: Any, heading: Any, side: Any, half_width: float, xp: Any = np) -> tuple[Any, Any, Any]:
     """Pose of the ``side`` foot for robot centre ``node_xy`` facing ``heading`` (paper Fig. 5).
 
     The foot centre lies ``half_width`` [m] from the node, perpendicular to the heading.
     """
     x, y = node_xy
-    return (x - side * half_width * np.sin(heading), y + side * half_width * np.cos(heading), wrap_angle(heading))
+    return (x - side * half_width * xp.sin(heading), y + side * half_width * xp.cos(heading), wrap_angle(heading))

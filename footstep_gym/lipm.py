@@ -36,7 +36,7 @@ by ``zmp_region_scale``) and the command is inside the kinematic limits.
 
 Every function works on numpy arrays (a batch: the PSO's swarm) through :func:`check_steps`,
 and on plain Python scalars through :func:`check_step` (the env's per-step path, where
-numpy's per-call overhead would dominate); both run the same :func:`_step_terms`.
+numpy's per-call overhead would dominate); both run the same :func:`step_terms`.
 """
 
 from __future__ import annotations
@@ -98,10 +98,11 @@ class StepResult:
     end_vel: np.ndarray  # (N, 2) [m/s]
 
 
-def _step_terms(xp: Any, ce: Any, xi0: Any, eta0: Any, S: Any, L: Any, theta: Any,
+def step_terms(xp: Any, ce: Any, xi0: Any, eta0: Any, S: Any, L: Any, theta: Any,
                 t_ss: Any, t_ds: Any, swing: Any, omega: float, wa: float, wb: float
                 ) -> tuple[Any, Any, Any]:
-    """``(p, xi_end, eta_end)`` of one step; ``xp`` is ``math`` or ``numpy``, ``ce`` ``cmath.exp`` or ``np.exp``.
+    """``(p, xi_end, eta_end)`` of one step; ``xp`` is ``math``, ``numpy`` or ``jax.numpy``, ``ce`` ``cmath.exp``,
+    ``np.exp`` or ``jnp.exp``.
 
     All 2D quantities are complex. ``xi0, eta0``: start state relative to the support
     foot; ``xi_end, eta_end``: end state relative to the new foot, in its frame.
@@ -149,7 +150,7 @@ def check_steps(robot: Robot, com: Any, vel: Any, commands: Any, support_side: A
     S, L, theta, t_ss, t_ds = cmd.T
     swing = -np.asarray(support_side, dtype=float)
     with np.errstate(over="ignore", invalid="ignore"):
-        p, xi_end, eta_end = _step_terms(
+        p, xi_end, eta_end = step_terms(
             np, np.exp, xi0, eta0, S, L, theta, t_ss, t_ds, swing, omega,
             robot.generator_weight_position, robot.generator_weight_velocity,
         )
@@ -182,7 +183,7 @@ def check_step(robot: Robot, com: complex, vel: complex, command: tuple[float, .
         return False, False, nan, nan, nan  # outside the box: no pattern to generate
     omega = robot.omega
     xi0, eta0 = to_dcm(com, vel, omega)
-    p, xi_end, eta_end = _step_terms(
+    p, xi_end, eta_end = step_terms(
         math, cmath.exp, xi0, eta0, S, L, theta, t_ss, t_ds, -support_side, omega,
         robot.generator_weight_position, robot.generator_weight_velocity,
     )

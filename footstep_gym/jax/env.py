@@ -1,0 +1,363 @@
+"""``FootstepJaxEnv``: the footstep envs as pure JAX functions over a state pytree (gymnax / Brax style).
+
+``reset(key, params) -> (state, obs)`` and ``step(state, action, params) -> (state, obs, reward, terminated,
+truncated, info)`` are jittable and vmappable: one env's arrays in, one env's arrays out; ``jax.vmap`` makes a
+batch. The reference env (:class:`footstep_gym.env.FootstepEnv`, pymunk) is the spec and the judge: the same
+action box and float32 handling, the same observation layout, reward terms, terminations and truncations
+(docs/model.md), shown by replaying its episodes (:mod:`footstep_gym.jax.replay`).
+
+Supported: ``FootstepDoor-v0`` with one door, every setting of its YAML that keeps one door and no
+sensing option, ``randomize`` of ``door_speed``, and the tiers whose door cells are such (``paper``,
+``train``, ``shifted``). Anything else raises :class:`~footstep_gym.errors.ConfigError` in one line naming
+what is not supported.
+
+Precision: float32 by default; ``dtype="float64"`` needs JAX's 64-bit mode (``JAX_ENABLE_X64=1`` or
+``jax.config.update("jax_enable_x64", True)`` before any array is made).
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from footstep_gym import footstep, lipm, tiers
+from footstep_gym.env import FootstepEnv
+from footstep_gym.errors import ConfigError
+from footstep_gym.footstep import RIGHT
+from footstep_gym.jax import shapes, walker
+from footstep_gym.world import World
+
+#: Termination codes of ``info["termination"]`` (0: none): the reference's names in this order.
+TERMINATION_CODES = {"goal": 1, "collision": 2, "fall": 3}
+#: The one scene supported, and the scenario keys that may be drawn per episode.
+SUPPORTED_SCENES = ("door",)
+SUPPORTED_RANDOMIZE = ("door_speed",)
+#: The reward terms of ``info["rewards"]``, in the reference's order (their sum is the reward).
+REWARD_TERMS = ("progress", "time", "step", "goal", "collision", "fall")
+
+
+class DoorParams(NamedTuple):
+    """One tier cell's per-episode settings (leaves lead with the cell axis in :attr:`FootstepJaxEnv.params`).
+
+    Units are the YAML's: ``door_speed_*`` [deg/s], angles [deg], lengths [m], times [s]."""
+
+    door_speed_low: jax.Array
+    door_speed_high: jax.Array
+    door_start_angle: jax.Array
+    door_angle_jitter: jax.Array
+    door_centre: jax.Array
+    rod_a: jax.Array
+    rod_b: jax.Array
+    rod_r: jax.Array
+    start: jax.Array
+    start_yaw: jax.Array
+    start_jitter: jax.Array
+    goal: jax.Array
+    goal_tolerance: jax.Array
+    time_limit: jax.Array
+    max_steps: jax.Array
+
+
+class State(NamedTuple):
+    """One env's state. Feet ``(2, 3)``: row 0 the right foot, row 1 the left, ``(x, y, yaw)`` [m, rad];
+    ``support``: +1 left, -1 right; CoM position [m] and velocity [m/s] in the world; ``previous``: the last
+    command applied; ``goal_dist``: the robot centre's distance to the goal [m] now."""
+
+    key: jax.Array
+    feet: jax.Array
+    support: jax.Array
+    com: jax.Array
+    com_vel: jax.Array
+    time: jax.Array
+    steps: jax.Array
+    previous: jax.Array
+    goal_dist: jax.Array
+    rods: shapes.Rods
+    goal: jax.Array
+    goal_tolerance: jax.Array
+    time_limit: jax.Array
+    max_steps: jax.Array
+    cell: jax.Array
+
+
+def _unsupported(what: str) -> ConfigError:
+    return ConfigError(f"FootstepJaxEnv: {what} is not supported by the batched JAX backend yet "
+                       f"(supported: FootstepDoor-v0 with one door, no sensing options, randomize of "
+                       f"{', '.join(SUPPORTED_RANDOMIZE)}); use the reference env")
+
+
+def _dtype(dtype: Any) -> Any:
+    dt = jnp.dtype(dtype)
+    if dt not in (jnp.dtype(jnp.float32), jnp.dtype(jnp.float64)):
+        raise ConfigError(f"FootstepJaxEnv: dtype must be 'float32' or 'float64', got {dtype!r}")
+    if dt == jnp.dtype(jnp.float64) and not jax.config.jax_enable_x64:
+        raise ConfigError("FootstepJaxEnv: dtype='float64' needs JAX's 64-bit mode: set JAX_ENABLE_X64=1 or call "
+                          "jax.config.update('jax_enable_x64', True) before making the env")
+    return dt
+
+
+class FootstepJaxEnv:
+    """A footstep scene as pure functions (module docstring); ``env_kwargs`` as for ``gymnasium.make``.
+
+    ``block``: collision checks evaluated per iteration of the sweep (:mod:`footstep_gym.jax.shapes`; the
+    answers do not depend on it). ``action_space`` and ``observation_space`` are the reference env's.
+    """
+
+    def __init__(self, scenario: str = "door", *, dtype: Any = "float32", tier: str | None = tiers.DEFAULT_TIER,
+                 tier_cell: str | None = None, block: int = 8, **env_kwargs: Any) -> None:
+        if scenario not in SUPPORTED_SCENES:
+            raise _unsupported(f"scene {scenario!r}")
+        if "render_mode" in env_kwargs:
+            raise _unsupported("render_mode")
+        self.dtype = _dtype(dtype)
+        if not (isinstance(block, int) and block >= 1):
+            raise ConfigError(f"FootstepJaxEnv: block must be an integer >= 1, got {block!r}")
+        self.block = block
+        ref = FootstepEnv(scenario, tier=tier, tier_cell=tier_cell, **env_kwargs)  # validates every cell
+        self.scenario, self.tier, self.cells = scenario, ref.tier, [c.name for c in ref.tier_cells]
+        self.robot = robot = ref.robot
+        self.config = env_cfg = ref.config
+        self.action_space, self.observation_space = ref.action_space, ref.observation_space
+        for cell, (cfg, ecfg) in zip(self.cells, ref._cell_configs):
+            if ecfg.sensing_limited:
+                raise _unsupported(f"tier cell {cell!r}: the sensing options (noise, range, field of view)")
+            if ecfg.fixed_period:
+                raise _unsupported("fixed_period")
+            if cfg.door_count != 1:
+                raise _unsupported(f"tier cell {cell!r}: door_count={cfg.door_count}")
+            extra = sorted(set(cfg.randomize) - set(SUPPORTED_RANDOMIZE))
+            if extra:
+                raise _unsupported(f"tier cell {cell!r}: randomize of {', '.join(extra)}")
+        cls = ref._scenario_cls
+        keys = {cls.static_key(cfg) for cfg, _ in ref._cell_configs}
+        if len(keys) > 1:
+            raise _unsupported(f"tier {self.tier!r}: cells with different walls")
+        world = World(robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
+                      env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks, compiled=False)
+        cls(ref._cell_configs[0][0], np.random.default_rng(0)).build_static(world)
+        dt = self.dtype
+        self.walls = shapes.walls_of(world, dt)
+        self.wall_table = shapes.wall_table(self.walls)
+        self.wall_names = [o.name for o in world.obstacles if o.static]
+        cells = [self.cell_params(cfg) for cfg, _ in ref._cell_configs]
+        self.params: DoorParams = jax.tree.map(lambda *x: jnp.stack(x), *cells)
+        # The action box, its float32-rounded limits, and the nominal command (the previous one after reset).
+        self.low = np.asarray(robot.command_low, np.float64)
+        self.high = np.asarray(robot.command_high, np.float64)
+        turns = (-robot.turn_outer, -robot.turn_inner, robot.turn_inner, robot.turn_outer)
+        self._limits = [sorted({lo, hi, *(turns if i == 2 else ())}) for i, (lo, hi) in
+                        enumerate(zip(self.low.tolist(), self.high.tolist()))]
+        com_local, vel_local = lipm.steady_state(robot, robot.nominal_command, RIGHT)
+        self._start_com = (com_local, vel_local)
+        self.obs_size = int(self.observation_space.shape[0])
+        ref.close()
+
+    # ------------------------------------------------------------------ settings
+    def cell_params(self, cfg: Any) -> DoorParams:
+        """The :class:`DoorParams` of a scenario config (a :class:`~footstep_gym.scenarios.door.DoorConfig`)."""
+        dt = self.dtype
+        lo, hi = cfg.randomize.get("door_speed", (cfg.door_speed, cfg.door_speed))
+        r = cfg.door_radius
+
+        def a(x: Any) -> jax.Array:
+            return jnp.asarray(np.asarray(x, dtype=np.float64), dt)
+
+        return DoorParams(
+            a(float(lo)), a(float(hi)), a(cfg.door_start_angle), a(cfg.door_angle_jitter), a(cfg.door_centre),
+            a((-r, 0.0)), a((r, 0.0)), a(0.5 * cfg.door_thickness), a(cfg.start), a(cfg.start_yaw),
+            a(cfg.start_jitter), a(cfg.goal), a(cfg.goal_tolerance), a(cfg.time_limit),
+            jnp.asarray(cfg.max_steps, jnp.int32))
+
+    @property
+    def default_params(self) -> DoorParams:
+        """Every tier cell's settings, stacked (a reset draws one cell uniformly; one cell: no draw)."""
+        return self.params
+
+    # ------------------------------------------------------------------ reset
+    def reset(self, key: jax.Array, params: DoorParams | None = None) -> tuple[State, jax.Array]:
+        """A new episode from ``key``: ``(state, observation)``. The episode's draws (cell, door speed, door
+        angle, start jitter) come from ``key``; they are not the reference env's numpy draws for a seed."""
+        params = self.params if params is None else params
+        dt = self.dtype
+        key, k_cell, k_speed, k_angle, k_start = jax.random.split(key, 5)
+        n_cells = params.max_steps.shape[0]
+        cell = jax.random.randint(k_cell, (), 0, n_cells) if n_cells > 1 else jnp.zeros((), jnp.int32)
+        p = jax.tree.map(lambda x: x[cell], params)
+        u = jax.random.uniform(k_speed, (), dt)
+        speed = p.door_speed_low + (p.door_speed_high - p.door_speed_low) * u
+        angle = jnp.deg2rad(p.door_start_angle + jax.random.uniform(k_angle, (), dt, -1.0, 1.0) * p.door_angle_jitter)
+        rods = shapes.Rods(p.door_centre[None], angle[None], jnp.zeros((1, 2), dt), -jnp.deg2rad(speed)[None],
+                           p.rod_a[None], p.rod_b[None], p.rod_r[None])
+        jitter = p.start_jitter * jax.random.uniform(k_start, (2,), dt, -1.0, 1.0)
+        centre = (p.start[0] + jitter[0], p.start[1] + jitter[1])
+        half = 0.5 * self.robot.nominal_side_stride
+        feet = jnp.stack([jnp.stack(footstep.foot_from_node(centre, p.start_yaw, side, half, xp=jnp))
+                          for side in (RIGHT, -RIGHT)])
+        return self.start_state(key, feet, rods, p, cell)
+
+    def start_state(self, key: jax.Array, feet: jax.Array, rods: shapes.Rods, p: DoorParams, cell: jax.Array
+                    ) -> tuple[State, jax.Array]:
+        """The state (and observation) of an episode that starts with these feet and rods: the robot on its
+        right foot, its CoM in the steady gait of stepping in place (``FootstepEnv.reset``)."""
+        dt = self.dtype
+        com_local, vel_local = self._start_com
+        support = feet[0]
+        c, s = jnp.cos(support[2]), jnp.sin(support[2])
+        rot = c + 1j * s
+        com = support[0] + 1j * support[1] + complex(com_local) * rot
+        vel = complex(vel_local) * rot
+        zero = jnp.zeros((), dt)
+        state = State(key, feet.astype(dt), jnp.asarray(RIGHT, jnp.int32), jnp.stack([com.real, com.imag]).astype(dt),
+                      jnp.stack([vel.real, vel.imag]).astype(dt), zero, jnp.zeros((), jnp.int32),
+                      jnp.asarray(self.robot.nominal_command, dt), self._goal_distance(feet, p.goal), rods,
+                      p.goal, p.goal_tolerance, p.time_limit, p.max_steps, jnp.asarray(cell, jnp.int32))
+        return state, self.observation(state)
+
+    @staticmethod
+    def _goal_distance(feet: jax.Array, goal: jax.Array) -> jax.Array:
+        cx, cy = 0.5 * (feet[1, 0] + feet[0, 0]), 0.5 * (feet[1, 1] + feet[0, 1])
+        return jnp.hypot(cx - goal[0], cy - goal[1])
+
+    # ------------------------------------------------------------------ step
+    def command(self, action: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """The command ``(5,)`` an action stands for, and whether it was clipped (``FootstepEnv``'s rule): a
+        float32 action equal to a limit rounded to float32 is that limit; then each field is clipped to the
+        box. A NaN field stays NaN, and the step is then a fall (the numpy vector env refuses it before)."""
+        a = jnp.asarray(action)
+        if a.shape != (5,):
+            raise ValueError(f"FootstepJaxEnv.step: action shape={a.shape} but expected (5,) = [S, L, theta, "
+                             f"T_SS, T_DS]")
+        values = a.astype(self.dtype)
+        if a.dtype == jnp.float32 and self.dtype == jnp.float64:
+            snapped = []
+            for i, limits in enumerate(self._limits):
+                v = values[i]
+                for exact in reversed(limits):  # of limits that round alike, the lowest wins
+                    v = jnp.where(values[i] == float(np.float32(exact)), exact, v)
+                snapped.append(v)
+            values = jnp.stack(snapped)
+        low, high = jnp.asarray(self.low, self.dtype), jnp.asarray(self.high, self.dtype)
+        cmd = jnp.where(values < low, low, jnp.where(values > high, high, values))
+        return cmd, jnp.any(cmd != values)
+
+    def step(self, state: State, action: jax.Array, params: DoorParams | None = None
+             ) -> tuple[State, jax.Array, jax.Array, jax.Array, jax.Array, dict[str, jax.Array]]:
+        """One footstep: ``(state, obs, reward, terminated, truncated, info)`` (``FootstepEnv.step``).
+
+        ``info``: ``termination`` (0 none, 1 goal, 2 collision, 3 fall), ``is_success``, ``feasible``,
+        ``collision``, ``clipped``, ``command``, ``time`` [s], ``period`` [s], ``steps``, ``zmp_offset``
+        [m], ``zmp_margin`` [m], ``clearance`` [m] (NaN on a fall), ``checks``, ``obstacle`` (index of the
+        shape hit, walls first, -1 if none), ``rewards`` (the terms of :data:`REWARD_TERMS`).
+        """
+        del params  # the episode's settings are in the state
+        robot, cfg, dt = self.robot, self.config, self.dtype
+        cmd, clipped = self.command(action)
+        side = state.support
+        sidx = (side + 1) // 2
+        support = state.feet[sidx]
+        c, s = jnp.cos(support[2]), jnp.sin(support[2])
+        rot, unrot = c + 1j * s, c - 1j * s
+        origin = support[0] + 1j * support[1]
+        com = state.com[0] + 1j * state.com[1]
+        vel = state.com_vel[0] + 1j * state.com_vel[1]
+        com_local, vel_local = (com - origin) * unrot, vel * unrot
+        v = walker.verdict(robot, com_local, vel_local, cmd, side)
+        feasible = v.kinematic_ok & v.zmp_ok
+        hx, hy = robot.zmp_half_extent
+        zmp_margin = jnp.minimum(hx - jnp.abs(v.p.real), hy - jnp.abs(v.p.imag))
+        period = cmd[3] + cmd[4]
+        path, bound = walker.path_of(robot, v, cmd, side, origin, rot)
+        result = shapes.sweep(path, period, bound, self.wall_table, state.rods, robot.body_radius,
+                              cfg.max_check_interval, cfg.collision_motion_fraction, cfg.max_sweep_checks,
+                              self.block, active=feasible)
+        collided = feasible & result.collided
+        moved = feasible & ~result.collided
+        elapsed = jnp.where(feasible, result.time, 0.0)
+        # Where the step leaves the robot: stopped at the contact, on the new foot, or (a fall) where it was.
+        c_hit, v_hit = path.state(elapsed)
+        com_hit, vel_hit = origin + c_hit * rot, v_hit * rot
+        fx, fy, fyaw = footstep.place_foot((support[0], support[1], support[2]), side, cmd[0], cmd[1], cmd[2], xp=jnp)
+        new_foot = jnp.stack([fx, fy, fyaw])
+        nc, ns = jnp.cos(fyaw), jnp.sin(fyaw)
+        new_rot = nc + 1j * ns
+        com_new = fx + 1j * fy + v.end_com * new_rot
+        vel_new = v.end_vel * new_rot
+        com_out = jnp.where(moved, com_new, jnp.where(collided, com_hit, com))
+        vel_out = jnp.where(moved, vel_new, jnp.where(collided, vel_hit, vel))
+        swing_idx = 1 - sidx
+        feet = jnp.where(moved, state.feet.at[swing_idx].set(new_foot), state.feet)
+        new_side = jnp.where(moved, -side, side)
+        rods = jax.tree.map(lambda a, b: jnp.where(feasible, a, b), result.rods, state.rods)
+        time = state.time + elapsed
+        steps = state.steps + 1
+        d_after = self._goal_distance(feet, state.goal)
+        goal = ~collided & feasible & (d_after <= state.goal_tolerance)
+        termination = jnp.where(~feasible, 3, jnp.where(collided, 2, jnp.where(goal, 1, 0))).astype(jnp.int32)
+        terminated = termination > 0
+        truncated = ~terminated & ((steps >= state.max_steps) | (time >= state.time_limit))
+        zero = jnp.zeros((), dt)
+        rewards = {
+            "progress": cfg.reward_progress * (state.goal_dist - d_after),
+            "time": cfg.reward_time * elapsed,
+            "step": jnp.asarray(cfg.reward_step, dt),
+            "goal": jnp.where(termination == 1, jnp.asarray(cfg.reward_goal, dt), zero),
+            "collision": jnp.where(termination == 2, jnp.asarray(cfg.reward_collision, dt), zero),
+            "fall": jnp.where(termination == 3, jnp.asarray(cfg.reward_fall, dt), zero),
+        }
+        reward = rewards["progress"]
+        for name in REWARD_TERMS[1:]:
+            reward = reward + rewards[name]
+        new_state = state._replace(feet=feet, support=new_side.astype(jnp.int32),
+                                   com=jnp.stack([com_out.real, com_out.imag]).astype(dt),
+                                   com_vel=jnp.stack([vel_out.real, vel_out.imag]).astype(dt), time=time,
+                                   steps=steps, previous=cmd, goal_dist=d_after, rods=rods)
+        info = {
+            "termination": termination, "is_success": termination == 1, "feasible": feasible,
+            "collision": collided, "clipped": clipped, "command": cmd, "time": time, "period": period,
+            "steps": steps, "zmp_offset": jnp.stack([v.p.real, v.p.imag]), "zmp_margin": zmp_margin,
+            "clearance": jnp.where(feasible, result.clearance, jnp.nan), "checks": result.checks,
+            "obstacle": jnp.where(collided, result.obstacle, -1), "rewards": rewards,
+        }
+        return new_state, self.observation(new_state), reward, terminated, truncated, info
+
+    # ------------------------------------------------------------------ observation
+    def observation(self, state: State) -> jax.Array:
+        """The observation ``(12 + 5K,)`` float32 (``FootstepEnv``'s layout, docs in its docstring)."""
+        cfg, dt = self.config, self.dtype
+        ps, vs, cs = cfg.observation_position_scale, cfg.observation_velocity_scale, cfg.observation_com_scale
+        sidx = (state.support + 1) // 2
+        support = state.feet[sidx]
+        c, s = jnp.cos(support[2]), jnp.sin(support[2])
+
+        def local(x: jax.Array, y: jax.Array) -> tuple[jax.Array, jax.Array]:
+            # (x + iy) * (c - is): CPython's complex product, part by part
+            return x * c - y * (-s), x * (-s) + y * c
+
+        gx, gy = local(state.goal[0] - support[0], state.goal[1] - support[1])
+        cx, cy = local(state.com[0] - support[0], state.com[1] - support[1])
+        vx, vy = local(state.com_vel[0], state.com_vel[1])
+        low = jnp.asarray(self.low, dt)
+        span = jnp.asarray(self.high - self.low, dt)
+        prev = 2.0 * (state.previous - low) / span - 1.0
+        head = jnp.concatenate([jnp.stack([gx / ps, gy / ps, state.support.astype(dt), cx / cs, cy / cs, vx / vs,
+                                           vy / vs]), prev])
+        k = cfg.n_obstacles_observed
+        point, pvel, mask = shapes.nearest_shapes(state.com[0], state.com[1], self.walls, state.rods, k,
+                                                  cfg.sensing_range)
+        rx, ry = local(point[:, 0] - state.com[0], point[:, 1] - state.com[1])
+        ux, uy = local(pvel[:, 0], pvel[:, 1])
+        slots = jnp.stack([rx / ps, ry / ps, ux / vs, uy / vs, jnp.ones_like(rx)], axis=-1)
+        slots = jnp.where(mask[:, None], slots, 0.0).reshape(-1)
+        return jnp.concatenate([head, slots]).astype(jnp.float32)
+
+
+def termination_name(code: int) -> str | None:
+    """The reference's ``info["termination"]`` for a code of :data:`TERMINATION_CODES` (0: ``None``)."""
+    for name, value in TERMINATION_CODES.items():
+        if value == code:
+            return name
+    return None
+

@@ -1,0 +1,225 @@
+"""Episodes of the reference env replayed in the JAX backend: the check that the two are one env.
+
+:func:`record` plays an episode in the reference env (``gymnasium.make``) with a policy's commands and keeps
+where it started (feet, door), the actions exactly as sent, and every step's observation, reward and ending.
+:func:`replay` starts the JAX env from the same place, feeds it the same actions (batched: ``vmap`` over
+episodes, ``lax.scan`` over steps) and :func:`compare` says, per episode, whether it ended the same way at the
+same step and how far apart the observations and rewards were. Where it did not, :func:`compare` reports the
+reference's margin at that step (the nearest clearance to the body, the ZMP's margin, the goal distance's
+margin): a *near-tie* is a disagreement where that margin is below :data:`NEAR_TIE` metres.
+
+Policies (``kind``): ``planner`` (the period-aware planner, through ``make_policy``), ``walk`` (open-loop
+random walks near the nominal gait, float32: forward strides, turns, period changes, so episodes reach the
+door, hit it and fall) and ``fuzz`` (float32 actions uniform over a box 20 % wider than the action box, so
+most are clipped and many fall at once).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, Iterable
+
+import gymnasium as gym
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import footstep_gym  # noqa: F401  (registers the envs)
+from footstep_gym.jax.env import TERMINATION_CODES, FootstepJaxEnv
+from footstep_gym.jax.shapes import Rods
+
+KINDS = ("planner", "walk", "fuzz")
+#: [m] a disagreement whose reference margin (clearance, ZMP margin, goal distance - tolerance) is below this is
+#: a near-tie: the two envs' arithmetic (XLA's libm against the C library's) differs by ulps, so a contact,
+#: a ZMP limit or the goal met within this margin may go either way.
+NEAR_TIE = 1e-6
+#: Outcome names: the reference's terminations and the truncation.
+OUTCOMES = ("goal", "collision", "fall", "truncated")
+
+
+@dataclass
+class Episode:
+    """One reference episode: its start, the actions sent and what each step returned."""
+
+    env_id: str
+    env_kwargs: dict
+    seed: int
+    kind: str
+    feet: np.ndarray  # (2, 3): right, left
+    rod: tuple  # (position (2,), angle, angular velocity) of the door
+    config: Any  # the episode's scenario config (its randomize keys drawn)
+    actions: np.ndarray  # (T, 5), the dtype sent
+    obs: np.ndarray  # (T + 1, D) float32
+    rewards: np.ndarray  # (T,)
+    outcome: str  # one of OUTCOMES
+    margins: list = field(default_factory=list)  # per step: (clearance, zmp_margin, goal distance - tolerance)
+
+
+def _walk_actions(rng: np.random.Generator, low: np.ndarray, high: np.ndarray, n: int) -> np.ndarray:
+    """Open-loop walk: from stepping in place, strides and period drift (bounded random walks), turns small."""
+    cmd = np.array([0.0, 0.08, 0.0, 0.6, 0.2])
+    drift = np.array([0.012, 0.006, 0.03, 0.05, 0.02])
+    target_s = rng.uniform(0.03, 0.1)
+    out = []
+    for _ in range(n):
+        cmd = cmd + rng.normal(0.0, 1.0, 5) * drift
+        cmd[0] += 0.3 * (target_s - cmd[0])
+        cmd[2] *= 0.7
+        cmd = np.clip(cmd, low, high)
+        out.append(cmd.copy())
+    return np.asarray(out, dtype=np.float32)
+
+
+def record(env_id: str, seed: int, kind: str, env_kwargs: dict | None = None, max_steps: int | None = None
+           ) -> Episode:
+    """Play one episode of ``env_id`` (reference env) with ``kind``'s commands from ``reset(seed=seed)``."""
+    if kind not in KINDS:
+        raise ValueError(f"record: kind must be one of {KINDS}, got {kind!r}")
+    kwargs = dict(env_kwargs or {})
+    env = gym.make(env_id, **kwargs)
+    u = env.unwrapped
+    obs, _ = env.reset(seed=seed)
+    rng = np.random.default_rng([seed, KINDS.index(kind)])
+    limit = u.episode_config.max_steps if max_steps is None else max_steps
+    low, high = u.robot.command_low, u.robot.command_high
+    policy = None
+    if kind == "planner":
+        policy = footstep_gym.make_policy("period-aware", u.robot, seed)
+        policy.reset(seed)
+        planned = None
+    elif kind == "walk":
+        planned = _walk_actions(rng, low, high, limit)
+    else:
+        span = high - low
+        planned = rng.uniform(low - 0.1 * span, high + 0.1 * span, (limit, 5)).astype(np.float32)
+    rod = next(o for o in u.world.obstacles if not o.static).body
+    start = (np.array([u.feet[-1], u.feet[1]], dtype=np.float64),
+             (np.array(rod.position, dtype=np.float64), float(rod.angle), float(rod.angular_velocity)))
+    actions, observations, rewards, margins = [], [obs], [], []
+    outcome = "truncated"
+    for i in range(limit):
+        action = policy.act(obs, u.sensing()) if policy is not None else planned[i]
+        actions.append(np.array(action))
+        obs, reward, terminated, truncated, info = env.step(action)
+        observations.append(obs)
+        rewards.append(reward)
+        clearance = info["clearance"]
+        margins.append((np.inf if clearance is None else clearance, info["zmp_margin"],
+                        u._goal_dist - u.episode_config.goal_tolerance))
+        if terminated or truncated:
+            outcome = info["termination"] if terminated else "truncated"
+            break
+    else:
+        outcome = "cut"  # max_steps given shorter than the episode: it goes on
+    env.close()
+    return Episode(env_id, kwargs, seed, kind, start[0], start[1], u.episode_config, np.asarray(actions),
+                   np.asarray(observations, dtype=np.float32), np.asarray(rewards, dtype=np.float64), outcome, margins)
+
+
+@dataclass
+class Replayed:
+    """The JAX env's run of the episodes: per step observations ``(N, T + 1, D)``, rewards, terminations
+    (codes), truncations ``(N, T)``."""
+
+    obs: np.ndarray
+    rewards: np.ndarray
+    termination: np.ndarray
+    truncated: np.ndarray
+
+
+def replay(jenv: FootstepJaxEnv, episodes: list[Episode]) -> Replayed:
+    """Run ``episodes``' actions in ``jenv`` from their starts, all at once (their actions share a dtype)."""
+    if len({e.actions.dtype for e in episodes}) != 1:
+        raise ValueError("replay: the episodes' actions must share a dtype (replay each kind apart)")
+    dt = jenv.dtype
+    n_steps = max(len(e.actions) for e in episodes)
+    nominal = np.asarray(jenv.robot.nominal_command, episodes[0].actions.dtype)
+    actions = np.stack([np.concatenate([e.actions, np.tile(nominal, (n_steps - len(e.actions), 1))])
+                        for e in episodes])
+    params = [jenv.cell_params(dataclasses.replace(e.config, randomize={})) for e in episodes]  # as drawn
+    p = jax.tree.map(lambda *x: jnp.stack(x), *params)
+    feet = jnp.asarray(np.stack([e.feet for e in episodes]), dt)
+    rods = Rods(jnp.asarray(np.stack([e.rod[0] for e in episodes]), dt)[:, None],
+                jnp.asarray([e.rod[1] for e in episodes], dt)[:, None],
+                jnp.zeros((len(episodes), 1, 2), dt),
+                jnp.asarray([e.rod[2] for e in episodes], dt)[:, None],
+                p.rod_a[:, None], p.rod_b[:, None], p.rod_r[:, None])
+    keys = jax.random.split(jax.random.key(0), len(episodes))
+    state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, p, jnp.zeros(len(episodes), jnp.int32))
+    out = _run(jenv, state, jnp.asarray(actions))
+    obs, rew, term, trunc = (np.asarray(x) for x in out)
+    obs = np.concatenate([np.asarray(obs0)[:, None], np.swapaxes(obs, 0, 1)], axis=1)
+    return Replayed(obs, np.swapaxes(rew, 0, 1), np.swapaxes(term, 0, 1), np.swapaxes(trunc, 0, 1))
+
+
+def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
+    fn = getattr(jenv, "_replay_fn", None)
+    if fn is None:
+        step = jax.vmap(jenv.step)
+
+        def run(state, actions):
+            def body(s, a):
+                s, obs, reward, _, truncated, info = step(s, a)
+                return s, (obs, reward, info["termination"], truncated)
+
+            return jax.lax.scan(body, state, jnp.swapaxes(actions, 0, 1))[1]
+
+        fn = jenv._replay_fn = jax.jit(run)
+    return fn(state, actions)
+
+
+@dataclass
+class Agreement:
+    """How one replayed episode compares: the reference's and the JAX env's ending (outcome, step), the
+    largest observation and reward differences over the steps both took, and where the endings differ, the
+    reference's margin at the first step that differs (``near_tie``: below :data:`NEAR_TIE`)."""
+
+    seed: int
+    kind: str
+    reference: tuple[str, int]
+    jax: tuple[str, int]
+    obs_error: float
+    reward_error: float
+    margin: float = np.nan
+    near_tie: bool = False
+
+    @property
+    def same(self) -> bool:
+        return self.reference == self.jax
+
+
+def _ending(termination: np.ndarray, truncated: np.ndarray, limit: int) -> tuple[str, int]:
+    names = {v: k for k, v in TERMINATION_CODES.items()}
+    for i, (code, trunc) in enumerate(zip(termination[:limit], truncated[:limit])):
+        if code:
+            return names[int(code)], i + 1
+        if trunc:
+            return "truncated", i + 1
+    return "cut", limit
+
+
+def compare(episodes: list[Episode], replayed: Replayed) -> list[Agreement]:
+    """Per episode, the :class:`Agreement` of the reference run and the replay."""
+    out = []
+    for i, e in enumerate(episodes):
+        n = len(e.actions)
+        ref = (e.outcome, n)
+        got = _ending(replayed.termination[i], replayed.truncated[i], n)
+        both = min(ref[1], got[1])
+        obs_err = float(np.max(np.abs(replayed.obs[i, :both + 1] - e.obs[:both + 1])))
+        rew_err = float(np.max(np.abs(replayed.rewards[i, :both] - e.rewards[:both]), initial=0.0))
+        a = Agreement(e.seed, e.kind, ref, got, obs_err, rew_err)
+        if not a.same:
+            step = both - 1  # the first step whose ending differs
+            clearance, zmp, goal = e.margins[step]
+            a.margin = float(min(abs(clearance), abs(zmp), abs(goal)))
+            a.near_tie = a.margin < NEAR_TIE
+        out.append(a)
+    return out
+
+
+def record_many(env_id: str, seeds: Iterable[int], kind: str, env_kwargs: dict | None = None,
+                max_steps: int | None = None) -> list[Episode]:
+    """:func:`record` for each seed."""
+    return [record(env_id, s, kind, env_kwargs, max_steps) for s in seeds]

@@ -1,0 +1,259 @@
+"""The world's shapes as arrays, their distances, the collision sweep and the nearest shapes (pure JAX).
+
+The batched twin of :mod:`footstep_gym.world` and :mod:`footstep_gym.sweep_kernel` for one env (``jax.vmap``
+batches it): static walls are thick segments in world coordinates (:class:`Walls`), each moving obstacle a
+thick segment on a kinematic body (:class:`Rods`: its pose, velocity and turn rate). Distances use the
+operations of Chipmunk's point queries (the compiled sweep's), the observation's nearest shapes those of
+``World.nearest``, and the sweep is the reference's conservative advancement check for check (docs/model.md
+§4.1): the same instants, the same first contact, the same bodies' poses, up to the last bits of libm's
+``exp``/``sin``/``cos`` (XLA's differ from the C library's by an ulp here and there).
+
+**How the sweep runs.** The reference takes one check at a time. Here each iteration of a ``lax.while_loop``
+evaluates a block of ``block`` checks: the next one, whose instant is exact, and the ones that follow it if
+every check in between is in the fine regime (the next check ``fine`` seconds later). Which of them the
+reference would really have made is decided afterwards from their distances (the first check whose rule gives
+another interval, a contact or the step's end closes the block), so the block's answer is the one-check loop's
+answer exactly (``tests/test_jax_door.py`` checks ``block=1`` against wider blocks); a wider block only takes
+fewer iterations, which under ``vmap`` (every env waits for the slowest) is what costs.
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+#: [m] added to the sweep's horizon (the reference's ``radius + speed * (duration - t) + 1e-9``).
+HORIZON_SLACK = 1e-9
+
+
+class Walls(NamedTuple):
+    """Static thick segments, world frame [m]: endpoints ``a``, ``b`` ``(W, 2)`` and half thickness ``r`` ``(W,)``."""
+
+    a: jax.Array
+    b: jax.Array
+    r: jax.Array
+
+
+class Rods(NamedTuple):
+    """Kinematic thick segments, one per body: the body's ``position`` ``(M, 2)`` [m], ``angle`` ``(M,)`` [rad],
+    ``velocity`` ``(M, 2)`` [m/s], ``angular_velocity`` ``(M,)`` [rad/s], the segment's endpoints in the body's
+    frame ``a``, ``b`` ``(M, 2)`` [m] and half thickness ``r`` ``(M,)`` [m]."""
+
+    position: jax.Array
+    angle: jax.Array
+    velocity: jax.Array
+    angular_velocity: jax.Array
+    a: jax.Array
+    b: jax.Array
+    r: jax.Array
+
+    def reach(self) -> jax.Array:
+        """Farthest distance of each rod's surface from its body's origin [m] (``Obstacle.reach``)."""
+        return jnp.maximum(jnp.hypot(self.a[:, 0], self.a[:, 1]), jnp.hypot(self.b[:, 0], self.b[:, 1])) + self.r
+
+    def max_speed(self) -> jax.Array:
+        """Largest speed [m/s] of any point of any rod (``World.max_obstacle_speed``; 0 with no rods)."""
+        v = jnp.hypot(self.velocity[:, 0], self.velocity[:, 1]) + jnp.abs(self.angular_velocity) * self.reach()
+        return jnp.max(v, initial=0.0)
+
+    def moved(self, dt: Any) -> "Rods":
+        """The rods ``dt`` [s] later (pymunk's kinematic update: ``p += v dt``, ``angle += w dt``), where
+        ``dt > 0``; unchanged elsewhere (the reference does not step its space for a zero interval)."""
+        go = dt > 0
+        return self._replace(position=jnp.where(go, self.position + self.velocity * dt, self.position),
+                             angle=jnp.where(go, self.angle + self.angular_velocity * dt, self.angle))
+
+
+def wall_table(walls: Walls) -> jax.Array:
+    """``(W, 8)``: ``ax, ay, bx, by, ax - bx, ay - by, |a - b|^2, r`` per wall (the compiled sweep's static rows)."""
+    d = walls.a - walls.b
+    return jnp.concatenate([walls.a, walls.b, d, (d[:, :1] * d[:, :1] + d[:, 1:] * d[:, 1:]), walls.r[:, None]],
+                           axis=1)
+
+
+def _chipmunk_distance(qx, qy, ax, ay, bx, by, dx, dy, l2, r):
+    """Chipmunk's segment point query (``cpClosetPointOnSegment``, ``cpvlength``), ``d = a - b``: the surface
+    distance [m]; broadcasts."""
+    f = (dx * (qx - bx) + dy * (qy - by)) / jnp.where(l2 != 0.0, l2, 1.0)
+    f = jnp.where(l2 != 0.0, f, 1.0)
+    f = jnp.where(f < 1.0, f, 1.0)  # NaN -> 1, as cpfclamp01
+    f = jnp.where(0.0 > f, 0.0, f)
+    ex = qx - (bx + dx * f)
+    ey = qy - (by + dy * f)
+    return jnp.sqrt(ex * ex + ey * ey) - r
+
+
+def rod_endpoints(rods: Rods, chipmunk: bool = True) -> tuple[jax.Array, ...]:
+    """World endpoints ``ax, ay, bx, by`` of each rod (``(..., M)``: the rods' leaves may lead with a batch
+    axis): Chipmunk's transform (the sweep's order of operations) or ``World.nearest``'s."""
+    c, s = jnp.cos(rods.angle), jnp.sin(rods.angle)
+    px, py = rods.position[..., 0], rods.position[..., 1]
+    lax_, lay, lbx, lby = rods.a[..., 0], rods.a[..., 1], rods.b[..., 0], rods.b[..., 1]
+    if chipmunk:
+        ns = -s
+        return (c * lax_ + ns * lay + px, s * lax_ + c * lay + py, c * lbx + ns * lby + px, s * lbx + c * lby + py)
+    return (px + c * lax_ - s * lay, py + s * lax_ + c * lay, px + c * lbx - s * lby, py + s * lbx + c * lby)
+
+
+def distances(qx: jax.Array, qy: jax.Array, table: jax.Array, rods: Rods) -> jax.Array:
+    """Surface distance [m] from each point ``(qx[i], qy[i])`` (shape ``(B,)``) to every shape, walls first:
+    ``(B, W + M)``; the rods' leaves lead with ``B`` (each point's own instant)."""
+    qx, qy = qx[:, None], qy[:, None]
+    t = table
+    d_walls = _chipmunk_distance(qx, qy, t[:, 0], t[:, 1], t[:, 2], t[:, 3], t[:, 4], t[:, 5], t[:, 6], t[:, 7])
+    ax, ay, bx, by = rod_endpoints(rods)
+    dx, dy = ax - bx, ay - by
+    d_rods = _chipmunk_distance(qx, qy, ax, ay, bx, by, dx, dy, dx * dx + dy * dy, rods.r)
+    return jnp.concatenate([d_walls, d_rods], axis=-1)
+
+
+class SweepResult(NamedTuple):
+    """A footstep's sweep: ``collided``, the time [s] of the contact or the step's duration, the shape hit (its
+    index, walls first; -1 if none), the number of checks, the smallest clearance [m] at the checks (``inf``
+    if nothing came within reach) and the rods at the sweep's end (the contact's instant on a collision)."""
+
+    collided: jax.Array
+    time: jax.Array
+    obstacle: jax.Array
+    checks: jax.Array
+    clearance: jax.Array
+    rods: Rods
+
+
+def sweep(path: Any, duration: jax.Array, robot_speed_bound: jax.Array, table: jax.Array, rods: Rods,
+          radius: float, max_check_interval: float, motion_fraction: float, max_checks: int, block: int = 8,
+          active: Any = True) -> SweepResult:
+    """The reference's collision sweep (``World.sweep``) over one footstep of ``duration`` [s].
+
+    ``path(t) -> (x, y)`` is the CoM (body centre) at ``t`` (``(B,)`` times at once); ``robot_speed_bound``
+    bounds its speed [m/s]. Checks are spaced by conservative advancement, at most ``max_check_interval`` and
+    ``motion_fraction * radius / speed`` apart where contact is possible, and no closer than
+    ``duration / max_checks``. ``block`` checks are evaluated per iteration (module docstring). Where
+    ``active`` is False nothing is checked (a fall: the step takes no time) and the rods stay where they are.
+    """
+    dtype = duration.dtype
+    speed = robot_speed_bound + rods.max_speed()
+    fine = jnp.asarray(max_check_interval, dtype)
+    fine = jnp.where(speed > 0, jnp.minimum(fine, motion_fraction * radius / jnp.where(speed > 0, speed, 1.0)), fine)
+    floor = duration / max_checks * (1.0 + 1e-9)
+    fine = jnp.where(fine < floor, floor, fine)
+    inf = jnp.asarray(jnp.inf, dtype)
+
+    def next_dt(dist, t):
+        """The reference's interval after a check at ``t`` with distance ``dist``."""
+        remaining = duration - t
+        dt = (dist - radius) / jnp.where(speed > 0, speed, 1.0)
+        dt = jnp.where(dt > fine, dt, fine)
+        dt = jnp.where(dt < remaining, dt, remaining)
+        return jnp.where(speed <= 0, remaining, dt)
+
+    def advance(t, dt):
+        return jnp.where(dt >= duration - t, duration, t + dt)
+
+    def body(carry):
+        t0, rods0, checks, nearest, _, _, _ = carry
+        # The block's instants and rods, assuming fine intervals after the first (exact) check.
+        ts, rs = [t0], [rods0]
+        for _ in range(block - 1):
+            t_prev, r_prev = ts[-1], rs[-1]
+            remaining = duration - t_prev
+            dt = jnp.where(speed <= 0, remaining, jnp.where(fine < remaining, fine, remaining))
+            ts.append(advance(t_prev, dt))
+            rs.append(r_prev.moved(dt))
+        tb = jnp.stack(ts)
+        rb = jax.tree.map(lambda *x: jnp.stack(x), *rs)
+        qx, qy = path(tb)
+        d = distances(qx, qy, table, rb)  # (block, shapes)
+        horizon = radius + speed * (duration - tb) + HORIZON_SLACK
+        dmin = jnp.min(d, axis=-1)
+        hit = dmin < horizon
+        dist = jnp.where(hit, dmin, horizon)
+        shape = jnp.where(hit, jnp.argmin(d, axis=-1), -1)
+        collide = hit & (dist < radius)
+        ended = tb >= duration
+        dt_real = next_dt(dist, tb)
+        remaining = duration - tb
+        spec = jnp.where(speed <= 0, remaining, jnp.where(fine < remaining, fine, remaining))
+        mismatch = dt_real != spec
+        stop = collide | ended | mismatch
+        stop = stop.at[-1].set(True)
+        j = jnp.argmax(stop)
+        upto = jnp.arange(block) <= j
+        nearest = jnp.minimum(nearest, jnp.min(jnp.where(upto & hit, dist, inf)))
+        rods_j = jax.tree.map(lambda x: x[j], rb)
+        t_j, dt_j = tb[j], dt_real[j]
+        status = jnp.where(collide[j], 2, jnp.where(ended[j], 1, 0))
+        t_next = jnp.where(status == 0, advance(t_j, dt_j), t_j)
+        rods_next = jax.tree.map(lambda a, b: jnp.where(status == 0, a, b), rods_j.moved(dt_j), rods_j)
+        return (t_next, rods_next, (checks + j + 1).astype(jnp.int32), nearest, status.astype(jnp.int32),
+                shape[j].astype(jnp.int32), dist[j])
+
+    carry0 = (jnp.zeros((), dtype), rods, jnp.zeros((), jnp.int32), inf, jnp.where(active, 0, 1).astype(jnp.int32),
+              jnp.full((), -1, jnp.int32), inf)
+    t, rods_end, checks, nearest, status, shape, dist = jax.lax.while_loop(lambda c: c[4] == 0, body, carry0)
+    collided = status == 2
+    clearance = jnp.where(collided, dist - radius, nearest - radius)
+    return SweepResult(collided, t, jnp.where(collided, shape, -1), checks, clearance, rods_end)
+
+
+def nearest_shapes(px: jax.Array, py: jax.Array, walls: Walls, rods: Rods, k: int, max_distance: float
+                   ) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """Up to ``k`` shapes nearest the point ``(px, py)`` within ``max_distance`` [m], nearest first, ties in the
+    shapes' order (walls first): ``World.nearest``'s arithmetic. Returns their closest points ``(k, 2)`` [m],
+    those points' velocities ``(k, 2)`` [m/s] and a mask ``(k,)`` (False: padding, its rows zero)."""
+    ax_w, ay_w = walls.a[:, 0], walls.a[:, 1]
+    dx_w, dy_w = walls.b[:, 0] - ax_w, walls.b[:, 1] - ay_w
+    ax_r, ay_r, bx_r, by_r = rod_endpoints(rods, chipmunk=False)
+    ax = jnp.concatenate([ax_w, ax_r])
+    ay = jnp.concatenate([ay_w, ay_r])
+    dx = jnp.concatenate([dx_w, bx_r - ax_r])
+    dy = jnp.concatenate([dy_w, by_r - ay_r])
+    radius = jnp.concatenate([walls.r, rods.r])
+    l2 = dx * dx + dy * dy
+    u = ((px - ax) * dx + (py - ay) * dy) / jnp.where(l2 == 0.0, 1.0, l2)
+    u = jnp.where(l2 == 0.0, 0.0, u)
+    u = jnp.where(0.0 > u, 0.0, u)
+    u = jnp.where(1.0 < u, 1.0, u)
+    qx, qy = ax + u * dx, ay + u * dy
+    nx, ny = px - qx, py - qy
+    d = jnp.hypot(nx, ny)
+    gap = d - radius
+    inside = ~(gap > max_distance)
+    n = gap.shape[0]
+    order = jnp.argsort(jnp.where(inside, gap, jnp.inf), stable=True)[:k]
+    pad = k - min(k, n)
+    if pad:
+        order = jnp.concatenate([order, jnp.zeros((pad,), order.dtype)])
+    mask = inside[order] & (jnp.arange(k) < n)
+    qx, qy, nx, ny, d, r = qx[order], qy[order], nx[order], ny[order], d[order], radius[order]
+    pos_d = d > 0.0
+    safe_d = jnp.where(pos_d, d, 1.0)
+    cx = jnp.where(pos_d, qx + r * nx / safe_d, qx)
+    cy = jnp.where(pos_d, qy + r * ny / safe_d, qy + r)
+    n_walls = walls.r.shape[0]
+    mover = jnp.clip(order - n_walls, 0, max(rods.r.shape[0] - 1, 0))
+    moving = order >= n_walls
+    if rods.r.shape[0]:
+        ox, oy = rods.position[mover, 0], rods.position[mover, 1]
+        w = rods.angular_velocity[mover]
+        vx = jnp.where(moving, rods.velocity[mover, 0] - w * (cy - oy), 0.0)
+        vy = jnp.where(moving, rods.velocity[mover, 1] + w * (cx - ox), 0.0)
+    else:
+        vx = vy = jnp.zeros_like(cx)
+    point = jnp.where(mask[:, None], jnp.stack([cx, cy], -1), 0.0)
+    vel = jnp.where(mask[:, None], jnp.stack([vx, vy], -1), 0.0)
+    return point, vel, mask
+
+
+def walls_of(world: Any, dtype: Any) -> Walls:
+    """The static walls of a reference :class:`footstep_gym.world.World`, in its obstacles' order."""
+    statics = [o for o in world.obstacles if o.static]
+    if any(o.kind != "segment" for o in statics):
+        raise ValueError("the batched backend supports static segments only")
+    a = np.array([o.local_a for o in statics], dtype=np.float64).reshape(-1, 2)
+    b = np.array([o.local_b for o in statics], dtype=np.float64).reshape(-1, 2)
+    r = np.array([o.radius for o in statics], dtype=np.float64)
+    return Walls(jnp.asarray(a, dtype), jnp.asarray(b, dtype), jnp.asarray(r, dtype))

@@ -115,6 +115,8 @@ class Scenario:
     #: The config keys :meth:`build_static` reads (properties count by the keys they read); ``None``: any
     #: key may matter. The env keeps its walls across resets while these keys are unchanged.
     static_keys: ClassVar[tuple[str, ...] | None] = None
+    #: ``gymnasium.make_vec``'s ``vector_entry_point`` for this scene: its batched backend (``None``: none).
+    vector_entry_point: ClassVar[str | None] = None
 
     def __init__(self, cfg: Any, rng: np.random.Generator) -> None:
         self.cfg = cfg

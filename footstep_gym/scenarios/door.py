@@ -88,6 +88,7 @@ class Door(Scenario):
     Config = DoorConfig
     env_id = "FootstepDoor-v0"
     sweep_axes = {"door_speed": "deg/s"}
+    vector_entry_point = "footstep_gym.jax.vector:FootstepVectorEnv"  # the batched JAX backend (footstep_gym.jax)
     static_keys = ("door_centre", "corridor_x", "corridor_y", "wall_thickness", "drum_segments",
                    "door_radius", "door_thickness", "wall_gap",  # drum_radius reads these three
                    "door_count")  # and, with door_count 2, second_door_offset (static_key adds it)

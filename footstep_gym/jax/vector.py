@@ -1,0 +1,189 @@
+"""``FootstepVectorEnv``: the batched JAX backend behind Gymnasium's ``VectorEnv`` (numpy in and out).
+
+``gymnasium.make_vec("FootstepDoor-v0", num_envs=N, vectorization_mode="vector_entry_point", **env_kwargs)``
+makes one (and so does ``make_vec`` without a mode, Gymnasium's rule for an id with a vector entry point;
+``vectorization_mode="sync"`` gives N reference envs instead). Everything that is not Gymnasium's (the
+settings, the observation, rewards and endings) is :class:`footstep_gym.jax.env.FootstepJaxEnv`'s.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import jax
+import jax.numpy as jnp
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from footstep_gym.errors import ActionError, ConfigError
+from footstep_gym.jax.env import REWARD_TERMS, FootstepJaxEnv, termination_name
+
+#: ``info`` keys returned per step (arrays of ``num_envs``), each with Gymnasium's ``_key`` mask.
+INFO_KEYS = ("is_success", "termination", "feasible", "collision", "clipped", "time", "period", "steps",
+             "zmp_margin", "clearance")
+
+
+def _keys_of(seeds: list[int]) -> jax.Array:
+    """One JAX key per seed (any non-negative integer: its ``SeedSequence`` state, so distinct seeds differ)."""
+    data = np.stack([np.random.SeedSequence(int(s)).generate_state(2) for s in seeds]).astype(np.uint32)
+    return jax.random.wrap_key_data(jnp.asarray(data), impl="threefry2x32")
+
+
+class FootstepVectorEnv(VectorEnv):
+    """``num_envs`` footstep envs stepped at once by :class:`~footstep_gym.jax.env.FootstepJaxEnv`.
+
+    Args:
+        num_envs: envs in the batch.
+        scenario: the scene (``make_vec`` passes the id's).
+        autoreset_mode: Gymnasium's ``AutoresetMode`` (or its value): ``NEXT_STEP`` (Gymnasium's default: the
+            step after an episode ends resets that env and returns its first observation, reward 0),
+            ``SAME_STEP`` (the ending step returns the next episode's first observation; the last one is in
+            ``info["final_obs"]``, its info in ``info["final_info"]``) or ``DISABLED`` (call
+            ``reset(options={"reset_mask": mask})``).
+        dtype: ``"float32"`` (default) or ``"float64"`` (JAX's 64-bit mode on).
+        env_kwargs: ``gymnasium.make``'s keywords (scenario keys, ``tier``, ``tier_cell``, env.yaml keys).
+
+    Seeding: ``reset(seed=s)`` seeds env ``i`` with ``s + i`` (a list: one seed each), as Gymnasium's vector
+    envs do; an env's later episodes draw from its own key. Actions: ``(num_envs, 5)`` floats; a wrong shape
+    or a non-finite value raises :class:`~footstep_gym.errors.ActionError` naming the env and field, before
+    any env changes. ``info`` holds :data:`INFO_KEYS` (``termination``: ``"goal"``, ``"collision"``,
+    ``"fall"`` or ``None``) and ``rewards`` (the terms), each with Gymnasium's ``_key`` mask.
+    """
+
+    def __init__(self, num_envs: int = 1, scenario: str = "door", *,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, dtype: Any = "float32",
+                 block: int = 8, **env_kwargs: Any) -> None:
+        if not (isinstance(num_envs, (int, np.integer)) and num_envs >= 1):
+            raise ConfigError(f"FootstepVectorEnv: num_envs must be an integer >= 1, got {num_envs!r}")
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ConfigError(f"FootstepVectorEnv: autoreset_mode must be one of "
+                              f"{[m.value for m in AutoresetMode]}, got {autoreset_mode!r}") from None
+        try:
+            self.jax_env = env = FootstepJaxEnv(scenario, dtype=dtype, block=block, **env_kwargs)
+        except ConfigError as exc:
+            raise ConfigError(f"{exc} (gymnasium.make_vec(..., vectorization_mode='sync') gives reference envs)"
+                              ) from None
+        self.num_envs = int(num_envs)
+        self.autoreset_mode = mode
+        self.metadata = {"autoreset_mode": mode, "render_modes": []}
+        self.render_mode = None
+        self.single_action_space = env.action_space
+        self.single_observation_space = env.observation_space
+        self.action_space = batch_space(env.action_space, self.num_envs)
+        self.observation_space = batch_space(env.observation_space, self.num_envs)
+        self._state = None
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._reset_fn = jax.jit(self._reset_batch)
+        self._step_fn = jax.jit(self._step_batch, static_argnames=("same_step",))
+
+    # ------------------------------------------------------------------ jitted batch functions
+    def _reset_batch(self, keys: jax.Array, state: Any, mask: jax.Array) -> tuple[Any, jax.Array]:
+        new, obs = jax.vmap(self.jax_env.reset)(keys)
+        if state is None:
+            return new, obs
+        keep = ~mask
+        merged = jax.tree.map(lambda n, o: jnp.where(keep.reshape((-1,) + (1,) * (n.ndim - 1)), o, n), new, state)
+        return merged, obs
+
+    def _step_batch(self, state: Any, actions: jax.Array, reset_mask: jax.Array, same_step: bool) -> tuple:
+        env = self.jax_env
+        stepped, obs, reward, terminated, truncated, info = jax.vmap(env.step)(state, actions)
+        keys = jax.vmap(lambda k: jax.random.split(k))(state.key)
+        fresh, fresh_obs = jax.vmap(env.reset)(keys[:, 1])
+        stepped = stepped._replace(key=keys[:, 0])
+        mask = (terminated | truncated) if same_step else reset_mask
+
+        def pick(a, b):
+            return jnp.where(mask.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)
+
+        new_state = jax.tree.map(pick, fresh, stepped)
+        if same_step:
+            return new_state, pick(fresh_obs, obs), obs, reward, terminated, truncated, info
+        return (new_state, pick(fresh_obs, obs), obs, jnp.where(mask, 0.0, reward), terminated & ~mask,
+                truncated & ~mask, info)
+
+    # ------------------------------------------------------------------ Gymnasium API
+    def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every env (or, with ``options={"reset_mask": mask}``, those where ``mask``)."""
+        n = self.num_envs
+        if seed is None:
+            seeds = np.random.SeedSequence().generate_state(n).tolist()
+        elif isinstance(seed, (int, np.integer)):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = [int(s) for s in seed]
+            if len(seeds) != n:
+                raise ValueError(f"FootstepVectorEnv.reset: {len(seeds)} seeds for {n} envs")
+        mask = np.ones(n, dtype=bool)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool)
+            if mask.shape != (n,):
+                raise ValueError(f"FootstepVectorEnv.reset: reset_mask shape={mask.shape}, expected ({n},)")
+            if self._state is None and not mask.all():
+                raise gym.error.ResetNeeded("FootstepVectorEnv: the first reset must reset every env")
+        state = None if mask.all() else self._state
+        self._state, obs = self._reset_fn(_keys_of(seeds), state, jnp.asarray(mask))
+        self._autoreset = np.where(mask, False, self._autoreset)
+        return np.asarray(obs), {}
+
+    def _check_actions(self, actions: Any) -> np.ndarray:
+        a = np.asarray(actions)
+        shape = (self.num_envs, 5)
+        if a.shape != shape:
+            raise ActionError(f"FootstepVectorEnv: actions shape={a.shape} but expected {shape} = "
+                              f"(num_envs, [S, L, theta, T_SS, T_DS])")
+        if a.dtype.kind not in "fiu":
+            raise ActionError(f"FootstepVectorEnv: actions must be numbers, got dtype {a.dtype}")
+        a = a if a.dtype in (np.float32, np.float64) else a.astype(np.float64)
+        bad = ~np.isfinite(a)
+        if bad.any():
+            env_i, field = np.argwhere(bad)[0]
+            names = ("S", "L", "theta", "T_SS", "T_DS")
+            raise ActionError(f"FootstepVectorEnv: action of env {env_i} has a non-finite {names[field]}="
+                              f"{a[env_i, field]} ({int(bad.any(axis=1).sum())} env(s) with non-finite actions)")
+        return a
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        if self._state is None:
+            raise gym.error.ResetNeeded("FootstepVectorEnv: call reset() before step()")
+        a = self._check_actions(actions)
+        same = self.autoreset_mode == AutoresetMode.SAME_STEP
+        mask = self._autoreset if self.autoreset_mode == AutoresetMode.NEXT_STEP else np.zeros(self.num_envs, bool)
+        if self.autoreset_mode == AutoresetMode.DISABLED and self._autoreset.any():
+            raise gym.error.ResetNeeded(f"FootstepVectorEnv: envs {np.flatnonzero(self._autoreset).tolist()} ended; "
+                                        "reset them with reset(options={'reset_mask': mask}) (autoreset_mode=DISABLED)")
+        out = self._step_fn(self._state, jnp.asarray(a), jnp.asarray(mask), same_step=same)
+        self._state, obs, last_obs, reward, terminated, truncated, info = out
+        obs, reward = np.asarray(obs), np.asarray(reward, dtype=np.float64)
+        terminated, truncated = np.asarray(terminated), np.asarray(truncated)
+        stepped = ~mask
+        infos = self._infos(info, stepped)
+        done = terminated | truncated
+        if same and done.any():
+            last = np.asarray(last_obs)
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i in np.flatnonzero(done):
+                final_obs[i] = last[i]
+            infos["final_obs"], infos["_final_obs"] = final_obs, done
+            infos["final_info"], infos["_final_info"] = self._infos(info, done), done
+        self._autoreset = done
+        return obs, reward, terminated, truncated, infos
+
+    def _infos(self, info: dict[str, Any], where: np.ndarray) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for key in INFO_KEYS:
+            value = np.asarray(info[key])
+            if key == "termination":
+                value = np.array([termination_name(int(c)) for c in value], dtype=object)
+            out[key], out[f"_{key}"] = value, where.copy()
+        out["rewards"] = {k: np.asarray(info["rewards"][k], dtype=np.float64) for k in REWARD_TERMS}
+        out["_rewards"] = where.copy()
+        return out
+
+    def close_extras(self, **kwargs: Any) -> None:
+        self._state = None

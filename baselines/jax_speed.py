@@ -1,0 +1,76 @@
+"""Steps/s of the batched JAX door beside the reference env; compile time apart.
+
+    python baselines/jax_speed.py                                  # N = 1, 64, 1024, 4096, 16384; both workloads
+    python baselines/jax_speed.py --sizes 4096 --workloads walk --repeats 5
+    python baselines/jax_speed.py --dtype float64                  # (sets JAX's 64-bit mode)
+
+Prints one table per workload (engine and workloads: ``footstep_gym/jax/speed.py``): per N, the median
+steps/s over the repeats, the slowest and fastest repeat, the ratio to one reference env measured in the same
+run on the same workload, the first call's compile time and the state's size per env. On a shared machine the
+figures move with the load: quote them as measured, with the load average this prints.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--sizes", default="1,64,1024,4096,16384", help="comma-separated batch sizes N")
+    p.add_argument("--workloads", default="random,walk", help="comma-separated: random, walk")
+    p.add_argument("--steps", type=int, default=0,
+                   help="footsteps per timed run (default: about 2^18 env steps per run, at least 32)")
+    p.add_argument("--repeats", type=int, default=3, help="timed runs per size (median reported)")
+    p.add_argument("--reference-steps", type=int, default=3000, help="reference env steps timed per workload")
+    p.add_argument("--tier", default="train", help="benchmark tier of the door (default train)")
+    p.add_argument("--dtype", default="float32", choices=("float32", "float64"))
+    p.add_argument("--block", type=int, default=8, help="collision checks per sweep iteration")
+    args = p.parse_args(argv)
+    try:
+        args.sizes = [int(s) for s in args.sizes.split(",")]
+    except ValueError:
+        p.error(f"--sizes must be comma-separated integers, got {args.sizes!r}")
+    if any(n < 1 for n in args.sizes):
+        p.error("--sizes must be >= 1")
+    args.workloads = args.workloads.split(",")
+    bad = [w for w in args.workloads if w not in ("random", "walk")]
+    if bad:
+        p.error(f"unknown workload(s) {bad}; choose from random, walk")
+    if args.repeats < 1 or args.steps < 0 or args.reference_steps < 1:
+        p.error("--repeats and --reference-steps must be >= 1, --steps >= 0")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    if args.dtype == "float64":
+        os.environ["JAX_ENABLE_X64"] = "1"
+    import jax
+
+    from footstep_gym.jax import speed
+    from footstep_gym.jax.env import FootstepJaxEnv
+
+    env = FootstepJaxEnv("door", dtype=args.dtype, tier=args.tier, block=args.block)
+    print(f"FootstepDoor-v0 tier={args.tier} dtype={args.dtype} block={args.block}; jax {jax.__version__} on "
+          f"{jax.devices()[0].platform} ({os.cpu_count()} CPUs), {platform.processor() or platform.machine()}; "
+          f"load average {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
+    for workload in args.workloads:
+        ref = speed.reference_rate(args.reference_steps, workload, {"tier": args.tier})
+        print(f"\n{workload}: reference env (one FootstepEnv) {ref:,.0f} steps/s")
+        print(f"{'N':>7} {'steps/run':>9} {'steps/s':>12} {'min':>12} {'max':>12} {'x ref':>8} "
+              f"{'compile s':>9} {'state B/env':>11}")
+        for n in args.sizes:
+            steps = args.steps or max(32, (1 << 18) // n)
+            r = speed.measure(env, n, steps, args.repeats, workload)
+            print(f"{n:>7} {steps:>9} {r.steps_per_s:>12,.0f} {min(r.repeats):>12,.0f} {max(r.repeats):>12,.0f} "
+                  f"{r.steps_per_s / ref:>8.0f} {r.compile_s:>9.1f} {r.state_bytes:>11}", flush=True)
+    print(f"\nload average after: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,110 @@
+"""Throughput of the batched backend beside the reference env (the engine of ``baselines/jax_speed.py``).
+
+A batch of ``n`` envs runs ``steps`` footsteps in one compiled ``lax.scan`` (actions drawn inside it, ended
+episodes reset on the same step), so the figure is the backend's, not numpy's or Python's. Compile time is
+measured apart, on the first call. Two workloads:
+
+* ``random``: actions uniform in the action box (about half fall at once and reset: resets weigh heavily,
+  as in the reference env's speed tiers);
+* ``walk``: every env walks 5 cm strides at the nominal period towards the door (the sweep's checks weigh
+  heavily: envs walk the corridor, reach the door and hit it or pass).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import footstep_gym  # noqa: F401
+from footstep_gym.jax.env import FootstepJaxEnv
+
+WORKLOADS = ("random", "walk")
+WALK = (0.05, 0.08, 0.0, 0.6, 0.2)
+
+
+@dataclass
+class Rate:
+    """One measurement: ``n`` envs, ``steps_per_s`` (median of the repeats), the first call's compile time."""
+
+    n: int
+    steps_per_s: float
+    compile_s: float
+    repeats: list[float]
+    state_bytes: int
+
+
+def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str) -> Any:
+    """``(state, key) -> (state, key, rewards sum)``: ``steps`` batched footsteps with same-step resets."""
+    if workload not in WORKLOADS:
+        raise ValueError(f"workload must be one of {WORKLOADS}, got {workload!r}")
+    low = jnp.asarray(env.action_space.low)
+    high = jnp.asarray(env.action_space.high)
+    walk = jnp.asarray(WALK, jnp.float32)
+    step, reset = jax.vmap(env.step), jax.vmap(env.reset)
+
+    def body(carry, _):
+        state, key, total = carry
+        key, k_act, k_reset = jax.random.split(key, 3)
+        if workload == "random":
+            actions = jax.random.uniform(k_act, (n, 5), jnp.float32, low, high)
+        else:
+            actions = jnp.broadcast_to(walk, (n, 5))
+        state, _, reward, terminated, truncated, _ = step(state, actions)
+        fresh, _ = reset(jax.random.split(k_reset, n))
+        done = terminated | truncated
+        state = jax.tree.map(lambda a, b: jnp.where(done.reshape((-1,) + (1,) * (a.ndim - 1)), a, b), fresh, state)
+        return (state, key, total + jnp.sum(reward)), None
+
+    def run(state, key):
+        (state, key, total), _ = jax.lax.scan(body, (state, key, jnp.zeros((), env.dtype)), None, length=steps)
+        return state, key, total
+
+    return jax.jit(run)
+
+
+def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str, seed: int = 0) -> Rate:
+    """Steps/s of ``n`` envs over ``repeats`` runs of ``steps`` batched footsteps (median), compile apart."""
+    fn = rollout_fn(env, n, steps, workload)
+    key = jax.random.key(seed)
+    state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(key, n))
+    t0 = time.perf_counter()
+    state, key, total = fn(state, key)
+    total.block_until_ready()
+    compile_s = time.perf_counter() - t0
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        state, key, total = fn(state, key)
+        total.block_until_ready()
+        times.append(time.perf_counter() - t0)
+    rates = [n * steps / t for t in times]
+    state_bytes = sum(x.nbytes for x in jax.tree.leaves(jax.tree.map(lambda x: x[0], state))
+                      if hasattr(x, "nbytes"))
+    return Rate(n, statistics.median(rates), compile_s, rates, int(state_bytes))
+
+
+def reference_rate(steps: int, workload: str, env_kwargs: dict, seed: int = 0) -> float:
+    """Steps/s of one reference env (``gymnasium.make``) on the same workload, reset at episode end."""
+    env = gym.make("FootstepDoor-v0", **env_kwargs)
+    env.action_space.seed(seed)
+    env.reset(seed=seed)
+    walk = np.asarray(WALK, np.float32)
+    for _ in range(50):  # warm-up (numba's sweep loads on the first step)
+        _, _, te, tr, _ = env.step(env.action_space.sample() if workload == "random" else walk)
+        if te or tr:
+            env.reset()
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        _, _, te, tr, _ = env.step(env.action_space.sample() if workload == "random" else walk)
+        if te or tr:
+            env.reset()
+    rate = steps / (time.perf_counter() - t0)
+    env.close()
+    return rate

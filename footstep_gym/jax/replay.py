@@ -34,6 +34,8 @@ KINDS = ("planner", "walk", "fuzz")
 #: a near-tie: the two envs' arithmetic (XLA's libm against the C library's) differs by ulps, so a contact,
 #: a ZMP limit or the goal met within this margin may go either way.
 NEAR_TIE = 1e-6
+#: [m] the same on the float32 path, whose positions (metres) carry ~1e-7 m of rounding per operation.
+NEAR_TIE_32 = 1e-4
 #: Outcome names: the reference's terminations and the truncation.
 OUTCOMES = ("goal", "collision", "fall", "truncated")
 
@@ -128,12 +130,18 @@ class Replayed:
     truncated: np.ndarray
 
 
-def replay(jenv: FootstepJaxEnv, episodes: list[Episode]) -> Replayed:
-    """Run ``episodes``' actions in ``jenv`` from their starts, all at once (their actions share a dtype)."""
+def max_steps(episodes: list[Episode]) -> int:
+    """The longest any of ``episodes`` could have run (their configs' ``max_steps``)."""
+    return max(e.config.max_steps for e in episodes)
+
+
+def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Replayed:
+    """Run ``episodes``' actions in ``jenv`` from their starts, all at once (their actions share a dtype);
+    ``pad_to``: run at least this many steps (one compiled function serves batches of any episode length)."""
     if len({e.actions.dtype for e in episodes}) != 1:
         raise ValueError("replay: the episodes' actions must share a dtype (replay each kind apart)")
     dt = jenv.dtype
-    n_steps = max(len(e.actions) for e in episodes)
+    n_steps = max(pad_to, *(len(e.actions) for e in episodes))
     nominal = np.asarray(jenv.robot.nominal_command, episodes[0].actions.dtype)
     actions = np.stack([np.concatenate([e.actions, np.tile(nominal, (n_steps - len(e.actions), 1))])
                         for e in episodes])
@@ -173,7 +181,7 @@ def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
 class Agreement:
     """How one replayed episode compares: the reference's and the JAX env's ending (outcome, step), the
     largest observation and reward differences over the steps both took, and where the endings differ, the
-    reference's margin at the first step that differs (``near_tie``: below :data:`NEAR_TIE`)."""
+    reference's margin at the first step that differs (``near_tie``: below the threshold of :func:`compare`)."""
 
     seed: int
     kind: str
@@ -199,8 +207,9 @@ def _ending(termination: np.ndarray, truncated: np.ndarray, limit: int) -> tuple
     return "cut", limit
 
 
-def compare(episodes: list[Episode], replayed: Replayed) -> list[Agreement]:
-    """Per episode, the :class:`Agreement` of the reference run and the replay."""
+def compare(episodes: list[Episode], replayed: Replayed, near_tie: float = NEAR_TIE) -> list[Agreement]:
+    """Per episode, the :class:`Agreement` of the reference run and the replay (``near_tie``: the margin [m]
+    below which a disagreement is a near-tie)."""
     out = []
     for i, e in enumerate(episodes):
         n = len(e.actions)
@@ -214,7 +223,7 @@ def compare(episodes: list[Episode], replayed: Replayed) -> list[Agreement]:
             step = both - 1  # the first step whose ending differs
             clearance, zmp, goal = e.margins[step]
             a.margin = float(min(abs(clearance), abs(zmp), abs(goal)))
-            a.near_tie = a.margin < NEAR_TIE
+            a.near_tie = a.margin < near_tie
         out.append(a)
     return out
 

@@ -24,10 +24,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from footstep_gym import footstep, lipm, tiers
+from footstep_gym.action import action_limits
 from footstep_gym.env import FootstepEnv
 from footstep_gym.errors import ConfigError
 from footstep_gym.footstep import RIGHT
 from footstep_gym.jax import shapes, walker
+from footstep_gym.observation import ObservationScales, command_to_unit, observations
 from footstep_gym.world import World
 
 #: Termination codes of ``info["termination"]`` (0: none): the reference's names in this order.
@@ -145,11 +147,9 @@ class FootstepJaxEnv:
         cells = [self.cell_params(cfg) for cfg, _ in ref._cell_configs]
         self.params: DoorParams = jax.tree.map(lambda *x: jnp.stack(x), *cells)
         # The action box, its float32-rounded limits, and the nominal command (the previous one after reset).
-        self.low = np.asarray(robot.command_low, np.float64)
-        self.high = np.asarray(robot.command_high, np.float64)
-        turns = (-robot.turn_outer, -robot.turn_inner, robot.turn_inner, robot.turn_outer)
-        self._limits = [sorted({lo, hi, *(turns if i == 2 else ())}) for i, (lo, hi) in
-                        enumerate(zip(self.low.tolist(), self.high.tolist()))]
+        limits = action_limits(robot)
+        self.low, self.high = limits.low, limits.high
+        self._limits = [pins.tolist() for pins in limits.pins]  # the values a float32 action is pinned at
         com_local, vel_local = lipm.steady_state(robot, robot.nominal_command, RIGHT)
         self._start_com = (com_local, vel_local)
         self.obs_size = int(self.observation_space.shape[0])
@@ -325,33 +325,18 @@ class FootstepJaxEnv:
 
     # ------------------------------------------------------------------ observation
     def observation(self, state: State) -> jax.Array:
-        """The observation ``(12 + 5K,)`` float32 (``FootstepEnv``'s layout, docs in its docstring)."""
+        """The observation ``(12 + 5K,)`` float32 (``FootstepEnv``'s layout): :func:`footstep_gym.observation.observations`
+        on this env's state and its nearest shapes."""
         cfg, dt = self.config, self.dtype
-        ps, vs, cs = cfg.observation_position_scale, cfg.observation_velocity_scale, cfg.observation_com_scale
-        sidx = (state.support + 1) // 2
-        support = state.feet[sidx]
-        c, s = jnp.cos(support[2]), jnp.sin(support[2])
-
-        def local(x: jax.Array, y: jax.Array) -> tuple[jax.Array, jax.Array]:
-            # (x + iy) * (c - is): CPython's complex product, part by part
-            return x * c - y * (-s), x * (-s) + y * c
-
-        gx, gy = local(state.goal[0] - support[0], state.goal[1] - support[1])
-        cx, cy = local(state.com[0] - support[0], state.com[1] - support[1])
-        vx, vy = local(state.com_vel[0], state.com_vel[1])
+        support = state.feet[(state.support + 1) // 2]
         low = jnp.asarray(self.low, dt)
         span = jnp.asarray(self.high - self.low, dt)
-        prev = 2.0 * (state.previous - low) / span - 1.0
-        head = jnp.concatenate([jnp.stack([gx / ps, gy / ps, state.support.astype(dt), cx / cs, cy / cs, vx / vs,
-                                           vy / vs]), prev])
-        k = cfg.n_obstacles_observed
-        point, pvel, mask = shapes.nearest_shapes(state.com[0], state.com[1], self.walls, state.rods, k,
-                                                  cfg.sensing_range)
-        rx, ry = local(point[:, 0] - state.com[0], point[:, 1] - state.com[1])
-        ux, uy = local(pvel[:, 0], pvel[:, 1])
-        slots = jnp.stack([rx / ps, ry / ps, ux / vs, uy / vs, jnp.ones_like(rx)], axis=-1)
-        slots = jnp.where(mask[:, None], slots, 0.0).reshape(-1)
-        return jnp.concatenate([head, slots]).astype(jnp.float32)
+        previous = command_to_unit(state.previous, low, span)
+        point, pvel, mask = shapes.nearest_shapes(state.com[0], state.com[1], self.walls, state.rods,
+                                                  cfg.n_obstacles_observed, cfg.sensing_range)
+        return observations(support[None], state.support.astype(dt)[None], state.com[None], state.com_vel[None],
+                            state.goal[None], previous[None], point[None], pvel[None], mask[None],
+                            ObservationScales.of(cfg), xp=jnp)[0]
 
 
 def termination_name(code: int) -> str | None:
@@ -360,4 +345,3 @@ def termination_name(code: int) -> str | None:
         if value == code:
             return name
     return None
-

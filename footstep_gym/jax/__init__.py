@@ -8,3 +8,8 @@
 
 Importing this package imports JAX; ``import footstep_gym`` does not.
 """
+
+try:
+    import jax  # noqa: F401
+except ImportError as exc:  # one line saying what to install
+    raise ImportError("footstep_gym.jax (the batched JAX backend) needs JAX: pip install 'footstep_gym[jax]'") from exc

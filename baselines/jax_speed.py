@@ -29,6 +29,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--tier", default="train", help="benchmark tier of the door (default train)")
     p.add_argument("--dtype", default="float32", choices=("float32", "float64"))
     p.add_argument("--block", type=int, default=8, help="collision checks per sweep iteration")
+    p.add_argument("--chunk", type=int, default=64, help="envs per vmap chunk (FootstepJaxEnv.step_batch)")
     args = p.parse_args(argv)
     try:
         args.sizes = [int(s) for s in args.sizes.split(",")]
@@ -40,7 +41,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     bad = [w for w in args.workloads if w not in ("random", "walk")]
     if bad:
         p.error(f"unknown workload(s) {bad}; choose from random, walk")
-    if args.repeats < 1 or args.steps < 0 or args.reference_steps < 1:
+    if args.repeats < 1 or args.steps < 0 or args.reference_steps < 1 or args.chunk < 1:
         p.error("--repeats and --reference-steps must be >= 1, --steps >= 0")
     return args
 
@@ -55,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     from footstep_gym.jax.env import FootstepJaxEnv
 
     env = FootstepJaxEnv("door", dtype=args.dtype, tier=args.tier, block=args.block)
-    print(f"FootstepDoor-v0 tier={args.tier} dtype={args.dtype} block={args.block}; jax {jax.__version__} on "
+    print(f"FootstepDoor-v0 tier={args.tier} dtype={args.dtype} block={args.block} chunk={args.chunk}; jax {jax.__version__} on "
           f"{jax.devices()[0].platform} ({os.cpu_count()} CPUs), {platform.processor() or platform.machine()}; "
           f"load average {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
     for workload in args.workloads:
@@ -65,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{'compile s':>9} {'state B/env':>11}")
         for n in args.sizes:
             steps = args.steps or max(32, (1 << 18) // n)
-            r = speed.measure(env, n, steps, args.repeats, workload)
+            r = speed.measure(env, n, steps, args.repeats, workload, chunk=args.chunk)
             print(f"{n:>7} {steps:>9} {r.steps_per_s:>12,.0f} {min(r.repeats):>12,.0f} {max(r.repeats):>12,.0f} "
                   f"{r.steps_per_s / ref:>8.0f} {r.compile_s:>9.1f} {r.state_bytes:>11}", flush=True)
     print(f"\nload average after: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")

@@ -180,3 +180,24 @@ def test_unsupported_settings_raise_one_line(kwargs, named):
 def test_float64_without_x64_says_how():
     with jax.enable_x64(False), pytest.raises(ConfigError, match="JAX_ENABLE_X64"):
         FootstepJaxEnv("door", dtype="float64")
+
+
+def test_chunked_batch_step_is_vmap():
+    env = FootstepJaxEnv("door", **TRAIN)
+    n = 8
+    state, _ = jax.vmap(env.reset)(jax.random.split(jax.random.key(2), n))
+    actions = jax.random.uniform(jax.random.key(3), (n, 5), jnp.float32, env.action_space.low, env.action_space.high)
+    actions = actions.at[:4].set(jnp.asarray([0.05, 0.08, 0.0, 0.6, 0.2], jnp.float32))  # half walk, half random
+    chunked = jax.jit(lambda s, a: env.step_batch(s, a, chunk=4))(state, actions)
+    plain = jax.jit(jax.vmap(env.step))(state, actions)
+    # Discrete values exactly; floats within a few float32 ulps (XLA may contract or vectorise the two layouts'
+    # arithmetic differently).
+    for x, y in zip(jax.tree.leaves(chunked), jax.tree.leaves(plain)):
+        if jnp.issubdtype(x.dtype, jax.dtypes.prng_key):
+            x, y = jax.random.key_data(x), jax.random.key_data(y)
+        x, y = np.asarray(x), np.asarray(y)
+        if x.dtype.kind == "f":
+            assert np.allclose(x, y, rtol=1e-5, atol=1e-6, equal_nan=True)
+        else:
+            assert np.array_equal(x, y)
+    assert np.asarray(plain[5]["termination"]).tolist().count(0) < n  # some step ended an episode

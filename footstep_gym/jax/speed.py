@@ -40,14 +40,14 @@ class Rate:
     state_bytes: int
 
 
-def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str) -> Any:
+def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: int = 64) -> Any:
     """``(state, key) -> (state, key, rewards sum)``: ``steps`` batched footsteps with same-step resets."""
     if workload not in WORKLOADS:
         raise ValueError(f"workload must be one of {WORKLOADS}, got {workload!r}")
     low = jnp.asarray(env.action_space.low)
     high = jnp.asarray(env.action_space.high)
     walk = jnp.asarray(WALK, jnp.float32)
-    step, reset = jax.vmap(env.step), jax.vmap(env.reset)
+    reset = jax.vmap(env.reset)
 
     def body(carry, _):
         state, key, total = carry
@@ -56,7 +56,7 @@ def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str) -> Any:
             actions = jax.random.uniform(k_act, (n, 5), jnp.float32, low, high)
         else:
             actions = jnp.broadcast_to(walk, (n, 5))
-        state, _, reward, terminated, truncated, _ = step(state, actions)
+        state, _, reward, terminated, truncated, _ = env.step_batch(state, actions, chunk)
         fresh, _ = reset(jax.random.split(k_reset, n))
         done = terminated | truncated
         state = jax.tree.map(lambda a, b: jnp.where(done.reshape((-1,) + (1,) * (a.ndim - 1)), a, b), fresh, state)
@@ -69,9 +69,11 @@ def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str) -> Any:
     return jax.jit(run)
 
 
-def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str, seed: int = 0) -> Rate:
-    """Steps/s of ``n`` envs over ``repeats`` runs of ``steps`` batched footsteps (median), compile apart."""
-    fn = rollout_fn(env, n, steps, workload)
+def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str, seed: int = 0, chunk: int = 64
+            ) -> Rate:
+    """Steps/s of ``n`` envs over ``repeats`` runs of ``steps`` batched footsteps (median), compile apart
+    (``chunk``: :meth:`FootstepJaxEnv.step_batch`'s)."""
+    fn = rollout_fn(env, n, steps, workload, chunk)
     key = jax.random.key(seed)
     state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(key, n))
     t0 = time.perf_counter()

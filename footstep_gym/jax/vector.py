@@ -43,6 +43,8 @@ class FootstepVectorEnv(VectorEnv):
             ``info["final_obs"]``, its info in ``info["final_info"]``) or ``DISABLED`` (call
             ``reset(options={"reset_mask": mask})``).
         dtype: ``"float32"`` (default) or ``"float64"`` (JAX's 64-bit mode on).
+        block, chunk: collision checks per sweep iteration and envs per ``vmap`` chunk (speed only; the answers
+            do not depend on them).
         env_kwargs: ``gymnasium.make``'s keywords (scenario keys, ``tier``, ``tier_cell``, env.yaml keys).
 
     Seeding: ``reset(seed=s)`` seeds env ``i`` with ``s + i`` (a list: one seed each), as Gymnasium's vector
@@ -54,7 +56,7 @@ class FootstepVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int = 1, scenario: str = "door", *,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, dtype: Any = "float32",
-                 block: int = 8, **env_kwargs: Any) -> None:
+                 block: int = 8, chunk: int = 64, **env_kwargs: Any) -> None:
         if not (isinstance(num_envs, (int, np.integer)) and num_envs >= 1):
             raise ConfigError(f"FootstepVectorEnv: num_envs must be an integer >= 1, got {num_envs!r}")
         try:
@@ -68,6 +70,9 @@ class FootstepVectorEnv(VectorEnv):
             raise ConfigError(f"{exc} (gymnasium.make_vec(..., vectorization_mode='sync') gives reference envs)"
                               ) from None
         self.num_envs = int(num_envs)
+        if not (isinstance(chunk, int) and chunk >= 1):
+            raise ConfigError(f"FootstepVectorEnv: chunk must be an integer >= 1, got {chunk!r}")
+        self.chunk = chunk
         self.autoreset_mode = mode
         self.metadata = {"autoreset_mode": mode, "render_modes": []}
         self.render_mode = None
@@ -91,7 +96,7 @@ class FootstepVectorEnv(VectorEnv):
 
     def _step_batch(self, state: Any, actions: jax.Array, reset_mask: jax.Array, same_step: bool) -> tuple:
         env = self.jax_env
-        stepped, obs, reward, terminated, truncated, info = jax.vmap(env.step)(state, actions)
+        stepped, obs, reward, terminated, truncated, info = env.step_batch(state, actions, self.chunk)
         keys = jax.vmap(lambda k: jax.random.split(k))(state.key)
         fresh, fresh_obs = jax.vmap(env.reset)(keys[:, 1])
         stepped = stepped._replace(key=keys[:, 0])

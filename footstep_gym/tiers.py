@@ -42,6 +42,19 @@ TIERS_FILE = "benchmark.yaml"
 DEFAULT_TIER = "paper"
 #: A tier's key that is no scene: one line saying what the tier is.
 ABOUT_KEY = "about"
+#: A tier's key that is no scene: the rule its cells follow, ``{kind: ..., ...}`` (:data:`RULE_KINDS`).
+RULE_KEY = "rule"
+#: The kinds of rule a tier's cells follow (configs/benchmark.yaml's header says each in full):
+#:   paper      every cell is empty: the scene's YAML exactly;
+#:   train      each cell is a distribution written out (it must draw something: a ``randomize`` range);
+#:   shift      ``{base: TIER, band: F}``: a cell ``{shift: {KEY: up|down}}`` is the base tier's cell of the scene
+#:              with KEY's range [lo, hi] moved to the next band beyond it, [hi, hi + F (hi - lo)] (up) or
+#:              [lo - F (hi - lo), lo] (down); every range of the base cell is shifted by some cell;
+#:   structure  ``{base: TIER}``: a cell ``{change: TEXT, set: {...}}`` is the base tier's cell of the scene plus the
+#:              keywords of a named structural change, none of which the base cell draws (its ranges stay);
+#:   noise      ``{profile: x-NAME}``: a cell ``{base: TIER/CELL}`` is that cell of the scene seen through the noise
+#:              profile (sensing_* keys only), which the base cell must not set.
+RULE_KINDS = ("paper", "train", "shift", "structure", "noise")
 #: Top-level keys with this prefix are no tiers: blocks the cells share through YAML anchors (``x-noise: &noise``).
 SHARED_PREFIX = "x-"
 #: The cell of a scene the default tier does not list (a scenario registered by a plugin): no keywords.
@@ -61,6 +74,7 @@ class TierCell:
     scene: str
     name: str
     kwargs: Mapping[str, Any]
+    rule: str = ""  # one line: the rule that made the cell from the file's entry (:func:`derive_cell`)
 
     @property
     def keys(self) -> frozenset[str]:
@@ -71,11 +85,13 @@ class TierCell:
 
 @dataclass(frozen=True)
 class Tier:
-    """A tier: its name, its ``about`` line and its cells per scene (``{scene: {cell: TierCell}}``)."""
+    """A tier: its name, its ``about`` line, its rule's kind (:data:`RULE_KINDS`) and its cells per scene
+    (``{scene: {cell: TierCell}}``)."""
 
     name: str
     about: str
     scenes: Mapping[str, Mapping[str, TierCell]]
+    kind: str = ""
 
 
 _CACHE: dict[tuple[str, int], dict[str, Tier]] = {}
@@ -139,9 +155,10 @@ def _parse(data: Any, where: str) -> dict[str, Tier]:
         about = body.get(ABOUT_KEY, "")
         if not isinstance(about, str):
             raise ConfigError(f"{where}: {name}.{ABOUT_KEY} must be a string, got {about!r}")
+        rule = _tier_rule(body.get(RULE_KEY), f"{where}: {name}.{RULE_KEY}", tiers, data)
         scenes: dict[str, Mapping[str, TierCell]] = {}
         for scene, cells in body.items():
-            if scene == ABOUT_KEY:
+            if scene in (ABOUT_KEY, RULE_KEY):
                 continue
             if scene not in SCENARIOS:
                 raise ConfigError(f"{where}: tier {name!r} names unknown scene {scene!r}; scenes: "
@@ -156,12 +173,155 @@ def _parse(data: Any, where: str) -> dict[str, Tier]:
                     raise ConfigError(f"{where}: {name}.{scene}: a cell's name must be a non-empty string, got {cell!r}")
                 kwargs = {} if kwargs is None else kwargs
                 if not isinstance(kwargs, Mapping):
-                    raise ConfigError(f"{at} must be a mapping of env keywords, got {kwargs!r}")
-                check_cell_keys(scene, kwargs, at)
-                parsed[cell] = TierCell(name, scene, cell, plain(kwargs))
+                    raise ConfigError(f"{at} must be a mapping, got {kwargs!r}")
+                made, text = derive_cell(rule, scene, kwargs, tiers, at)
+                check_cell_keys(scene, made, at)
+                parsed[cell] = TierCell(name, scene, cell, plain(made), text)
             scenes[scene] = parsed
-        tiers[name] = Tier(name, about, scenes)
+        if rule["kind"] == "shift":
+            _check_every_axis_shifted(rule, scenes, tiers, f"{where}: {name}")
+        tiers[name] = Tier(name, about, scenes, rule["kind"])
     return tiers
+
+
+def _tier_rule(rule: Any, where: str, earlier: Mapping[str, Tier], data: Mapping[str, Any]) -> dict[str, Any]:
+    """A tier's ``rule`` checked: its kind, and the base tier (an earlier one) or noise profile it names."""
+    if rule is None:
+        raise ConfigError(f"{where} is missing: every tier names the rule its cells follow, {{kind: ...}} with kind "
+                          f"one of {', '.join(RULE_KINDS)} (configs/benchmark.yaml's header)")
+    if not isinstance(rule, Mapping) or rule.get("kind") not in RULE_KINDS:
+        raise ConfigError(f"{where} must be a mapping {{kind: ...}} with kind one of {', '.join(RULE_KINDS)}, "
+                          f"got {rule!r}")
+    kind = rule["kind"]
+    allowed = {"paper": {"kind"}, "train": {"kind"}, "shift": {"kind", "base", "band"},
+               "structure": {"kind", "base"}, "noise": {"kind", "profile"}}[kind]
+    if set(rule) != allowed:
+        raise ConfigError(f"{where}: a {kind!r} rule has exactly the keys {', '.join(sorted(allowed))}, got "
+                          f"{', '.join(sorted(rule))}")
+    out = dict(rule)
+    if "base" in rule and rule["base"] not in earlier:
+        raise ConfigError(f"{where}.base: {rule['base']!r} is no tier above this one; tiers above: "
+                          f"{', '.join(earlier) or '(none)'}")
+    if kind == "shift" and not (isinstance(rule["band"], (int, float)) and not isinstance(rule["band"], bool)
+                                and 0 < rule["band"] <= 1):
+        raise ConfigError(f"{where}.band must be a number in (0, 1] (the next band's width over the base range's), "
+                          f"got {rule['band']!r}")
+    if kind == "noise":
+        profile = rule["profile"]
+        body = data.get(profile) if isinstance(profile, str) and profile.startswith(SHARED_PREFIX) else None
+        if not isinstance(body, Mapping) or not body:
+            raise ConfigError(f"{where}.profile must name a top-level {SHARED_PREFIX}* block of sensing keys, got "
+                              f"{profile!r}")
+        bad = [k for k in body if k not in cell_env_keys()]
+        if bad:
+            raise ConfigError(f"{where}.profile {profile}: {', '.join(bad)} is no sensing key a cell may set; use "
+                              f"{', '.join(cell_env_keys())}")
+        out["noise"] = plain(body)
+    return out
+
+
+def _base_cell(tiers: Mapping[str, Tier], tier_name: str, scene: str, cell: str | None, where: str) -> TierCell:
+    listed = tiers[tier_name].scenes.get(scene) or {}
+    if cell is None:
+        if len(listed) != 1:
+            raise ConfigError(f"{where}: the base tier {tier_name!r} must have exactly one cell for scene {scene!r}, "
+                              f"has {len(listed)}")
+        return next(iter(listed.values()))
+    if cell not in listed:
+        raise ConfigError(f"{where}: base {tier_name}/{cell} is no cell of scene {scene!r}; its cells there: "
+                          f"{', '.join(listed) or '(none)'}")
+    return listed[cell]
+
+
+def next_band(lo: float, hi: float, band: float, direction: str) -> list[float]:
+    """The band just beyond ``[lo, hi]``, ``band`` times its width wide: above it (``up``) or below (``down``)."""
+    width = band * (hi - lo)
+    out = [hi, hi + width] if direction == "up" else [lo - width, lo]
+    return [round(v, 10) for v in out]  # 20 + 0.25 * 15 = 23.75, not 23.750000000000004
+
+
+def derive_cell(rule: Mapping[str, Any], scene: str, entry: Mapping[str, Any], tiers: Mapping[str, Tier],
+                where: str) -> tuple[dict[str, Any], str]:
+    """A cell's env keywords made from its file entry by its tier's ``rule`` (:data:`RULE_KINDS`), and one line
+    saying how; an entry the rule cannot make raises :class:`ConfigError` naming what is wrong."""
+    kind = rule["kind"]
+    if kind == "paper":
+        if entry:
+            raise ConfigError(f"{where}: a cell of a 'paper' tier is the scene's YAML exactly and sets nothing, got "
+                              f"{dict(entry)!r}")
+        return {}, f"configs/scenarios/{scene}.yaml as it is"
+    if kind == "train":
+        if not entry.get("randomize"):
+            raise ConfigError(f"{where}: a cell of a 'train' tier is a distribution: it needs a randomize range")
+        return plain(entry), "the training distribution, written out"
+    expected = {"shift": {"shift"}, "structure": {"change", "set"}, "noise": {"base"}}[kind]
+    if set(entry) != expected:
+        raise ConfigError(f"{where}: a cell of a {kind!r} tier has exactly the keys {', '.join(sorted(expected))}, "
+                          f"got {', '.join(sorted(entry)) or '(none)'}")
+    if kind == "shift":
+        base = _base_cell(tiers, rule["base"], scene, None, where)
+        shift = entry["shift"]
+        ranges = base.kwargs.get("randomize") or {}
+        if not isinstance(shift, Mapping) or not shift:
+            raise ConfigError(f"{where}.shift must be a mapping {{key: up|down}}, got {shift!r}")
+        out = plain(base.kwargs)
+        said = []
+        for key, direction in shift.items():
+            if key not in ranges:
+                raise ConfigError(f"{where}.shift: {key!r} is no range the base cell {rule['base']}/{base.name} "
+                                  f"draws; its ranges: {', '.join(ranges) or '(none)'}")
+            if direction not in ("up", "down"):
+                raise ConfigError(f"{where}.shift.{key} must be 'up' or 'down', got {direction!r}")
+            lo, hi = (float(v) for v in ranges[key])
+            out["randomize"][key] = next_band(lo, hi, float(rule["band"]), direction)
+            said.append(f"{key} {lo:g}..{hi:g} -> {out['randomize'][key][0]:g}..{out['randomize'][key][1]:g}")
+        return out, f"{rule['base']}/{base.name} with the next band ({rule['band']:g} x the range's width): " \
+                    + "; ".join(said)
+    if kind == "structure":
+        base = _base_cell(tiers, rule["base"], scene, None, where)
+        change, keys = entry["change"], entry["set"]
+        if not isinstance(change, str) or not change.strip():
+            raise ConfigError(f"{where}.change must name the structural change in words, got {change!r}")
+        if not isinstance(keys, Mapping) or not keys:
+            raise ConfigError(f"{where}.set must be a non-empty mapping of the change's env keywords, got {keys!r}")
+        check_cell_keys(scene, keys, f"{where}.set")
+        given = {k for k in keys if k != "randomize"} | set(keys.get("randomize") or {})
+        clash = sorted(given & set(base.kwargs.get("randomize") or {}))
+        if clash:
+            raise ConfigError(f"{where}.set changes {', '.join(clash)}, which the base cell {rule['base']}/"
+                              f"{base.name} draws: a structural change keeps the base's ranges (a shift tier moves "
+                              f"them)")
+        out = plain(base.kwargs)
+        out.update({k: plain(v) for k, v in keys.items() if k != "randomize"})
+        if keys.get("randomize"):
+            out["randomize"] = {**out.get("randomize", {}), **plain(keys["randomize"])}
+        return out, f"{rule['base']}/{base.name} + {change}"
+    ref = entry["base"]
+    if not isinstance(ref, str) or ref.count("/") != 1:
+        raise ConfigError(f"{where}.base must be 'TIER/CELL' (a cell of this scene in a tier above), got {ref!r}")
+    tier_name, cell = ref.split("/")
+    if tier_name not in tiers:
+        raise ConfigError(f"{where}.base: {tier_name!r} is no tier above this one; tiers above: {', '.join(tiers)}")
+    base = _base_cell(tiers, tier_name, scene, cell, where)
+    noise = rule["noise"]
+    clash = sorted(set(noise) & base.keys)
+    if clash:
+        raise ConfigError(f"{where}: the base cell {ref} already sets {', '.join(clash)}")
+    return {**plain(base.kwargs), **plain(noise)}, f"{ref} through the noise profile {rule['profile']}"
+
+
+def _check_every_axis_shifted(rule: Mapping[str, Any], scenes: Mapping[str, Mapping[str, TierCell]],
+                              tiers: Mapping[str, Tier], where: str) -> None:
+    """A shift tier moves every range of its base: each scene's base ranges are each shifted by some cell."""
+    for scene, base_cells in tiers[rule["base"]].scenes.items():
+        ranges = set(next(iter(base_cells.values())).kwargs.get("randomize") or {}) if len(base_cells) == 1 else set()
+        mine = scenes.get(scene, {})
+        moved = {k for c in mine.values() for k in (c.kwargs.get("randomize") or {})
+                 if k in ranges and c.kwargs["randomize"][k] != base_cells[next(iter(base_cells))].kwargs["randomize"][k]}
+        missing = sorted(ranges - moved)
+        if missing:
+            raise ConfigError(f"{where}: the shift rule moves every range of {rule['base']}; no cell of scene "
+                              f"{scene!r} shifts {', '.join(missing)}")
 
 
 def load_tiers() -> dict[str, Tier]:

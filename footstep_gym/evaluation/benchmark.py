@@ -48,7 +48,7 @@ from footstep_gym.evaluation.outputs import command_line
 from footstep_gym.evaluation.profiles import OptionError, unique, usable_cores
 from footstep_gym.evaluation.report import policy_label, upper_bound
 from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, Task, check_cells, run_tasks
-from footstep_gym.evaluation.splits import split_seeds
+from footstep_gym.evaluation.splits import PROTOCOL_VERSION, split_seeds
 from footstep_gym.evaluation.records import CellRecord, cell_record, over_runs
 from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, iqm_over_tasks, score_matrix
 from footstep_gym.evaluation.tables import interval, markdown as markdown_table, mm, num, plural, runs as runs_text
@@ -59,8 +59,7 @@ SPLIT = "test"
 #: Episodes per cell by default, and for a full run (CrowdNav's 500 test cases).
 EPISODES = 100
 FULL_EPISODES = 500
-#: Version of the protocol written into benchmark.json (tiers, seeds, metrics, aggregates).
-PROTOCOL_VERSION = 1
+# PROTOCOL_VERSION (imported above): the protocol's version written into benchmark.json, configs/eval.yaml's.
 
 
 @dataclass(frozen=True)

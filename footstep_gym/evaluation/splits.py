@@ -2,17 +2,26 @@
 
 As CrowdNav keeps validation and test cases apart, an evaluation names its split and the
 episodes take the split's seeds in order: ``split_seeds("test", 20)`` is the first 20 test
-seeds, ``split_seeds("test", 20, offset=20)`` the next 20.
+seeds, ``split_seeds("test", 20, offset=20)`` the next 20. The splits are the same for every
+tier: a trainer on tier T (the in-distribution track) resets ``gym.make(id, tier=T)`` with
+``train`` seeds (:func:`train_seed_stream`), is tuned on ``validation`` and reported on ``test``.
+:data:`PROTOCOL_VERSION` is the file's ``protocol_version``, written into every ``benchmark.json``.
 """
 
 from __future__ import annotations
+
+from typing import Iterator
 
 from footstep_gym.config import read_yaml
 from footstep_gym.errors import ConfigError
 
 
-def _load() -> dict[str, tuple[int, int]]:
-    raw = read_yaml("eval.yaml").get("splits")
+def _load() -> tuple[dict[str, tuple[int, int]], int]:
+    data = read_yaml("eval.yaml")
+    version = data.get("protocol_version")
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        raise ConfigError(f"eval.yaml: protocol_version must be a whole number >= 1, got {version!r}")
+    raw = data.get("splits")
     if not isinstance(raw, dict) or not raw:
         raise ConfigError("eval.yaml: expected a mapping 'splits: {name: [first, end]}'")
     splits: dict[str, tuple[int, int]] = {}
@@ -26,10 +35,17 @@ def _load() -> dict[str, tuple[int, int]]:
     for (a0, a1), (b0, _) in zip(ranges, ranges[1:]):
         if b0 < a1:
             raise ConfigError(f"eval.yaml: splits overlap ({a0}-{a1} and {b0}-...)")
-    return splits
+    missing = [name for name in ("train", "validation", "test") if name not in splits]
+    if missing:
+        raise ConfigError(f"eval.yaml: splits {', '.join(missing)} missing (the protocol needs train, validation "
+                          f"and test)")
+    return splits, version
 
 
-SPLITS: dict[str, tuple[int, int]] = _load()
+SPLITS: dict[str, tuple[int, int]]
+#: The benchmark protocol's version (``configs/eval.yaml``): 2 since the fresh test split.
+PROTOCOL_VERSION: int
+SPLITS, PROTOCOL_VERSION = _load()
 
 
 def split_seeds(split: str, n: int, offset: int = 0) -> list[int]:
@@ -42,3 +58,15 @@ def split_seeds(split: str, n: int, offset: int = 0) -> list[int]:
     if first + offset + n > end:
         raise ValueError(f"split {split!r} has {end - first} seeds; offset {offset} + {n} episodes goes past its end")
     return list(range(first + offset, first + offset + n))
+
+
+def train_seed_stream(seed: int = 0) -> Iterator[int]:
+    """Episode seeds for a trainer: the ``train`` split's seeds from its ``seed``-th on, in order, for ever (wrapping
+    round the split), e.g. ``env.reset(seed=next(stream))`` per episode of ``gym.make(id, tier=T)``."""
+    first, end = SPLITS["train"]
+    if not 0 <= seed < end - first:
+        raise ValueError(f"seed must index the train split's {end - first} seeds, got {seed}")
+    k = seed
+    while True:
+        yield first + k
+        k = (k + 1) % (end - first)

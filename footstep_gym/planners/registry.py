@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+from footstep_gym.planners.null import NULL_POLICIES
 from footstep_gym.planners.oracle import DESCRIPTION as ORACLE_DESCRIPTION
 from footstep_gym.planners.lattice import LatticePlanner
 from footstep_gym.planners.lookahead import LookaheadPlanner
@@ -97,6 +98,9 @@ POLICIES: dict[str, PolicySpec] = {
     # It reads the noise-free truth: nothing to track.
     "oracle": PolicySpec(OraclePlanner, additions={"tracking": False}, readings={"kernels": {"compiled": False}},
                          description=ORACLE_DESCRIPTION),
+    # The floor, not planners: blind policies (footstep_gym.planners.null) no benchmark cell may let succeed.
+    **{name: PolicySpec(cls, description=cls.description)  # type: ignore[arg-type]
+       for name, cls in NULL_POLICIES.items()},
 }
 
 #: ``<policy>-no-<switch>``: a staged policy of :data:`POLICIES` with one switch of ``additions`` off.

@@ -17,6 +17,14 @@ episode; each lane's phase is drawn per episode. A gap of ``traffic_spacing -
 obstacle_length`` at ``traffic_speed`` is open for too short a time to be crossed at the
 nominal period: only quicker steps use it (or waiting between the lanes, where they are far
 enough apart).
+
+``traffic_gap`` > 0 makes each lane a stream with one open gap that moves: the lane's cars follow
+each other ``traffic_spacing`` apart except once per loop, where the next car comes
+``traffic_gap`` behind (centre to centre); the loop is ``(n - 1) * traffic_spacing + traffic_gap``
+long, and the lane's phase, drawn per episode, decides when the gap reaches the path. With the
+spacing too tight to cross at any period and the gap wide enough only at quick steps, a robot
+must sense where the gap is, wait for it and take it at a short period; a blind walker, whatever
+its speed, crosses in the gap only in the few episodes whose phase happens to suit it.
 """
 
 from __future__ import annotations
@@ -49,6 +57,7 @@ class CrossingConfig(ScenarioConfig):
     traffic_spacing: float = positive(unit="m")  # [m] between consecutive cars of a lane, centre to centre
     traffic_speed: float = positive(max_key="max_obstacle_speed", unit="m/s")  # [m/s] of every car
     traffic_extent: float = positive(unit="m")  # [m] cars re-enter after driving this far past the path
+    traffic_gap: float = nonnegative(unit="m")  # [m] 0: cars evenly spaced; > 0: one gap this long (centre to centre) per lane loop
 
     def smallest(self, key: str) -> float:
         """The smallest value numeric ``key`` can take in an episode: its ``randomize`` lower end, else its value."""
@@ -64,6 +73,10 @@ class CrossingConfig(ScenarioConfig):
         if spacing <= length:
             raise ConfigError(f"crossing: traffic_spacing (down to {spacing:g} m) must exceed obstacle_length (up to "
                               f"{length:g} m): the cars of a lane would overlap")
+        gap = self.smallest("traffic_gap")
+        if self.largest("traffic_gap") > 0 and gap <= length:
+            raise ConfigError(f"crossing: traffic_gap (down to {gap:g} m) must exceed obstacle_length (up to "
+                              f"{length:g} m), or be 0 (no gap): the cars around the gap would overlap")
         width, lane = self.largest("obstacle_width"), self.smallest("traffic_lane_width")
         if self.traffic_lanes > 1 and lane <= width:
             raise ConfigError(f"crossing: traffic_lane_width (down to {lane:g} m) must exceed obstacle_width (up to "
@@ -98,7 +111,7 @@ class Crossing(Scenario):
 class CrossingTraffic(Crossing):
     """Steady two-way traffic across the path (``traffic_lanes`` >= 1; the module's doc).
 
-    Every car follows a schedule, :meth:`positions`: its lane's phase (drawn per episode) plus
+    Every car follows a schedule (with ``traffic_gap``, the last car of a lane's loop is followed by the gap), :meth:`positions`: its lane's phase (drawn per episode) plus
     ``traffic_speed`` times the time, wrapped into the lane's loop. Before each footstep the cars
     are put at their scheduled places (a car past the loop's end re-enters at its start) and keep
     their lane's velocity through the step, so between re-entries they move as one steady car does.
@@ -108,13 +121,15 @@ class CrossingTraffic(Crossing):
         super().__init__(cfg, rng)
         lanes = cfg.traffic_lanes
         self.per_lane = max(1, math.ceil(2.0 * cfg.traffic_extent / cfg.traffic_spacing - 1e-9))
-        self.loop = self.per_lane * cfg.traffic_spacing  # [m] a lane's length, where its cars re-enter
+        # [m] a lane's length, where its cars re-enter: one car's spacing is the gap when there is one
+        self.loop = (self.per_lane - 1) * cfg.traffic_spacing + (cfg.traffic_gap or cfg.traffic_spacing)
         k = np.repeat(np.arange(lanes), self.per_lane)
         j = np.tile(np.arange(self.per_lane), lanes)
         sx, sy = cfg.start
         self.x = sx + cfg.crossing_x + (k - 0.5 * (lanes - 1)) * cfg.traffic_lane_width  # per car
         self.direction = np.where(k % 2 == 0, 1.0, -1.0)  # lane 0 along +y, then alternating
-        phases = rng.uniform(0.0, cfg.traffic_spacing, lanes)  # per lane, per episode
+        # per lane, per episode: anywhere in the loop's repeating unit (with a gap, the whole loop)
+        phases = rng.uniform(0.0, self.loop if cfg.traffic_gap else cfg.traffic_spacing, lanes)
         self.offset = phases[k] + j * cfg.traffic_spacing  # [m] along the loop at t = 0
         self.y0 = sy - 0.5 * self.loop
         self.members: list = []

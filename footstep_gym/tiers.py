@@ -2,10 +2,12 @@
 
 Every scene env takes ``tier=`` at ``gymnasium.make`` (as Procgen's envs take
 ``distribution_mode``): ``"paper"`` (the default: today's fixed settings, the paper's scenes),
-``"train"`` (the distribution the shipped agents trained on), ``"shifted"`` (the same layouts
-beyond the training ranges) and ``"hard"`` (challenges beyond speed: a second door, two-way
-traffic, a reactive crowd, sensing noise). The tiers are data, not code: each tier holds, per
-scene, a list of named **cells**, each a mapping of env keywords (any key of the scene's YAML,
+``"train"`` (each scene's training distribution), ``"shifted"`` (each training range moved to
+the next band beyond it), ``"structure"`` (the train tier's scenes with a named structural change:
+a second door, two-way traffic, a denser ring, reactive pedestrians) and ``"noise"`` (known scenes
+through the sensing-noise profile). The tiers are data, not code: each tier names the **rule** its
+cells follow (:data:`RULE_KINDS`) and holds, per scene, named **cells**, each made from its entry
+by that rule (:func:`derive_cell`) into a mapping of env keywords (any key of the scene's YAML,
 ``randomize`` ranges included, and the ``sensing_*`` keys of ``configs/env.yaml`` that do not
 shape the observation). ``gymnasium.make(id, tier="shifted")`` draws one of the tier's cells per
 episode, uniformly, from the env's seeded generator (``reset(seed=s)`` fixes the cell and the
@@ -17,10 +19,11 @@ or as a ``randomize`` range): giving one of those raises :class:`~footstep_gym.e
 naming it, since a tier is a documented distribution whose results must stay comparable
 (``tier="paper"`` sets nothing, so every key is free there, as without a tier).
 
-The file is read and its structure and key names checked when a tier is first asked for (an
-unknown tier or cell raises ``ConfigError`` naming the known ones; a cell's unknown key raises
-the env's own message naming the scene's keys); a cell's values are checked by the scene's
-config when an env of that tier is made (every cell of the tier is built then, so a bad value
+The file is read and its structure, rules and key names checked when a tier is first asked for (an
+unknown tier or cell raises ``ConfigError`` naming the known ones; a cell its rule cannot make, a
+rule naming a tier below it or a shift tier leaving a range unmoved raise ``ConfigError`` saying
+so; a cell's unknown key raises the env's own message naming the scene's keys); a cell's values are checked by the
+scene's config when an env of that tier is made (every cell of the tier is built then, so a bad value
 fails at ``gymnasium.make``, not at some later reset). ``tests/test_tiers.py`` builds every cell
 of every tier.
 """
@@ -316,8 +319,9 @@ def _check_every_axis_shifted(rule: Mapping[str, Any], scenes: Mapping[str, Mapp
     for scene, base_cells in tiers[rule["base"]].scenes.items():
         ranges = set(next(iter(base_cells.values())).kwargs.get("randomize") or {}) if len(base_cells) == 1 else set()
         mine = scenes.get(scene, {})
+        base_ranges = next(iter(base_cells.values())).kwargs.get("randomize") or {}
         moved = {k for c in mine.values() for k in (c.kwargs.get("randomize") or {})
-                 if k in ranges and c.kwargs["randomize"][k] != base_cells[next(iter(base_cells))].kwargs["randomize"][k]}
+                 if k in ranges and c.kwargs["randomize"][k] != base_ranges[k]}
         missing = sorted(ranges - moved)
         if missing:
             raise ConfigError(f"{where}: the shift rule moves every range of {rule['base']}; no cell of scene "
@@ -340,7 +344,7 @@ def load_tiers() -> dict[str, Tier]:
 
 
 def tier_names() -> list[str]:
-    """The tiers, in the file's order (``paper``, ``train``, ``shifted``, ``hard``)."""
+    """The tiers, in the file's order (``paper``, ``train``, ``shifted``, ``structure``, ``noise``)."""
     return list(load_tiers())
 
 

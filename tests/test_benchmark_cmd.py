@@ -88,8 +88,8 @@ def test_the_benchmark_is_every_cell_of_every_tier_of_every_scene():
                 for c in tiers.cells(scene, tier)]
     assert [c.label for c in cells] == expected and benchmark.is_complete(cells)
     assert all(c.selector == (("tier", c.tier), ("tier_cell", c.name)) for c in cells)
-    partial = benchmark.benchmark_cells(["crowd"], ["hard"])
-    assert [c.label for c in partial] == [c.label for c in cells if c.scene == "crowd" and c.tier == "hard"]
+    partial = benchmark.benchmark_cells(["crowd"], ["structure"])
+    assert [c.label for c in partial] == [c.label for c in cells if c.scene == "crowd" and c.tier == "structure"]
     assert not benchmark.is_complete(partial)
     with pytest.raises(ValueError, match="unknown benchmark tier"):
         benchmark.benchmark_cells(tiers=["impossible"])
@@ -123,10 +123,10 @@ def test_every_cell_end_to_end_in_process(tmp_path, capsys):
 def test_a_partial_run_from_the_command_line(tmp_path):
     out = tmp_path / "bench"
     proc = run_cli("--benchmark", "--policy", FAST, "--episodes", "1", "--env", "crossing", "--env", "crowd",
-                   "--tier", "paper", "--tier", "hard", "--workers", "2", "--out", str(out))
+                   "--tier", "paper", "--tier", "structure", "--workers", "2", "--out", str(out))
     assert proc.returncode == 0, proc.stderr
     doc = json.loads((out / "benchmark.json").read_text())
-    labels = [c.label for c in benchmark.benchmark_cells(["crossing", "crowd"], ["paper", "hard"])]
+    labels = [c.label for c in benchmark.benchmark_cells(["crossing", "crowd"], ["paper", "structure"])]
     check_document(doc, 1, labels)
     assert not doc["complete"] and "Partial run" in (out / "benchmark.md").read_text()
 
@@ -135,7 +135,7 @@ def test_the_ray_backend_gives_the_same_records(tmp_path):
     pytest.importorskip("ray")
     script = load_script("eval_planner")
     common = ["--benchmark", "--policy", FAST, "--episodes", "2", "--env", "crossing", "--tier", "paper",
-              "--tier", "hard"]
+              "--tier", "structure"]
     assert script.main([*common, "--workers", "1", "--out", str(tmp_path / "local")]) == 0
     assert script.main([*common, "--workers", "2", "--backend", "ray", "--out", str(tmp_path / "ray")]) == 0
     local, remote = (json.loads((tmp_path / name / "benchmark.json").read_text()) for name in ("local", "ray"))

@@ -58,10 +58,10 @@ def test_a_recurrent_agent_plays_in_the_runner_as_in_its_own_loop(lstm_run):
     seeds = [10000, 10001]
     runner = []
     for seed in seeds:
-        cell = Cell("FootstepDoor-v0", "door", "ppo-lstm", (("tier", "hard"), ("tier_cell", "noisy")), run=str(run))
+        cell = Cell("FootstepDoor-v0", "door", "ppo-lstm", (("tier", "noise"), ("tier_cell", "train")), run=str(run))
         result = run_episode(Task(0, cell, seed))
         runner.append((result.outcome == "goal", result.steps))
     agent = ZooAgent(run, load_robot())
-    env = gym.wrappers.RescaleAction(gym.make("FootstepDoor-v0", tier="hard", tier_cell="noisy"),
+    env = gym.wrappers.RescaleAction(gym.make("FootstepDoor-v0", tier="noise", tier_cell="train"),
                                      -np.ones(5, np.float32), np.ones(5, np.float32))
     assert callbacks.play(agent.model, env, seeds, agent.normalizer) == runner

@@ -40,14 +40,16 @@ def test_ppo_wide_is_ppo_on_wider_ranges():
         ranges = kwargs["randomize"]
         for key, (lo, hi) in base_kwargs["randomize"].items():
             assert ranges[key][0] <= lo and ranges[key][1] >= hi, (env_id, key)
+        if scene == "crossing":
+            continue  # ppo-wide trained on protocol 1's crossing (a timed car); protocol 2's shifted crossing is a stream
         for cell in tiers.cells(scene, "shifted"):
             for key, value in tiers.plain(cell.kwargs).get("randomize", {}).items():
                 assert ranges[key][0] <= value[0] and ranges[key][1] >= value[1], (env_id, cell.name, key)
 
 
 def test_ppo_noisy_and_ppo_lstm_are_ppo_on_the_noisy_scenes():
-    """ppo-noisy: ppo's hyperparameters on each scene's train range sensed with the hard tier's noise profile (its
-    "noisy" cell's); ppo-lstm: the same with an LSTM policy (and nothing else changed)."""
+    """ppo-noisy: ppo's hyperparameters on each scene's train range sensed with the noise tier's profile (its
+    "train" cell's); ppo-lstm: the same with an LSTM policy (and nothing else changed)."""
     from footstep_gym import tiers
 
     scenes = {"FootstepDoor-v0": "door", "FootstepCrossing-v0": "crossing", "FootstepCrowd-v0": "crowd"}
@@ -56,7 +58,7 @@ def test_ppo_noisy_and_ppo_lstm_are_ppo_on_the_noisy_scenes():
         assert sorted(k for k in data if k.startswith("Footstep")) == sorted(scenes)
     for env_id, scene in scenes.items():
         ppo, noisy, lstm = ppo_file[env_id], copy.deepcopy(noisy_file[env_id]), copy.deepcopy(lstm_file[env_id])
-        cell = next(c for c in tiers.cells(scene, "hard") if c.name == "noisy")
+        (cell,) = tiers.cells(scene, "noise", "train")
         noise = {k: v for k, v in tiers.plain(cell.kwargs).items() if k.startswith("sensing_")}
         assert noise and {k: v for k, v in noisy["env_kwargs"].items() if k.startswith("sensing_")} == noise, env_id
         assert noisy["env_kwargs"]["randomize"] == ppo["env_kwargs"]["randomize"], env_id

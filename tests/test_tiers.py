@@ -541,7 +541,8 @@ def test_each_cell_is_what_its_tiers_rule_makes_of_its_entry():
             want = copy.deepcopy(train)
             for key, direction in entry["shift"].items():
                 lo, hi = train["randomize"][key]
-                want["randomize"][key] = [hi, hi + band * (hi - lo)] if direction == "up" else [lo - band * (hi - lo), lo]
+                width = band * (hi - lo)
+                want["randomize"][key] = [hi, hi + width] if direction == "up" else [lo - width, lo]
             got = tiers.plain(tiers.cells(scene, "shifted", name)[0].kwargs)
             assert got.keys() == want.keys() and got["randomize"].keys() == want["randomize"].keys()
             for key in want["randomize"]:

@@ -101,7 +101,8 @@ def _tier_table() -> list[tuple[str, str, str, dict[str, Any]]]:
 
 
 def tier_names() -> list[str]:
-    """The benchmark's tiers, in the order of configs/benchmark.yaml (``paper``, ``train``, ``shifted``, ``hard``)."""
+    """The benchmark's tiers, in the order of configs/benchmark.yaml (``paper``, ``train``, ``shifted``,
+    ``structure``, ``noise``)."""
     from footstep_gym import tiers
 
     return tiers.tier_names()

@@ -57,7 +57,7 @@ class CrossingConfig(ScenarioConfig):
     traffic_spacing: float = positive(unit="m")  # [m] between consecutive cars of a lane, centre to centre
     traffic_speed: float = positive(max_key="max_obstacle_speed", unit="m/s")  # [m/s] of every car
     traffic_extent: float = positive(unit="m")  # [m] cars re-enter after driving this far past the path
-    traffic_gap: float = nonnegative(unit="m")  # [m] 0: cars evenly spaced; > 0: one gap this long (centre to centre) per lane loop
+    traffic_gap: float = nonnegative(unit="m")  # [m] 0: evenly spaced; > 0: one gap this long (centre to centre) per loop
 
     def smallest(self, key: str) -> float:
         """The smallest value numeric ``key`` can take in an episode: its ``randomize`` lower end, else its value."""
@@ -111,10 +111,11 @@ class Crossing(Scenario):
 class CrossingTraffic(Crossing):
     """Steady two-way traffic across the path (``traffic_lanes`` >= 1; the module's doc).
 
-    Every car follows a schedule (with ``traffic_gap``, the last car of a lane's loop is followed by the gap), :meth:`positions`: its lane's phase (drawn per episode) plus
-    ``traffic_speed`` times the time, wrapped into the lane's loop. Before each footstep the cars
-    are put at their scheduled places (a car past the loop's end re-enters at its start) and keep
-    their lane's velocity through the step, so between re-entries they move as one steady car does.
+    Every car follows a schedule, :meth:`positions` (with ``traffic_gap``, the gap follows a lane's
+    last car): its lane's phase (drawn per episode) plus ``traffic_speed`` times the time, wrapped
+    into the lane's loop. Before each footstep the cars are put at their scheduled places (a car
+    past the loop's end re-enters at its start) and keep their lane's velocity through the step, so
+    between re-entries they move as one steady car does.
     """
 
     def __init__(self, cfg: CrossingConfig, rng: np.random.Generator) -> None:

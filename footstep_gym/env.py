@@ -185,7 +185,7 @@ class FootstepEnv(gym.Env):
     | any key of ``configs/env.yaml`` | ``reward_time=-0.2``, ``fixed_period=True`` (the action is ``[S, L, θ]``, T_SS and T_DS held at the robot's nominal ones), the ``sensing_*`` keys |
     | ``robot`` | keys of ``configs/robot.yaml`` as a mapping, or a profile's name (``"darwin-op"``) |
     | ``render_mode`` | ``"rgb_array"`` (the present), ``"rgb_array_list"`` (frames inside the steps at ``video_fps`` per simulated second) or ``"human"`` |
-    | ``tier``, ``tier_cell`` | a benchmark tier of ``configs/benchmark.yaml`` (``"paper"``, ``"train"``, ``"shifted"``, ``"hard"``), one cell drawn per episode, or one cell for all (docs/model.md §4.7) |
+    | ``tier``, ``tier_cell`` | a benchmark tier of ``configs/benchmark.yaml`` (``"paper"``, ``"train"``, ``"shifted"``, ``"structure"``, ``"noise"``), one cell drawn per episode, or one cell for all (docs/model.md §4.7) |
 
     Unknown keys and bad values raise :class:`~footstep_gym.errors.ConfigError` (a ``ValueError``)
     naming them. A planner reads :meth:`sensing`: a read-only snapshot of what a robot could sense now.

@@ -49,7 +49,7 @@ class TrackedObservation(gym.ObservationWrapper):
 
     Example::
 
-        env = TrackedObservation(gym.make("FootstepDoor-v0", tier="hard", tier_cell="noisy"))
+        env = TrackedObservation(gym.make("FootstepDoor-v0", tier="noise", tier_cell="train"))
     """
 
     def __init__(self, env: gym.Env, params: TrackingParams | None = None) -> None:

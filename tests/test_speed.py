@@ -316,7 +316,7 @@ def test_tiers_section_one_cell_per_scene_and_tier(smoke):
             assert len(agg["cells"]) == 1 and len(agg["rates"]) == SMOKE.repetitions, (scene, tier)
             assert f"{scene}/{tier}/{agg['cells'][0]}" in tiers["cells"]
     assert "## Tiers: env steps per second and planning time per tier" in stdout
-    assert sum("hard tier env steps/s" in t["target"] for t in data["targets"]) == 3
+    assert sum("structure tier env steps/s" in t["target"] for t in data["targets"]) == 3
 
 
 # ------------------------------------------------------------------ in-process, no timing

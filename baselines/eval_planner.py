@@ -165,8 +165,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--full", action="store_true",
                        help=f"with --benchmark: {benchmark.FULL_EPISODES} episodes per cell (the full protocol)")
     bench.add_argument("--tier", action="append", metavar="TIER",
-                       help="with --benchmark: only this tier of configs/benchmark.yaml (paper, train, shifted, structure, noise); "
-                            "repeatable; a partial run (so is --env)")
+                       help="with --benchmark: only this tier of configs/benchmark.yaml (paper, train, shifted, "
+                            "structure, noise); repeatable; a partial run (so is --env)")
     bench.add_argument("--name", metavar="LABEL",
                        help="with --benchmark --agent: the method's name in the tables (agent:LABEL; default the "
                             "first run's folder name)")

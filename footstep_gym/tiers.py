@@ -22,9 +22,9 @@ naming it, since a tier is a documented distribution whose results must stay com
 The file is read and its structure, rules and key names checked when a tier is first asked for (an
 unknown tier or cell raises ``ConfigError`` naming the known ones; a cell its rule cannot make, a
 rule naming a tier below it or a shift tier leaving a range unmoved raise ``ConfigError`` saying
-so; a cell's unknown key raises the env's own message naming the scene's keys); a cell's values are checked by the
-scene's config when an env of that tier is made (every cell of the tier is built then, so a bad value
-fails at ``gymnasium.make``, not at some later reset). ``tests/test_tiers.py`` builds every cell
+so; a cell's unknown key raises the env's own message naming the scene's keys); a cell's values are
+checked by the scene's config when an env of that tier is made (every cell of the tier is built then,
+so a bad value fails at ``gymnasium.make``, not at some later reset). ``tests/test_tiers.py`` builds every cell
 of every tier.
 """
 
@@ -58,7 +58,7 @@ RULE_KEY = "rule"
 #:   noise      ``{profile: x-NAME}``: a cell ``{base: TIER/CELL}`` is that cell of the scene seen through the noise
 #:              profile (sensing_* keys only), which the base cell must not set.
 RULE_KINDS = ("paper", "train", "shift", "structure", "noise")
-#: Top-level keys with this prefix are no tiers: blocks the cells share through YAML anchors (``x-noise: &noise``).
+#: Top-level keys with this prefix are no tiers: blocks the cells share (``x-noise``, the noise rule's profile).
 SHARED_PREFIX = "x-"
 #: The cell of a scene the default tier does not list (a scenario registered by a plugin): no keywords.
 DEFAULT_CELL = "default"

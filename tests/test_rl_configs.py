@@ -41,7 +41,7 @@ def test_ppo_wide_is_ppo_on_wider_ranges():
         for key, (lo, hi) in base_kwargs["randomize"].items():
             assert ranges[key][0] <= lo and ranges[key][1] >= hi, (env_id, key)
         if scene == "crossing":
-            continue  # ppo-wide trained on protocol 1's crossing (a timed car); protocol 2's shifted crossing is a stream
+            continue  # ppo-wide trained on protocol 1's crossing (a timed car); protocol 2's is a stream
         for cell in tiers.cells(scene, "shifted"):
             for key, value in tiers.plain(cell.kwargs).get("randomize", {}).items():
                 assert ranges[key][0] <= value[0] and ranges[key][1] >= value[1], (env_id, cell.name, key)

@@ -57,7 +57,7 @@ class CrossingConfig(ScenarioConfig):
     traffic_spacing: float = positive(unit="m")  # [m] between consecutive cars of a lane, centre to centre
     traffic_speed: float = positive(max_key="max_obstacle_speed", unit="m/s")  # [m/s] of every car
     traffic_extent: float = positive(unit="m")  # [m] cars re-enter after driving this far past the path
-    traffic_gap: float = nonnegative(unit="m")  # [m] 0: evenly spaced; > 0: one gap this long (centre to centre) per loop
+    traffic_gap: float = nonnegative(unit="m")  # [m] 0: none; > 0: one gap this long (centre to centre) per loop
 
     def smallest(self, key: str) -> float:
         """The smallest value numeric ``key`` can take in an episode: its ``randomize`` lower end, else its value."""

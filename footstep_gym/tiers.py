@@ -52,7 +52,8 @@ RULE_KEY = "rule"
 #:   train      each cell is a distribution written out (it must draw something: a ``randomize`` range);
 #:   shift      ``{base: TIER, band: F}``: a cell ``{shift: {KEY: up|down}}`` is the base tier's cell of the scene
 #:              with KEY's range [lo, hi] moved to the next band beyond it, [hi, hi + F (hi - lo)] (up) or
-#:              [lo - F (hi - lo), lo] (down); every range of the base cell is shifted by some cell;
+#:              [lo - F (hi - lo), lo] (down); every range of the base cell is shifted by some cell, or listed in
+#:              the rule's ``dropped: {SCENE/KEY: reason}`` (the oracle's or a null's validation score);
 #:   structure  ``{base: TIER}``: a cell ``{change: TEXT, set: {...}}`` is the base tier's cell of the scene plus the
 #:              keywords of a named structural change, none of which the base cell draws (its ranges stay);
 #:   noise      ``{profile: x-NAME}``: a cell ``{base: TIER/CELL}`` is that cell of the scene seen through the noise
@@ -198,10 +199,18 @@ def _tier_rule(rule: Any, where: str, earlier: Mapping[str, Tier], data: Mapping
     kind = rule["kind"]
     allowed = {"paper": {"kind"}, "train": {"kind"}, "shift": {"kind", "base", "band"},
                "structure": {"kind", "base"}, "noise": {"kind", "profile"}}[kind]
-    if set(rule) != allowed:
-        raise ConfigError(f"{where}: a {kind!r} rule has exactly the keys {', '.join(sorted(allowed))}, got "
+    optional = {"dropped"} if kind == "shift" else set()
+    if not allowed <= set(rule) <= allowed | optional:
+        raise ConfigError(f"{where}: a {kind!r} rule has the keys {', '.join(sorted(allowed))}"
+                          f"{' (and optionally ' + ', '.join(sorted(optional)) + ')' if optional else ''}, got "
                           f"{', '.join(sorted(rule))}")
     out = dict(rule)
+    dropped = rule.get("dropped", {})
+    if not isinstance(dropped, Mapping) or not all(
+            isinstance(k, str) and k.count("/") == 1 and isinstance(v, str) and v.strip() for k, v in dropped.items()):
+        raise ConfigError(f"{where}.dropped must map 'SCENE/KEY' to the reason (the oracle's or a null baseline's "
+                          f"validation score) the shifted cell was dropped, got {dropped!r}")
+    out["dropped"] = dict(dropped)
     if "base" in rule and rule["base"] not in earlier:
         raise ConfigError(f"{where}.base: {rule['base']!r} is no tier above this one; tiers above: "
                           f"{', '.join(earlier) or '(none)'}")
@@ -315,14 +324,19 @@ def derive_cell(rule: Mapping[str, Any], scene: str, entry: Mapping[str, Any], t
 
 def _check_every_axis_shifted(rule: Mapping[str, Any], scenes: Mapping[str, Mapping[str, TierCell]],
                               tiers: Mapping[str, Tier], where: str) -> None:
-    """A shift tier moves every range of its base: each scene's base ranges are each shifted by some cell."""
+    """A shift tier moves every range of its base: each scene's base ranges are each shifted by some cell, or listed
+    in the rule's ``dropped`` with the validation score that dropped the cell."""
     for scene, base_cells in tiers[rule["base"]].scenes.items():
         ranges = set(next(iter(base_cells.values())).kwargs.get("randomize") or {}) if len(base_cells) == 1 else set()
         mine = scenes.get(scene, {})
         base_ranges = next(iter(base_cells.values())).kwargs.get("randomize") or {}
         moved = {k for c in mine.values() for k in (c.kwargs.get("randomize") or {})
                  if k in ranges and c.kwargs["randomize"][k] != base_ranges[k]}
-        missing = sorted(ranges - moved)
+        dropped = {key.split("/")[1] for key in rule["dropped"] if key.split("/")[0] == scene}
+        both = sorted(moved & dropped)
+        if both:
+            raise ConfigError(f"{where}: {scene}'s {', '.join(both)} is shifted by a cell and listed as dropped")
+        missing = sorted(ranges - moved - dropped)
         if missing:
             raise ConfigError(f"{where}: the shift rule moves every range of {rule['base']}; no cell of scene "
                               f"{scene!r} shifts {', '.join(missing)}")

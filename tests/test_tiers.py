@@ -556,10 +556,13 @@ def test_each_cell_is_what_its_tiers_rule_makes_of_its_entry():
             tier, cell = entry["base"].split("/")
             want = {**tiers.plain(tiers.cells(scene, tier, cell)[0].kwargs), **noise}
             assert tiers.plain(tiers.cells(scene, "noise", name)[0].kwargs) == want, (scene, name)
-    # the shift tier moves every range of the train tier, each by one cell
+    # the shift tier moves every range of the train tier, each by one cell, unless the rule says why it dropped it
+    dropped = data["shifted"]["rule"].get("dropped", {})
     for scene in SCENES:
         shifted = {k for e in data["shifted"][scene].values() for k in e["shift"]}
-        assert shifted == set(_shifted_base(scene)["randomize"]), scene
+        gone = {k.split("/")[1] for k in dropped if k.startswith(scene + "/")}
+        assert shifted | gone == set(_shifted_base(scene)["randomize"]) and not shifted & gone, scene
+    assert all("oracle" in why or "null" in why for why in dropped.values())
 
 
 def test_next_band_is_the_band_just_beyond_the_range():
@@ -575,7 +578,9 @@ def test_next_band_is_the_band_just_beyond_the_range():
     (lambda d: d["shifted"]["rule"].update(base="noise"), ["'noise'", "no tier above"]),
     (lambda d: d["shifted"]["door"]["fast"].update(shift={"door_radius": "up"}), ["door_radius", "door_speed"]),
     (lambda d: d["shifted"]["door"]["fast"].update(shift={"door_speed": "sideways"}), ["sideways", "up", "down"]),
-    (lambda d: d["shifted"]["crossing"].pop("narrow_gap"), ["traffic_gap", "shift"]),
+    (lambda d: d["shifted"]["rule"].pop("dropped"), ["traffic_speed", "shift"]),
+    (lambda d: d["shifted"]["rule"]["dropped"].update({"door/door_speed": "x"}), ["door_speed", "dropped"]),
+    (lambda d: d["shifted"]["rule"].update(dropped={"crossing/traffic_speed": ""}), ["dropped", "reason"]),
     (lambda d: d["shifted"]["door"]["fast"].update(randomize={"door_speed": [20.0, 30.0]}), ["exactly", "shift"]),
     (lambda d: d["structure"]["door"]["any_phase"]["set"].update(randomize={"door_speed": [8.0, 9.0]}),
      ["door_speed", "draws"]),

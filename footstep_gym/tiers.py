@@ -4,7 +4,7 @@ Every scene env takes ``tier=`` at ``gymnasium.make`` (as Procgen's envs take
 ``distribution_mode``): ``"paper"`` (the default: today's fixed settings, the paper's scenes),
 ``"train"`` (each scene's training distribution), ``"shifted"`` (each training range moved to
 the next band beyond it), ``"structure"`` (the train tier's scenes with a named structural change:
-a second door, two-way traffic, a denser ring, reactive pedestrians) and ``"noise"`` (known scenes
+a second door, wider cars, reactive pedestrians, a denser ring) and ``"noise"`` (known scenes
 through the sensing-noise profile). The tiers are data, not code: each tier names the **rule** its
 cells follow (:data:`RULE_KINDS`) and holds, per scene, named **cells**, each made from its entry
 by that rule (:func:`derive_cell`) into a mapping of env keywords (any key of the scene's YAML,

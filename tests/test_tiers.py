@@ -680,6 +680,6 @@ def test_a_trainer_on_any_tier_takes_train_seeds():
     assert [next(stream) for _ in range(3)] == [first + 9998, first + 9999, first]
     env = gym.make("FootstepCrossing-v0", tier="noise")
     _, info = env.reset(seed=next(splits.train_seed_stream()))
-    assert info["tier_cell"] in ("train", "two_way")
+    assert info["tier_cell"] in ("train", "wide_cars")
     with pytest.raises(ValueError, match="train split"):
         next(splits.train_seed_stream(end))

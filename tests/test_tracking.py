@@ -247,7 +247,7 @@ def test_a_noise_free_episode_plans_the_same_commands_with_and_without_tracking(
 
 
 def test_a_noisy_episode_replays_command_for_command():
-    make = dict(tier="hard", tier_cell="noisy")
+    make = dict(tier="noise", tier_cell="train")
     first = _commands("period-aware", "FootstepDoor-v0", 10001, 6, **make)
     again = _commands("period-aware", "FootstepDoor-v0", 10001, 6, **make)
     untracked = _commands("period-aware-no-tracking", "FootstepDoor-v0", 10001, 6, **make)
@@ -317,7 +317,7 @@ def test_the_truth_scan_finds_what_it_looks_for(tmp_path):
 
 # ---------------------------------------------------------------- the agents' wrapper
 def test_the_slots_are_the_envs_own_on_the_sensed_views():
-    env = gym.make("FootstepCrowd-v0", tier="hard", tier_cell="noisy")
+    env = gym.make("FootstepCrowd-v0", tier="noise", tier_cell="train")
     obs, _ = env.reset(seed=5)
     for _ in range(3):
         cfg, snapshot = env.unwrapped.config, env.unwrapped.sensing()
@@ -328,9 +328,9 @@ def test_the_slots_are_the_envs_own_on_the_sensed_views():
 
 
 def test_the_wrapper_gives_the_planners_estimates_and_the_envs_observation_where_readings_are_exact():
-    for cell, noisy in (("two_doors", False), ("noisy", True)):
-        wrapped = TrackedObservation(gym.make("FootstepDoor-v0", tier="hard", tier_cell=cell))
-        raw = gym.make("FootstepDoor-v0", tier="hard", tier_cell=cell)
+    for tier, cell, noisy in (("structure", "two_doors", False), ("noise", "train", True)):
+        wrapped = TrackedObservation(gym.make("FootstepDoor-v0", tier=tier, tier_cell=cell))
+        raw = gym.make("FootstepDoor-v0", tier=tier, tier_cell=cell)
         assert wrapped.observation_space == raw.observation_space
         tracker = Tracker(PARAMS)
         obs, _ = wrapped.reset(seed=3)

@@ -105,10 +105,10 @@ AGENTS: dict[str, AgentEntry] = {
                                  "configs/rl/td3_sbx.yml) trained on the env evaluated", folder="td3"),
     "ppo-wide": AgentEntry("ppo", "PPO trained on a wider distribution, the train tier's ranges stretched over the "
                                   "shifted tier's (configs/rl/ppo-wide.yml)", folder="ppo-wide"),
-    "ppo-noisy": AgentEntry("ppo", "PPO trained on each scene sensed with the hard tier's noise (configs/rl/ppo-noisy.yml): "
-                                   "ppo-lstm's memoryless twin", folder="ppo-noisy"),
+    "ppo-noisy": AgentEntry("ppo", "PPO trained on each scene sensed with the noise tier's profile "
+                                   "(configs/rl/ppo-noisy.yml): ppo-lstm's memoryless twin", folder="ppo-noisy"),
     "ppo-lstm": AgentEntry("ppo_lstm", "RecurrentPPO (sb3-contrib, an LSTM policy) trained on each scene sensed with the "
-                                       "hard tier's noise (configs/rl/ppo-lstm.yml)", folder="ppo-lstm"),
+                                       "noise tier's profile (configs/rl/ppo-lstm.yml)", folder="ppo-lstm"),
     "sac-sb3": AgentEntry("sac", "the first SAC (stable-baselines3, configs/rl/sac.yml, hand-set, 60k steps on the "
                                  "door): a straw man kept for reference", folder="sac-sb3"),
     "td3-b2048": AgentEntry("td3_sbx", "TD3 (sbx) with the tuner's top trial (batch 2048; ~20x td3's wall time), one "

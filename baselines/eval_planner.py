@@ -10,6 +10,9 @@ Usage::
         --policy ppo --episodes 10 --split validation --out runs/door --workers 2
     python baselines/eval_planner.py --env crowd --crowd-speed 0.2 --agent runs/rl/ppo/FootstepCrowd-v0_1
     python baselines/eval_planner.py --benchmark --policy period-aware --out runs/bench   # one leaderboard row
+    python baselines/eval_planner.py --benchmark --policy my_walker:Walker --out runs/bench/walker   # your own
+    python baselines/eval_planner.py --benchmark --agent door=door.zip --agent crossing=crossing.zip \
+        --agent crowd=crowd.zip --algo ppo --name mine --out runs/bench/mine   # plain SB3 models, one per scene
 
 The sweep flags (``--door-speed``, ``--crowd-speed``) are the scenarios' ``sweep_axes``
 (``footstep_gym.scenarios``): a scenario's key ``door_speed`` is ``--door-speed``, one cell per
@@ -35,8 +38,9 @@ place only once it has finished: a run that fails or is interrupted leaves ``--o
   (in file names a user's agent ``agent:NAME`` is ``agent-NAME``);
 * ``summary.md`` (the table, definitions, the paper's numbers, the files) and ``run.json``.
 
-``--benchmark`` runs one policy (``--policy NAME``, or ``--agent PATH`` repeated over the training
-runs of one method, named with ``--name``) on every cell of every tier of every scene
+``--benchmark`` runs one policy (``--policy NAME``, a policy of one's own ``--policy module:attr``, or
+``--agent [SCENE=]PATH`` repeated over the training runs of one method, named with ``--name``) on every
+cell of every tier of every scene
 (``footstep_gym.evaluation.benchmark``; docs/benchmark.md) with the first ``--episodes`` seeds of
 the test split (100; ``--full``: 500), and writes ``benchmark.json`` (the protocol, one record per
 scene x tier x cell x training run, the records over runs, per tier the IQM with its
@@ -56,7 +60,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Callable, NoReturn, Sequence
 
-from footstep_gym import policies as registry
+from footstep_gym import registry
+from footstep_gym.rl.registry import AGENTS_DIR_ENV_VAR, default_agents_dir
 from footstep_gym.evaluation import benchmark
 from footstep_gym.evaluation.benchmark import BenchmarkSettings, run_benchmark
 from footstep_gym.evaluation.outfolder import check_out, run_into
@@ -108,12 +113,14 @@ def build_parser() -> argparse.ArgumentParser:
     quick, paper = PROFILES["quick"], PROFILES["paper"]
     names = registry.policy_names()
     width = max(len(n) for n in names)
-    listing = "\n".join(f"  {n:<{width}}  {registry.describe(n)}" for n in names)
+    listing = "\n".join(f"  {n:<{width}}  {registry.resolve(n).description}" for n in names)
     parser = argparse.ArgumentParser(
         prog="eval_planner.py", description=__doc__.split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog=f"policies (--policy):\n{listing}\n  <planner>-no-<switch>  a planner with one addition of "
-               f"configs/planner.yaml off (the ablation's variants)\n\nWithout options: the quick default (all envs, every policy, "
+               f"configs/planner.yaml off (the ablation's variants)\n  module:attr  a policy of your own: a "
+               f"footstep_gym.policy.Policy subclass built as attr(robot, seed), or a factory returning one"
+               f"\n\nWithout options: the quick default (all envs, every policy, "
                f"{quick.episodes} seeds of the test split"
                + "".join(f", {describe_sweep(quick, e)}" for e in quick.envs if describe_sweep(quick, e) != e)
                + "). An agent with no run shipped for an env is skipped there with a warning.",
@@ -121,13 +128,22 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--env", action="append", metavar="ENV",
                         help=f"{', '.join(SCENARIOS)} or a full id ({next(iter(SCENARIOS.values())).env_id}); "
                              "repeatable; default: all")
-    parser.add_argument("--policy", action="append", metavar="NAME", help="a policy listed below; repeatable")
-    parser.add_argument("--agent", action="append", metavar="PATH", type=Path,
-                        help="your own agent: a zoo run folder (.../ppo/FootstepDoor-v0_1) or a model .zip; "
-                             "repeatable; evaluated on every env given")
+    parser.add_argument("--policy", action="append", metavar="NAME",
+                        help="a policy listed below, or one of your own as module:attr; repeatable")
+    parser.add_argument("--agent", action="append", metavar="[SCENE=]PATH",
+                        help="your own agent: a zoo run folder (.../ppo/FootstepDoor-v0_1) or a stable-baselines3 / "
+                             "sbx model .zip; SCENE=PATH (door=..., crossing=..., crowd=...) for an agent of that "
+                             "scene only (a zoo run of one scene's env is that scene's); repeatable (one per training "
+                             "run and scene)")
+    parser.add_argument("--algo", metavar="ALGO",
+                        help="with --agent: the algorithm of a .zip without the zoo's args.yml (ppo, sac, td3, a2c, "
+                             "ddpg, sac_sbx, td3_sbx, ppo_lstm)")
+    parser.add_argument("--vecnormalize", action="append", metavar="FILE",
+                        help="with --agent: its VecNormalize statistics (.pkl) where they are not the zoo's; one per "
+                             "--agent, in their order")
     parser.add_argument("--agents-dir", type=Path, metavar="DIR",
-                        help=f"where the shipped agents are (default ${registry.AGENTS_DIR_ENV_VAR}, else "
-                             f"./baselines/agents in the working directory: {registry.default_agents_dir()})")
+                        help=f"where the shipped agents are (default ${AGENTS_DIR_ENV_VAR}, else "
+                             f"./baselines/agents in the working directory: {default_agents_dir()})")
     parser.add_argument("--profile", choices=sorted(PROFILES), help="defaults of a run (default quick)")
     parser.add_argument("--paper", action="store_true", help="same as --profile paper: "
                         f"{', '.join(describe_sweep(paper, e) for e in paper.envs)}, {paper.episodes} seeds, planners only")
@@ -196,7 +212,8 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings | BenchmarkSet
             return benchmark.benchmark_settings(
                 policies=args.policy, agents=args.agent, name=args.name, full=args.full, episodes=args.episodes,
                 envs=args.env, tiers=args.tier, out=args.out, workers=args.workers, backend=args.backend,
-                ray_address=args.ray_address, agents_dir=args.agents_dir)
+                ray_address=args.ray_address, agents_dir=args.agents_dir, algo=args.algo,
+                vecnormalize=args.vecnormalize)
         given = [flag for flag, value in (("--full", args.full), ("--tier", args.tier), ("--name", args.name)) if value]
         if given:
             parser.error(f"{', '.join(given)} {'goes' if len(given) == 1 else 'go'} with --benchmark only")
@@ -209,7 +226,8 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings | BenchmarkSet
             chosen.pop() if chosen else "quick", envs=args.env, policies=args.policy, agents=args.agent,
             agents_dir=args.agents_dir, episodes=args.episodes, split=args.split, offset=args.seed,
             sweeps={key: getattr(args, key) for key in sweep_axes()}, out=args.out, workers=args.workers,
-            backend=args.backend, ray_address=args.ray_address, figures=not args.no_figures, video=args.video)
+            backend=args.backend, ray_address=args.ray_address, figures=not args.no_figures, video=args.video,
+            algo=args.algo, vecnormalize=args.vecnormalize)
     except OptionError as exc:
         parser.error(str(exc))
 

@@ -29,8 +29,8 @@ if MIX_ENV_ID not in registry:
 __all__ = ["ENV_IDS", "MIX_ENV_ID", "ActionError", "ConfigError", "FootstepGymError", "resolve_env_id",
            "__version__"]
 
-# The one factory of policies, planners and trained agents alike (footstep_gym/policies.py; the interface is
-# footstep_gym.policy.Policy). Light: the planners' kernels and torch load only when a policy is made.
-from footstep_gym.policies import make_policy  # noqa: E402
+# The one factory of policies, planners, trained agents and imported ones alike (footstep_gym/registry.py; the
+# interface is footstep_gym.policy.Policy). Light: the planners, footstep_gym.rl and torch load only when needed.
+from footstep_gym.registry import make_policy  # noqa: E402
 
 __all__ += ["make_policy"]

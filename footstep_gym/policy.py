@@ -14,7 +14,25 @@
 
 The planners (:mod:`footstep_gym.planners`) read only the sensing snapshot; a trained agent
 (:class:`footstep_gym.rl.ZooAgent`) reads only the observation. Both subclass :class:`Policy`;
-:func:`footstep_gym.make_policy` builds either by name (:mod:`footstep_gym.policies`).
+:func:`footstep_gym.make_policy` builds either by name (:mod:`footstep_gym.registry`).
+
+A policy of one's own needs no registration: a :class:`Policy` subclass whose constructor takes
+``(robot, seed)`` (the env's :class:`~footstep_gym.robot.Robot` and the episode's seed), or a
+factory ``(robot, seed) -> Policy``, in a module ``mymodule`` runs as
+``eval_planner.py --benchmark --policy mymodule:MyPolicy``, and any callable
+``observation -> action`` through :func:`footstep_gym.benchmark.evaluate`::
+
+    class Walker(Policy):
+        def __init__(self, robot, seed=None):
+            super().__init__()
+            self.command = robot.nominal_command.copy()
+            self.command[0] = 0.04  # a 4 cm stride, blind: a null baseline
+
+        def reset(self, seed=None):
+            self.last_info = {}
+
+        def act(self, observation, snapshot):
+            return self.command
 """
 
 from __future__ import annotations
@@ -35,6 +53,10 @@ class Policy(ABC):
     ``(5,)``; the env reads it in its own dtype, see ``FootstepEnv``'s "Action Space") and
     leaves a dict ``last_info`` describing the step. ``name`` is the registry name the
     policy was made under (:func:`footstep_gym.make_policy`).
+
+    How a policy is constructed is its maker's business: the registered planners are built as
+    ``cls(robot, config, seed, name)`` (:class:`footstep_gym.planners.PolicySpec`), a policy of
+    one's own given as ``module:attr`` as ``attr(robot, seed)`` (:mod:`footstep_gym.registry`).
     """
 
     name: str = ""

@@ -424,17 +424,17 @@ def test_an_agent_folder_without_a_model_is_refused_up_front(tmp_path):
 
 def test_a_run_that_fails_midway_leaves_out_as_it_was(tmp_path, monkeypatch, capsys):
     """The second episode's policy fails: the earlier run's files are all still there, nothing half-written."""
-    from footstep_gym import policies
+    from footstep_gym import registry
 
     script = load_script("eval_planner")
-    real = policies.make_policy
+    real = registry.make_policy
 
     def failing(name, robot=None, seed=None, **kwargs):
         if seed == FIRST_TEST_SEED + 1:
             raise RuntimeError("simulated failure")
         return real(name, robot, seed=seed, **kwargs)
 
-    monkeypatch.setattr(policies, "make_policy", failing)
+    monkeypatch.setattr(registry, "make_policy", failing)
     out = tmp_path / "eval"
     before = _earlier_run(out)
     code = script.main(["--env", "crossing", "--policy", FASTEST_POLICY, "--episodes", "2", "--workers", "1",

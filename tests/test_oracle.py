@@ -24,12 +24,13 @@ import numpy as np
 import pytest
 
 import footstep_gym  # noqa: F401  (registers the envs)
-from footstep_gym import make_policy, policies
+from footstep_gym import make_policy
 from footstep_gym.evaluation.runner import Cell, Task, bind_truth, run_episode
 from footstep_gym.kernels import select_kernels
 from footstep_gym.planners import POLICIES
 from footstep_gym.planners.oracle import OraclePlanner, TruthBody, TruthModel, TruthPredictor, true_snapshot
 from footstep_gym.policy import Policy
+from footstep_gym.registry import resolve
 from footstep_gym.rl import AGENTS, ZooAgent
 
 REPO = Path(__file__).resolve().parents[1]
@@ -49,13 +50,13 @@ NOISE = dict(sensing_noise_position=0.02, sensing_noise_velocity=0.05, sensing_n
 def test_the_oracle_is_registered_as_an_upper_bound_and_alone_in_reading_the_truth():
     spec = POLICIES["oracle"]
     assert spec.planner is OraclePlanner and spec.description.startswith("UPPER BOUND, not a baseline")
-    assert policies.describe("oracle") == spec.description and policies.reads_truth("oracle")
+    assert resolve("oracle").description == spec.description and resolve("oracle").reads_truth
     assert spec.readings["kernels"] == {"compiled": False}  # numpy: the compiled kernels assume constant velocity
     readers = [name for name, s in POLICIES.items() if getattr(s.planner, "reads_truth", False)]
     assert readers == ["oracle"]
-    assert not any(policies.reads_truth(name) for name in AGENTS)
+    assert not any(resolve(name).reads_truth for name in AGENTS)
     assert not hasattr(Policy, "reads_truth") and not hasattr(ZooAgent, "reads_truth")
-    assert not policies.reads_truth("period-aware-no-fallback") and not policies.reads_truth("agent:mine")
+    assert not resolve("period-aware-no-fallback").reads_truth and not resolve("agent:mine").reads_truth
 
 
 def test_the_oracle_refuses_to_act_unbound_and_the_compiled_kernels():

@@ -69,7 +69,7 @@ def test_recording_section_records_reads_and_method_reads():
 
 def test_every_key_of_planner_yaml_is_read_by_the_planners():
     """Construct each registered policy with a recording config and plan a few steps in each scene."""
-    from footstep_gym.policies import reads_truth
+    from footstep_gym.registry import resolve
 
     seen: set[str] = set()
     base = load_planner_config()
@@ -81,7 +81,7 @@ def test_every_key_of_planner_yaml_is_read_by_the_planners():
                            ("FootstepDoor-v0", {"tier": "noise", "tier_cell": "train"})):
         env = gym.make(env_id, **kwargs)
         for name, config in runs:
-            if reads_truth(name):  # the oracle acts only bound to its env's truth, on the numpy route (its own tests)
+            if resolve(name).reads_truth:  # the oracle acts only bound to its truth, on the numpy route (its own tests)
                 continue
             if name.startswith("null-"):  # the null baselines read no config (tests/test_null_baselines.py)
                 continue

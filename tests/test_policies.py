@@ -1,22 +1,27 @@
-"""One policy interface and one factory (issue 18 §2): ``footstep_gym.policy.Policy``, ``footstep_gym.make_policy``.
+"""One policy interface, one factory, one registry of names: ``footstep_gym.policy.Policy``,
+``footstep_gym.make_policy``, ``footstep_gym.registry.resolve``.
 
 Every name is listed once with its description: planners in ``footstep_gym.planners.POLICIES`` (``PolicySpec``),
-agents in ``footstep_gym.rl.AGENTS`` (``AgentEntry``). No module reaches into another's private helpers.
+agents in ``footstep_gym.rl.registry.AGENTS`` (``AgentEntry``); a name resolves once into a ``PolicyEntry``.
+``import footstep_gym`` imports no RL code. No module reaches into another's private helpers.
 """
 
 from __future__ import annotations
 
 import ast
 import importlib.util
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 import footstep_gym
-from footstep_gym import make_policy, policies
+from footstep_gym import make_policy, registry
 from footstep_gym.planners import POLICIES, PolicySpec
 from footstep_gym.policy import Policy
 from footstep_gym.rl import AGENTS, AgentEntry, ZooAgent
+from footstep_gym.registry import resolve
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -25,12 +30,13 @@ def test_one_factory_and_one_interface():
     import footstep_gym.evaluation as evaluation
     import footstep_gym.planners as planners
 
-    assert footstep_gym.make_policy is policies.make_policy and "make_policy" in footstep_gym.__all__
+    assert footstep_gym.make_policy is registry.make_policy and "make_policy" in footstep_gym.__all__
     for package in (planners, evaluation):
         assert not hasattr(package, "make_policy") and "make_policy" not in package.__all__
     assert "Policy" not in planners.__all__  # the interface lives in footstep_gym.policy
     for gone in ("footstep_gym.training", "footstep_gym.evaluation.policies", "footstep_gym.evaluation.agents"):
         assert importlib.util.find_spec(gone) is None, gone  # RL code is in footstep_gym.rl
+    assert not (REPO / "footstep_gym" / "policies.py").exists()  # the names' registry is footstep_gym/registry.py
     assert issubclass(ZooAgent, Policy)
     for spec in POLICIES.values():
         assert issubclass(spec.planner, Policy)
@@ -38,22 +44,28 @@ def test_one_factory_and_one_interface():
 
 def test_every_name_is_listed_once_with_a_description():
     assert not set(POLICIES) & set(AGENTS)
-    assert policies.policy_names() == (*POLICIES, *AGENTS)
+    assert registry.policy_names() == (*POLICIES, *AGENTS)
     for name, spec in POLICIES.items():
-        assert isinstance(spec, PolicySpec) and spec.description and policies.describe(name) == spec.description
-    for name, entry in AGENTS.items():
-        assert isinstance(entry, AgentEntry) and entry.description and policies.describe(name) == entry.description
+        entry = resolve(name)
+        assert isinstance(spec, PolicySpec) and spec.description and entry.description == spec.description
+        assert (entry.kind, entry.spec, entry.reads_truth) == ("planner", spec, name == "oracle")
+        assert entry.label == (f"{name} (upper bound)" if name == "oracle" else name)
+    for name, agent in AGENTS.items():
+        entry = resolve(name)
+        assert isinstance(agent, AgentEntry) and agent.description and entry.description == agent.description
+        assert (entry.kind, entry.agent, entry.reads_truth, entry.is_agent) == ("agent", agent, False, True)
     assert AGENTS["ppo-fixed-period"].algo == "ppo" and AGENTS["ppo-fixed-period"].folder == "ppo-fixed-period"
     assert AGENTS["ppo-all"].folder == "ppo" and AGENTS["ppo-all"].trained_on == "FootstepMix-v0"
-    assert policies.describe("period-aware-no-fallback") == "period-aware with the addition fallback off"
-    assert policies.describe("paper-period-aware-t0-0.3") == "paper-period-aware with T0 fixed at 0.3 s"
+    assert resolve("period-aware-no-fallback").description == "period-aware with the addition fallback off"
+    assert resolve("paper-period-aware-t0-0.3").description == "paper-period-aware with T0 fixed at 0.3 s"
+    assert resolve("agent:mine").kind == "user-agent" and resolve("period-aware") is resolve("period-aware")
 
 
 @pytest.mark.parametrize("name", [*POLICIES, "period-aware-no-waiting-walks", "fixed-period-no-fallback",
                                   "paper-period-aware-t0-0.25"])
 def test_the_factory_makes_every_planner_and_variant(name):
     policy = make_policy(name, seed=0)
-    assert isinstance(policy, Policy) and policy.name == name and policies.is_policy(name)
+    assert isinstance(policy, Policy) and policy.name == name and resolve(name).kind == "planner"
     assert policy.last_info == {}
 
 
@@ -71,17 +83,17 @@ def test_the_factory_takes_a_robot_profile_and_planner_options():
     (lambda: make_policy("teleport"), r"unknown policy 'teleport'; known: .*period-aware-no-waiting-walks.*"
                                       r"paper-period-aware-t0-0.3.*trained agents \(with run=\): ppo, ppo-all, sac, "
                                       r"ppo-fixed-period, td3, ppo-wide, ppo-noisy, ppo-lstm, sac-sb3, td3-b2048, "
-                                      r"or agent:NAME with run=PATH"),
+                                      r"or agent:NAME with run=PATH; or a policy of your own as module:attr"),
     (lambda: make_policy("ppo"), r"policy 'ppo' is a trained agent: pass run= .*agent_runs\('ppo', env_id\)"),
     (lambda: make_policy("agent:mine"), r"policy 'agent:mine' is a trained agent: pass run="),
     (lambda: make_policy("ppo", run="x", rrt_iterations=5), r"planner options \['rrt_iterations'\] do not apply"),
     (lambda: make_policy("period-aware", run="x"), r"'period-aware' is a planner; run= is for trained agents"),
-    (lambda: policies.describe("nonsense"), r"unknown policy 'nonsense'"),
+    (lambda: resolve("nonsense"), r"unknown policy 'nonsense'"),
+    (lambda: make_policy("period-aware", algo="ppo"), r"not a trained agent; \['algo'\] do not apply"),
 ])
 def test_the_factory_says_what_is_wrong(call, message):
     with pytest.raises(ValueError, match=message):
         call()
-    assert not policies.is_policy("teleport") and policies.is_policy("ppo-fixed-period")
 
 
 def test_a_shipped_agent_is_made_by_the_same_factory():
@@ -91,6 +103,49 @@ def test_a_shipped_agent_is_made_by_the_same_factory():
     agent = make_policy("ppo", seed=3, run=run)
     assert isinstance(agent, ZooAgent) and agent.name == "ppo" and not agent.fixed_period
     assert make_policy("agent:mine", run=run).name == "agent:mine"
+
+
+def test_importing_the_package_imports_no_rl_code():
+    """``import footstep_gym`` (envs and the policy factory) loads neither footstep_gym.rl nor torch, SB3 or JAX:
+    checked in a fresh interpreter, as a user's first import."""
+    code = ("import sys, footstep_gym; footstep_gym.make_policy; "
+            "print(sorted(m for m in sys.modules if m.startswith('footstep_gym.rl') or m.split('.')[0] in "
+            "('torch', 'stable_baselines3', 'sb3_contrib', 'sbx', 'jax', 'rl_zoo3')))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[]", proc.stdout
+    # ... and the check sees RL code when it is there
+    proc = subprocess.run([sys.executable, "-c", "import footstep_gym.rl.registry; " + code], capture_output=True,
+                          text=True, timeout=120, cwd=REPO)
+    assert "footstep_gym.rl.registry" in proc.stdout, proc.stdout
+
+
+def test_the_agents_registry_sits_below_what_it_lists():
+    """rl/registry.py imports neither the loader nor the training; they import it (no cycle)."""
+    tree = ast.parse((REPO / "footstep_gym" / "rl" / "registry.py").read_text(encoding="utf-8"))
+    imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)} | {
+        a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    assert not {m for m in imported if m and m.startswith("footstep_gym")}, imported
+    for module in ("agents", "training"):
+        text = (REPO / "footstep_gym" / "rl" / f"{module}.py").read_text(encoding="utf-8")
+        assert "from footstep_gym.rl.agents import AGENTS" not in text
+
+
+def test_a_planner_spec_checks_its_class_can_be_built():
+    class TwoArgs(Policy):
+        def __init__(self, robot, seed=None):
+            super().__init__()
+
+        def reset(self, seed=None):
+            pass
+
+        def act(self, observation, snapshot):
+            return None
+
+    with pytest.raises(TypeError, match=r"cannot be built as TwoArgs\(robot, config, seed, name\).*module:attr"):
+        PolicySpec(TwoArgs)
+    with pytest.raises(TypeError, match="not a footstep_gym.policy.Policy subclass"):
+        PolicySpec(dict)
 
 
 # ---------------------------------------------------------------- no private helpers across modules

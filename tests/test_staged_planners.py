@@ -109,15 +109,15 @@ def test_with_names_switch_one_addition_on_in_the_papers_planner():
     from footstep_gym import make_policy
     from footstep_gym.planners import ablation_variants
     from footstep_gym.planners.params import AdditionsParams
-    from footstep_gym.policies import describe, is_policy
+    from footstep_gym.registry import resolve
 
     switches = [f.name for f in dataclasses.fields(AdditionsParams)]
     paper = make_policy("paper-period-aware").config
     names = ablation_variants()[len(switches) + 2:]
     assert len(names) == len(switches)
     for switch, name in zip(switches, names):
-        assert name == "paper-period-aware-with-" + switch.replace("_", "-") and is_policy(name)
-        assert describe(name) == f"paper-period-aware with the addition {switch} on"
+        assert name == "paper-period-aware-with-" + switch.replace("_", "-") and resolve(name).kind == "planner"
+        assert resolve(name).description == f"paper-period-aware with the addition {switch} on"
         policy = make_policy(name, seed=0)
         assert policy.name == name and policy.vary_period
         on = [s for s in switches if getattr(policy.config.additions, s)]

@@ -21,10 +21,13 @@ thin front-end to this module:
 * :func:`benchmark_document` and :func:`markdown`: ``benchmark.json`` and ``benchmark.md``;
 * :class:`BenchmarkSettings` (:func:`benchmark_settings` checks a run's options), :func:`run_benchmark`
   and :func:`write_benchmark`: a whole run into a temporary folder that replaces ``--out`` once
-  finished (:mod:`footstep_gym.evaluation.outfolder`).
+  finished (:mod:`footstep_gym.evaluation.outfolder`);
+* :func:`evaluate`: the same for any callable ``observation -> action`` (the library's way in,
+  ``footstep_gym.benchmark.evaluate``).
 
-A policy that reads the true future (``oracle``, :func:`footstep_gym.policies.reads_truth`) is an
-upper bound: its records carry ``upper_bound: true`` and the tables call it "NAME (upper bound)".
+The policy's name is resolved once (:func:`footstep_gym.registry.resolve`) and its entry travels
+with the settings. A policy that reads the true future (``oracle``) is an upper bound: its records
+carry ``upper_bound: true`` and the tables call it "NAME (upper bound)".
 """
 
 from __future__ import annotations
@@ -41,13 +44,14 @@ from typing import Any, Callable, Mapping, NoReturn, Sequence
 import pandas as pd
 
 import footstep_gym
-from footstep_gym import policies as registry
+from footstep_gym import registry
 from footstep_gym.evaluation import report
 from footstep_gym.evaluation.outfolder import check_out, run_into
 from footstep_gym.evaluation.outputs import command_line
 from footstep_gym.evaluation.profiles import OptionError, unique, usable_cores
-from footstep_gym.evaluation.report import policy_label, upper_bound
-from footstep_gym.evaluation.runner import WARMUP_ACTS, Cell, Task, check_cells, run_tasks
+from footstep_gym.evaluation.runner import (WARMUP_ACTS, Cell, PolicyFactory, Task, check_cells, default_factory,
+                                            run_tasks)
+from footstep_gym.evaluation.submission import AgentArg, CallableFactory, SubmissionError, parse_agents, runs_by_env
 from footstep_gym.evaluation.splits import PROTOCOL_VERSION, split_seeds
 from footstep_gym.evaluation.records import CellRecord, cell_record, over_runs
 from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, iqm_over_tasks, score_matrix
@@ -131,8 +135,9 @@ def is_complete(cells: Sequence[BenchmarkCell]) -> bool:
 
 
 # ---------------------------------------------------------------- what runs
-#: ``runs(env_id) -> [run, ...]``: the training runs of an agent for an env (``[None]``: a planner, one "run").
-RunsOf = Callable[[str], Sequence[str | None]]
+#: ``runs(env_id) -> [run, ...]``: the training runs of an agent for an env, each a path or an
+#: :class:`~footstep_gym.evaluation.submission.AgentArg` (``[None]``: a planner, one "run").
+RunsOf = Callable[[str], Sequence["str | AgentArg | None"]]
 
 
 def runner_cells(cells: Sequence[BenchmarkCell], policy: str, runs_of: RunsOf | None = None
@@ -146,7 +151,11 @@ def runner_cells(cells: Sequence[BenchmarkCell], policy: str, runs_of: RunsOf | 
     owners: list[BenchmarkCell] = []
     for bc in cells:
         for run in (runs_of(bc.env_id) if runs_of is not None else [None]):
-            out.append(Cell(bc.env_id, bc.scene, policy, bc.selector, run=None if run is None else str(run)))
+            if isinstance(run, AgentArg):
+                out.append(Cell(bc.env_id, bc.scene, policy, bc.selector, run=run.path, algo=run.algo,
+                                vecnormalize=run.vecnormalize))
+            else:
+                out.append(Cell(bc.env_id, bc.scene, policy, bc.selector, run=None if run is None else str(run)))
             owners.append(bc)
     return out, owners
 
@@ -162,15 +171,16 @@ def tasks(cells: Sequence[Cell], episodes: int) -> list[Task]:
 
 
 # ---------------------------------------------------------------- records and aggregates
-def cell_records(cells: Sequence[Cell], owners: Sequence[BenchmarkCell], results: Sequence[EpisodeResult]
-                 ) -> list[CellRecord]:
-    """One record per runner cell (scene x tier x cell x policy x training run), in the cells' order."""
+def cell_records(cells: Sequence[Cell], owners: Sequence[BenchmarkCell], results: Sequence[EpisodeResult],
+                 reads_truth: bool = False) -> list[CellRecord]:
+    """One record per runner cell (scene x tier x cell x policy x training run), in the cells' order;
+    ``reads_truth``: the policy's (its records' ``upper_bound``)."""
     by_cell: dict[int, list[EpisodeResult]] = {}
     for r in results:
         by_cell.setdefault(r.cell_index, []).append(r)
     return [cell_record(c.env_id, c.scenario, c.policy, c.params_dict, by_cell.get(i, []), run=c.run_name,
                         scene=bc.scene, tier=bc.tier, cell=bc.name, env_kwargs=dict(bc.env_kwargs),
-                        upper_bound=upper_bound(c.policy))
+                        upper_bound=reads_truth)
             for i, (c, bc) in enumerate(zip(cells, owners))]
 
 
@@ -250,15 +260,13 @@ def source_commit() -> str | None:
     return head.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
 
 
-def benchmark_document(policy: str, cells: Sequence[BenchmarkCell], records: Sequence[CellRecord],
+def benchmark_document(entry: registry.PolicyEntry, cells: Sequence[BenchmarkCell], records: Sequence[CellRecord],
                        episodes: int, run_info: Mapping[str, Any]) -> dict[str, Any]:
     """What ``benchmark.json`` holds: the protocol, the per-run records, their summary over runs, the aggregates."""
-    from footstep_gym import policies
-
     return {
         "benchmark": "footstep_gym", "protocol_version": PROTOCOL_VERSION, "footstep_gym": footstep_gym.__version__,
-        "policy": policy, "label": policy_label(policy), "upper_bound": upper_bound(policy),
-        "description": policies.describe(policy) if policies.is_policy(policy) else "a user's trained agent",
+        "policy": entry.name, "label": entry.label, "upper_bound": entry.reads_truth,
+        "description": entry.description,
         "complete": is_complete(cells),
         "protocol": {
             "split": SPLIT, "episodes_per_cell": episodes, "seeds": seeds(episodes),
@@ -344,11 +352,12 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
 # ---------------------------------------------------------------- a run (eval_planner.py --benchmark)
 @dataclass(frozen=True)
 class BenchmarkSettings:
-    """A ``--benchmark`` run: one method (a policy name and, for an agent, its training runs per env id) on the
-    benchmark's cells (``scenes`` / ``tiers``: ``None`` for all of them)."""
+    """A ``--benchmark`` run: one method (its resolved :class:`~footstep_gym.registry.PolicyEntry` and, for an
+    agent, its training runs per env id) on the benchmark's cells (``scenes`` / ``tiers``: ``None`` for all of
+    them); ``factory`` makes each episode's policy (the registry's, or a callable's: :func:`evaluate`)."""
 
-    policy: str
-    runs: dict[str, tuple[str, ...]] | None  # env id -> training runs; None: a planner
+    entry: registry.PolicyEntry
+    runs: dict[str, tuple[str | AgentArg, ...]] | None  # env id -> training runs; None: not an agent
     scenes: tuple[str, ...] | None
     tiers: tuple[str, ...] | None
     episodes: int
@@ -356,22 +365,33 @@ class BenchmarkSettings:
     workers: int
     backend: str
     ray_address: str | None
+    factory: PolicyFactory = default_factory
+
+    @property
+    def policy(self) -> str:
+        return self.entry.name
 
     @property
     def cells(self) -> list[BenchmarkCell]:
         return benchmark_cells(self.scenes, self.tiers)
 
 
-def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[Path] | None, name: str | None,
+def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str | Path] | None, name: str | None,
                        full: bool, episodes: int | None, envs: Sequence[str] | None, tiers: Sequence[str] | None,
                        out: Path, workers: int | None, backend: str, ray_address: str | None,
-                       agents_dir: Path | None) -> BenchmarkSettings:
+                       agents_dir: Path | None, algo: str | None = None,
+                       vecnormalize: Sequence[str] | None = None) -> BenchmarkSettings:
     """A run's settings from its options, checked: the first bad one raises
-    :class:`~footstep_gym.evaluation.profiles.OptionError` (one line; nothing is run or written)."""
+    :class:`~footstep_gym.evaluation.profiles.OptionError` (one line; nothing is run or written).
+
+    ``agents``: ``--agent`` values, ``PATH`` or ``SCENE=PATH`` (:func:`~footstep_gym.evaluation.submission.
+    parse_agents`; ``algo`` and ``vecnormalize`` for plain ``.zip`` files)."""
     named = list(policies or [])
     if bool(named) == bool(agents) or len(named) > 1:
-        raise OptionError("--benchmark evaluates one method: give one --policy NAME, or --agent PATH (repeated for "
-                          "its training runs)")
+        raise OptionError("--benchmark evaluates one method: give one --policy NAME, or --agent [SCENE=]PATH "
+                          "(repeated for its training runs)")
+    if (algo or vecnormalize) and not agents:
+        raise OptionError("--algo and --vecnormalize go with --agent")
     if name and not agents:
         raise OptionError("--name names an --agent's method")
     if full and episodes not in (None, FULL_EPISODES):
@@ -386,44 +406,52 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[Path]
         raise OptionError(str(exc)) from None
     if ray_address and backend != "ray":
         raise OptionError("--ray-address needs --backend ray")
-    env_ids = sorted({c.env_id for c in cells})
-    runs: dict[str, tuple[str, ...]] | None = None
+    env_ids = list(dict.fromkeys(c.env_id for c in cells))
+    runs: dict[str, tuple[str | AgentArg, ...]] | None = None
     if agents:
-        for path in agents:
-            if not path.exists():
-                raise OptionError(f"--agent {path}: no such file or folder")
-        first = agents[0]
-        label = name or (first.stem if first.suffix == ".zip" else first.name)
-        policy = f"{registry.USER_AGENT_PREFIX}{label}"
-        paths = tuple(str(p.resolve()) for p in unique(agents))
-        runs = {env_id: paths for env_id in env_ids}
+        try:
+            parsed = parse_agents([str(a) for a in agents], algo, vecnormalize)
+            runs = runs_by_env(parsed, env_ids)
+        except SubmissionError as exc:
+            raise OptionError(str(exc)) from None
+        entry = registry.resolve(f"{registry.USER_AGENT_PREFIX}{name or parsed[0].label}")
     else:
-        policy = named[0]
-        if not registry.is_policy(policy):
-            raise OptionError(f"unknown policy {policy!r}; choose from {', '.join(registry.policy_names())}")
-        if policy in registry.AGENTS:
-            runs = {env_id: tuple(str(r) for r in registry.agent_runs(policy, env_id, agents_dir))
-                    for env_id in env_ids}
+        try:
+            entry = registry.resolve(named[0])
+        except ValueError as exc:
+            raise OptionError(str(exc) if isinstance(exc, registry.PolicyLoadError) else
+                              f"unknown policy {named[0]!r}; choose from {', '.join(registry.policy_names())}, or "
+                              "give a policy of your own as module:attr") from None
+        if entry.kind == "agent":
+            from footstep_gym.rl.registry import agent_runs, missing_agents_note
+
+            runs = {env_id: tuple(str(r) for r in agent_runs(entry.name, env_id, agents_dir)) for env_id in env_ids}
             missing = [env_id for env_id, found in runs.items() if not found]
             if missing:
-                raise OptionError(f"{policy}: no training run for {', '.join(missing)} "
-                                  f"({registry.missing_agents_note({policy: missing}, agents_dir)}); a benchmark "
+                raise OptionError(f"{entry.name}: no training run for {', '.join(missing)} "
+                                  f"({missing_agents_note({entry.name: missing}, agents_dir)}); a benchmark "
                                   "row needs every scene (--env restricts it: a partial run)")
-    return BenchmarkSettings(policy=policy, runs=runs, scenes=scenes, tiers=tiers, episodes=episodes, out=out,
+    return BenchmarkSettings(entry=entry, runs=runs, scenes=scenes, tiers=tiers, episodes=episodes, out=out,
                              workers=workers or usable_cores(), backend=backend, ray_address=ray_address)
 
 
 def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell],
                     owners: list[BenchmarkCell], results: list[EpisodeResult], wall_s: float,
-                    argv: Sequence[str]) -> tuple[str, list[Path]]:
-    """``benchmark.json``, ``benchmark.md``, ``episodes.csv`` and ``run.json`` of a finished run, into ``folder``."""
-    command = command_line(argv)
+                    argv: Sequence[str], command: str | None = None) -> tuple[str, list[Path]]:
+    """``benchmark.json``, ``benchmark.md``, ``episodes.csv`` and ``run.json`` of a finished run, into ``folder``
+    (``command``: how it was run, default ``eval_planner.py`` with ``argv``)."""
+    command = command or command_line(argv)
     run_info = {"command": command, "mode": "benchmark", "policy": settings.policy,
                 "episodes": settings.episodes, "split": SPLIT, "workers": settings.workers,
                 "backend": settings.backend, "wall_time_s": round(wall_s, 2), "cpu_count": os.cpu_count(),
                 "agent_runs": sorted({c.run for c in cells if c.run})}
-    records = cell_records(cells, owners, results)
-    doc = benchmark_document(settings.policy, settings.cells, records, settings.episodes, run_info)
+    source = settings.entry.source
+    if source is not None:  # a policy of one's own: where it came from, and which version of it
+        run_info["policy_source"] = {"import_path": source.path, "file": source.file, "sha256": source.sha256}
+    if isinstance(settings.factory, CallableFactory):
+        run_info["policy_source"] = {"callable": settings.factory.name, "pickle_sha256": settings.factory.key}
+    records = cell_records(cells, owners, results, settings.entry.reads_truth)
+    doc = benchmark_document(settings.entry, settings.cells, records, settings.episodes, run_info)
     text = markdown(doc, command)
     files = [folder / "benchmark.json", folder / "benchmark.md", folder / "episodes.csv", folder / "run.json"]
     files[0].write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
@@ -442,7 +470,7 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
     runs = settings.runs
     cells, owners = runner_cells(settings.cells, settings.policy,
                                  None if runs is None else (lambda env_id: runs.get(env_id, ())))
-    problem = check_cells(cells) or check_out(settings.out)
+    problem = check_cells(cells, factory=settings.factory) or check_out(settings.out)
     if problem:
         refuse(problem)
     all_tasks = tasks(cells, settings.episodes)
@@ -454,9 +482,78 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
 
     def work(folder: Path) -> tuple[str, list[Path], str]:
         t0 = time.perf_counter()
-        results = run_tasks(all_tasks, workers, backend=settings.backend, address=settings.ray_address)
+        results = run_tasks(all_tasks, workers, backend=settings.backend, address=settings.ray_address,
+                            factory=settings.factory)
         wall = time.perf_counter() - t0
         row, files = write_benchmark(folder, settings, cells, owners, results, wall, argv)
         return row, files, f"{len(results)} episodes in {wall:.1f} s"
 
     return run_into(settings.out, "the benchmark", "benchmark.md: every cell", work)
+
+
+# ---------------------------------------------------------------- the library's way in
+def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str | Path, snapshot: bool = False,
+             episodes: int = EPISODES, scenes: Sequence[str] | None = None, tiers: Sequence[str] | None = None,
+             workers: int | None = None, backend: str = "local", ray_address: str | None = None) -> dict[str, Any]:
+    """Run the benchmark for any policy and write ``benchmark.json`` (and ``benchmark.md``, ``episodes.csv``,
+    ``run.json``) to ``out``, as ``eval_planner.py --benchmark`` does; returns the ``benchmark.json`` document.
+
+    Args:
+        make_policy_fn: ``make_policy_fn(scene, seed)`` called once per episode in the worker that runs it
+            (``scene``: ``door``, ``crossing``, ``crowd``; ``seed``: the episode's), returning a
+            :class:`~footstep_gym.policy.Policy` or any callable ``observation -> action`` (with
+            ``snapshot=True``: ``(observation, snapshot) -> action``, the snapshot being
+            ``env.unwrapped.sensing()``), the action the footstep command ``[S, L, θ, T_SS, T_DS]``
+            in SI units (a numpy array, a torch tensor or a JAX array). It goes to the workers pickled
+            with cloudpickle, its own module by value, so it may be a closure or a lambda.
+        name: the method's name in the tables.
+        out: the output folder (an earlier run's files there are replaced once this run has finished).
+        episodes: seeds per cell (:data:`EPISODES`; :data:`FULL_EPISODES` for a full run).
+        scenes, tiers: only these (a partial run, no leaderboard row); ``None``: every one.
+        workers, backend, ray_address: as ``eval_planner.py``'s ``--workers``, ``--backend``, ``--ray-address``.
+
+    Raises ``ValueError`` (one line) before anything runs for a bad option or a policy that cannot be built
+    or returns no 5-number command on the first cell's first observation;
+    :class:`~footstep_gym.evaluation.runner.PolicyFailed` if it fails in an episode (``out`` is then left as
+    it was).
+    """
+    from footstep_gym.evaluation.outfolder import commit_out, new_run_folder
+
+    if not name or not isinstance(name, str):
+        raise ValueError("evaluate: name= the method's name in the tables")
+    if not callable(make_policy_fn):
+        raise ValueError(f"evaluate: make_policy_fn must be callable, got {type(make_policy_fn).__name__}")
+    out = Path(out)
+    try:
+        cells = benchmark_cells(scenes, tiers)
+        split_seeds(SPLIT, episodes)
+    except ValueError as exc:
+        raise ValueError(f"evaluate: {exc}") from None
+    if backend == "local" and ray_address is not None:
+        raise ValueError("evaluate: ray_address needs backend='ray'")
+    factory = CallableFactory(make_policy_fn, name, snapshot)
+    entry = registry.PolicyEntry(name, "callable", f"{name}: a callable evaluated with footstep_gym.benchmark.evaluate",
+                                 factory)
+    settings = BenchmarkSettings(entry=entry, runs=None, scenes=tuple(scenes) if scenes else None,
+                                 tiers=tuple(tiers) if tiers else None, episodes=episodes, out=out,
+                                 workers=workers or usable_cores(), backend=backend, ray_address=ray_address,
+                                 factory=factory)
+    runner, owners = runner_cells(cells, name)
+    problem = check_cells(runner, factory=factory) or check_out(out)
+    if problem:
+        raise ValueError(f"evaluate: {problem}")
+    all_tasks = tasks(runner, episodes)
+    folder = new_run_folder(out)
+    try:
+        t0 = time.perf_counter()
+        results = run_tasks(all_tasks, max(1, min(settings.workers, len(all_tasks))), backend=backend,
+                            address=ray_address, factory=factory)
+        write_benchmark(folder, settings, runner, owners, results, time.perf_counter() - t0, [],
+                        command=f"footstep_gym.benchmark.evaluate(make_policy_fn, name={name!r}, episodes={episodes})")
+    except BaseException:
+        import shutil
+
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    commit_out(folder, out)
+    return json.loads((out / "benchmark.json").read_text(encoding="utf-8"))

@@ -17,6 +17,8 @@ import traceback
 from pathlib import Path
 from typing import Callable
 
+from footstep_gym.errors import FootstepGymError
+
 OWN_FILES = ("results.json", "results.csv", "episodes.csv", "summary.md", "run.json", "benchmark.json", "benchmark.md")
 OWN_DIRS = ("figures", "tables", "videos", "runs")
 
@@ -99,7 +101,8 @@ def run_into(out: Path, what: str, index: str, work: Callable[[Path], tuple[str,
         return 130
     except Exception as exc:
         shutil.rmtree(folder, ignore_errors=True)
-        traceback.print_exc()
+        if not isinstance(exc, FootstepGymError):  # ours say in one line what failed (a submitted policy's, say)
+            traceback.print_exc()
         print(f"error: {what} failed; {out} left as it was. {exc}", file=sys.stderr)
         return 1
     except BaseException:

@@ -20,10 +20,11 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import footstep_gym
-from footstep_gym import policies as registry
+from footstep_gym import registry
 from footstep_gym.evaluation.runner import Cell
 from footstep_gym.evaluation.runner import check_cells as runner_check_cells
 from footstep_gym.evaluation.splits import split_seeds
+from footstep_gym.evaluation.submission import AgentArg, SubmissionError, parse_agents
 from footstep_gym.scenarios import SCENARIOS, resolve_env_id, scene_of
 
 
@@ -122,7 +123,7 @@ class Settings:
     profile: str
     envs: tuple[str, ...]
     policies: tuple[str, ...]
-    agents: tuple[Path, ...]
+    agents: tuple[AgentArg, ...]  # a user's agents (--agent [SCENE=]PATH)
     agents_dir: Path | None
     episodes: int
     split: str
@@ -143,12 +144,14 @@ class Settings:
 
 
 def evaluation_settings(profile_name: str, *, envs: Sequence[str] | None, policies: Sequence[str] | None,
-                        agents: Sequence[Path] | None, agents_dir: Path | None, episodes: int | None, split: str,
+                        agents: Sequence[str | Path] | None, agents_dir: Path | None, episodes: int | None, split: str,
                         offset: int, sweeps: dict[str, Sequence[float] | None], out: Path, workers: int | None,
-                        backend: str, ray_address: str | None, figures: bool, video: bool) -> Settings:
+                        backend: str, ray_address: str | None, figures: bool, video: bool, algo: str | None = None,
+                        vecnormalize: Sequence[str] | None = None) -> Settings:
     """The settings of an evaluation from its options (``None``: the profile's default), checked in the command
     line's order: the first bad value raises :class:`OptionError`. ``sweeps`` maps each key of
-    :func:`sweep_axes` to the values given for it."""
+    :func:`sweep_axes` to the values given for it; ``agents`` are ``--agent`` values (``PATH`` or ``SCENE=PATH``,
+    :func:`~footstep_gym.evaluation.submission.parse_agents`)."""
     profile = PROFILES[profile_name]
     try:
         scenes = unique([scene_of(resolve_env_id(e)) for e in (envs or profile.envs)])
@@ -156,9 +159,17 @@ def evaluation_settings(profile_name: str, *, envs: Sequence[str] | None, polici
         raise OptionError(str(exc)) from None
     available = registry.policy_names()
     if policies:
-        unknown = [p for p in policies if not registry.is_policy(p)]
+        unknown = []
+        for p in policies:
+            try:
+                registry.resolve(p)
+            except registry.PolicyLoadError as exc:
+                raise OptionError(str(exc)) from None
+            except ValueError:
+                unknown.append(p)
         if unknown:
-            raise OptionError(f"unknown policy {', '.join(map(repr, unknown))}; choose from {', '.join(available)}")
+            raise OptionError(f"unknown policy {', '.join(map(repr, unknown))}; choose from {', '.join(available)}, "
+                              "or give a policy of your own as module:attr")
         chosen = unique(policies)
     elif agents:
         chosen = ()  # only the user's agents
@@ -169,10 +180,13 @@ def evaluation_settings(profile_name: str, *, envs: Sequence[str] | None, polici
     elif profile.policies is not None:
         chosen = tuple(p for p in profile.policies if p in available)
     else:  # every registered policy but an upper bound (oracle), which runs only when named
-        chosen = tuple(p for p in available if not registry.reads_truth(p))
-    for path in agents or ():
-        if not path.exists():
-            raise OptionError(f"--agent {path}: no such file or folder")
+        chosen = tuple(p for p in available if not registry.resolve(p).reads_truth)
+    if (algo or vecnormalize) and not agents:
+        raise OptionError("--algo and --vecnormalize go with --agent")
+    try:
+        user_agents = tuple(parse_agents([str(a) for a in agents or ()], algo, vecnormalize))
+    except SubmissionError as exc:
+        raise OptionError(str(exc)) from None
     for key, owners in sweep_axes().items():
         owning = [s for s, _ in owners]
         if sweeps.get(key) and not set(owning) & set(scenes):
@@ -188,7 +202,7 @@ def evaluation_settings(profile_name: str, *, envs: Sequence[str] | None, polici
     except ValueError as exc:
         raise OptionError(str(exc)) from None
     return Settings(
-        profile=profile_name, envs=scenes, policies=chosen, agents=tuple(p.resolve() for p in agents or ()),
+        profile=profile_name, envs=scenes, policies=chosen, agents=user_agents,
         agents_dir=agents_dir, episodes=episodes, split=split, offset=offset, sweeps=swept, out=out,
         workers=workers or usable_cores(), backend=backend, ray_address=ray_address, figures=figures, video=video,
     )
@@ -199,8 +213,12 @@ def make_cells(settings: Settings) -> list[Cell]:
 
     A scene's settings are the product of its sweep's values (``settings.sweeps[scene]``, keys in
     its ``sweep_axes`` order; a key without values stays at the default; no sweep: one setting).
-    An agent with no run for an env is skipped there, said in one line on stderr.
+    An agent with no run for an env is skipped there, said in one line on stderr; a user's agent of one scene
+    runs on that scene only.
     """
+    from footstep_gym.rl.registry import agent_runs, missing_agents_note
+
+    shipped = {p for p in settings.policies if registry.resolve(p).kind == "agent"}
     cells = []
     missing: dict[str, list[str]] = {}
     for scenario in settings.envs:
@@ -209,21 +227,22 @@ def make_cells(settings: Settings) -> list[Cell]:
         variants = [tuple(zip([key for key, _ in axes], combo)) for combo in itertools.product(*(v for _, v in axes))]
         runs_of = {}
         for policy in settings.policies:
-            if policy in registry.AGENTS:
-                runs_of[policy] = registry.agent_runs(policy, env_id, settings.agents_dir)
+            if policy in shipped:
+                runs_of[policy] = agent_runs(policy, env_id, settings.agents_dir)
                 if not runs_of[policy]:
                     missing.setdefault(policy, []).append(env_id)
         for params in variants:
             for policy in settings.policies:
-                if policy in registry.AGENTS:
+                if policy in shipped:
                     cells += [Cell(env_id, scenario, policy, params, run=str(r)) for r in runs_of[policy]]
                 else:
                     cells.append(Cell(env_id=env_id, scenario=scenario, policy=policy, params=params))
-            for path in settings.agents:
-                label = path.stem if path.suffix == ".zip" else path.name
-                cells.append(Cell(env_id, scenario, f"{registry.USER_AGENT_PREFIX}{label}", params, run=str(path)))
+            for agent in settings.agents:
+                if agent.scene in (None, scenario):
+                    cells.append(Cell(env_id, scenario, f"{registry.USER_AGENT_PREFIX}{agent.label}", params,
+                                      run=agent.path, algo=agent.algo, vecnormalize=agent.vecnormalize))
     if missing:
-        print(registry.missing_agents_note(missing, settings.agents_dir), file=sys.stderr)
+        print(missing_agents_note(missing, settings.agents_dir), file=sys.stderr)
     return cells
 
 

@@ -37,6 +37,7 @@ import gymnasium as gym
 import numpy as np
 
 import footstep_gym  # noqa: F401  (registers the envs)
+from footstep_gym.errors import ActionError, FootstepGymError
 from footstep_gym.evaluation.stats import EpisodeResult
 
 #: ``factory(cell, robot, seed) -> policy`` with ``reset(seed=...)`` and ``act(obs, snapshot)``.
@@ -84,16 +85,23 @@ def safe_name(*parts: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]", "-", "_".join(parts))
 
 
+class PolicyFailed(FootstepGymError, RuntimeError):
+    """The policy itself failed (built, reset or acted wrongly) in an episode: one line naming it and the episode."""
+
+
 @dataclass(frozen=True)
 class Cell:
-    """One evaluation cell: an env id, a policy name, env keyword arguments (``params``) and,
-    for a trained agent, the training run evaluated (a folder in the zoo's layout)."""
+    """One evaluation cell: an env id, a policy name (:func:`footstep_gym.registry.resolve`), env keyword arguments
+    (``params``) and, for a trained agent, the training run evaluated (a zoo run folder or a model ``.zip``; ``algo``
+    and ``vecnormalize`` for a ``.zip`` without the zoo's files)."""
 
     env_id: str
     scenario: str  # a key of footstep_gym.scenarios.SCENARIOS (door / crossing / crowd)
     policy: str
     params: tuple[tuple[str, float], ...] = ()  # (key, value) pairs of the scenario's sweep_axes, in their order
     run: str | None = None  # agents: path of the training run; planners: None
+    algo: str | None = None  # agents: the algorithm, where the run does not name it (a plain .zip)
+    vecnormalize: str | None = None  # agents: a VecNormalize file given apart from the run
 
     @property
     def params_dict(self) -> dict[str, float]:
@@ -205,10 +213,11 @@ def bind_truth(policy: Any, env: Any) -> bool:
 
 
 def default_factory(cell: Cell, robot: Any, seed: int) -> Any:
-    """The policy registry (imported here so workers resolve it themselves)."""
-    from footstep_gym.policies import make_policy
+    """The policy registry (imported here so workers resolve it themselves, once per process and name)."""
+    from footstep_gym import registry
 
-    return make_policy(cell.policy, robot, seed=seed, run=cell.run)
+    return registry.make_policy(cell.policy, robot, seed=seed, run=cell.run, algo=cell.algo,
+                                vecnormalize=cell.vecnormalize)
 
 
 def _poses(snapshot: Any) -> np.ndarray:
@@ -247,8 +256,9 @@ def warm_up(cell: Cell, seed: int, factory: PolicyFactory = default_factory, act
     env = gym.make(cell.env_id, **cell.params_dict)
     try:
         base, policy, obs = _start(env, cell, seed, factory)
-        for _ in range(acts):
-            obs, _, terminated, truncated, _ = env.step(policy.act(obs, base.sensing()))
+        for k in range(1, acts + 1):
+            action = _policy_call(cell, seed, f"warm-up act {k}", policy.act, obs, base.sensing())
+            obs, _, terminated, truncated, _ = _step(env, cell, seed, k, action)
             if terminated or truncated:
                 break
     finally:
@@ -261,11 +271,33 @@ def _start(env: gym.Env, cell: Cell, seed: int, factory: PolicyFactory) -> tuple
     """An episode's start: the policy made for the env's robot (the truth bound where it reads it), env and policy
     seeded with ``seed``; ``(env.unwrapped, policy, first observation)``."""
     base = env.unwrapped
-    policy = factory(cell, base.robot, seed)
+    policy = _policy_call(cell, seed, "building it", factory, cell, base.robot, seed)
     bind_truth(policy, env)
     obs, _ = env.reset(seed=seed)
-    policy.reset(seed=seed)
+    _policy_call(cell, seed, "reset", policy.reset, seed=seed)
     return base, policy, obs
+
+
+def _policy_call(cell: Cell, seed: int, what: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+    """``fn(*args, **kwargs)``, a failure raised as :class:`PolicyFailed` naming the policy, the episode and ``what``
+    it was doing."""
+    try:
+        return fn(*args, **kwargs)
+    except PolicyFailed:
+        raise
+    except Exception as exc:
+        run = f" run={cell.run_name}" if cell.run else ""
+        raise PolicyFailed(f"policy {cell.policy}{run} failed ({what}) on env={cell.env_id} params={cell.params_dict} "
+                           f"seed={seed}: {type(exc).__name__}: {exc}") from exc
+
+
+def _step(env: gym.Env, cell: Cell, seed: int, footstep: int, action: Any) -> tuple[Any, ...]:
+    """``env.step(action)``; an action the env refuses (its shape, a non-finite field) is the policy's failure."""
+    try:
+        return env.step(action)
+    except ActionError as exc:
+        raise PolicyFailed(f"policy {cell.policy} returned a bad action at footstep {footstep} on env={cell.env_id} "
+                           f"params={cell.params_dict} seed={seed}: {exc}") from exc
 
 
 def run_episode(task: Task, factory: PolicyFactory = default_factory, warm: bool = True,
@@ -280,6 +312,8 @@ def run_episode(task: Task, factory: PolicyFactory = default_factory, warm: bool
         if warm:
             warm_up(cell, seed, factory)
         return _run(task, factory, on_step)
+    except PolicyFailed:
+        raise
     except Exception as exc:  # name the episode: a worker's traceback alone does not
         run = f" run={cell.run_name}" if cell.run else ""
         raise RuntimeError(f"episode failed: env={cell.env_id} params={cell.params_dict} "
@@ -305,12 +339,12 @@ def _run(task: Task, factory: PolicyFactory, on_step: StepHook | None = None) ->
         terminated = truncated = False
         while not (terminated or truncated):
             t0 = time.perf_counter()
-            action = policy.act(obs, snapshot)
+            action = _policy_call(cell, seed, f"act at footstep {len(plan_ms) + 1}", policy.act, obs, snapshot)
             t1 = time.perf_counter()
             plan_ms.append(1e3 * (t1 - t0))
             pre, ran = planner_notes(policy)
             t_step = time.perf_counter()
-            obs, _, terminated, truncated, info = env.step(action)
+            obs, _, terminated, truncated, info = _step(env, cell, seed, len(plan_ms), action)
             step_s = time.perf_counter() - t_step
             applied.append(info["command"])
             planned.append(np.asarray(action, dtype=float).reshape(5))
@@ -368,10 +402,10 @@ def _run(task: Task, factory: PolicyFactory, on_step: StepHook | None = None) ->
 
 
 # ---------------------------------------------------------------- many episodes
-def _local(tasks: list[Task], workers: int) -> Iterator[EpisodeResult]:
+def _local(tasks: list[Task], workers: int, factory: PolicyFactory) -> Iterator[EpisodeResult]:
     if workers <= 1:
         for task in tasks:
-            yield run_episode(task)
+            yield run_episode(task, factory)
         return
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from multiprocessing import get_context
@@ -381,7 +415,7 @@ def _local(tasks: list[Task], workers: int) -> Iterator[EpisodeResult]:
     # "spawn": each worker imports the package afresh (no state inherited from this process).
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
     try:
-        pending = {pool.submit(run_episode, task) for task in tasks}
+        pending = {pool.submit(run_episode, task, factory) for task in tasks}
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
@@ -390,7 +424,7 @@ def _local(tasks: list[Task], workers: int) -> Iterator[EpisodeResult]:
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _ray(tasks: list[Task], workers: int, address: str | None) -> Iterator[EpisodeResult]:
+def _ray(tasks: list[Task], workers: int, address: str | None, factory: PolicyFactory) -> Iterator[EpisodeResult]:
     try:
         import ray
     except ImportError as exc:
@@ -403,7 +437,7 @@ def _ray(tasks: list[Task], workers: int, address: str | None) -> Iterator[Episo
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
     try:
         remote = ray.remote(num_cpus=1)(run_episode)
-        pending = [remote.remote(task) for task in tasks]
+        pending = [remote.remote(task, factory) for task in tasks]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             try:
@@ -416,12 +450,13 @@ def _ray(tasks: list[Task], workers: int, address: str | None) -> Iterator[Episo
 
 
 def run_tasks(tasks: list[Task], workers: int = 1, backend: str = "local", address: str | None = None,
-              progress: bool = True) -> list[EpisodeResult]:
+              progress: bool = True, factory: PolicyFactory = default_factory) -> list[EpisodeResult]:
     """Run every task; results sorted by (cell, seed), the same for every backend and worker count.
 
     ``backend="local"``: ``workers`` spawned processes (this process if 1); ``"ray"``: Ray
     tasks on the cluster at ``address`` (a local Ray of ``workers`` CPUs if None). The
-    progress bar moves as each episode finishes.
+    progress bar moves as each episode finishes. ``factory`` makes each episode's policy; it goes
+    to the workers pickled (the default: the registry, by the cell's policy name).
     """
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
@@ -429,7 +464,7 @@ def run_tasks(tasks: list[Task], workers: int = 1, backend: str = "local", addre
         raise ValueError("address applies to backend='ray' only")
     from tqdm import tqdm
 
-    stream = _ray(tasks, workers, address) if backend == "ray" else _local(tasks, workers)
+    stream = _ray(tasks, workers, address, factory) if backend == "ray" else _local(tasks, workers, factory)
     results: list[EpisodeResult] = []
     with tqdm(total=len(tasks), desc="episodes", unit="ep", dynamic_ncols=True, disable=not progress) as bar:
         for result in stream:
@@ -477,16 +512,51 @@ def record_video(cell: Cell, seed: int, folder: str | Path, name: str | None = N
     return final
 
 
-def check_cells(cells: "Sequence[Cell]", describe: "Callable[[Cell], str] | None" = None) -> str | None:
+def check_policy(cell: Cell, factory: PolicyFactory = default_factory, seed: int = 0) -> str | None:
+    """Why ``cell``'s policy cannot run, as one line, or None: it is built for the cell's env (seeded ``seed``),
+    reset, and acts once on the env's first observation; the command must be 5 finite numbers. What a submitted
+    policy (``module:attr``, a callable) goes through before anything runs."""
+    env = gym.make(cell.env_id, **cell.params_dict)
+    try:
+        base = env.unwrapped
+        obs, _ = env.reset(seed=seed)
+        try:
+            policy = factory(cell, base.robot, seed)
+            bind_truth(policy, env)
+            policy.reset(seed=seed)
+            action = policy.act(obs, base.sensing())
+        except Exception as exc:
+            from footstep_gym.registry import PolicyLoadError
+
+            if isinstance(exc, PolicyLoadError):
+                return str(exc)
+            return f"policy {cell.policy}: {type(exc).__name__}: {exc}"
+        try:
+            command = np.asarray(action, dtype=float)
+        except (TypeError, ValueError) as exc:
+            return f"policy {cell.policy}: act returned {type(action).__name__}, not 5 numbers ({exc})"
+        if command.shape != (5,):
+            return (f"policy {cell.policy}: act returned shape {command.shape}, expected (5,): the footstep command "
+                    "[S, L, theta, T_SS, T_DS]")
+        if not np.all(np.isfinite(command)):
+            return f"policy {cell.policy}: act returned a non-finite command {command.tolist()}"
+    finally:
+        env.close()
+    return None
+
+
+def check_cells(cells: "Sequence[Cell]", describe: "Callable[[Cell], str] | None" = None,
+                factory: PolicyFactory = default_factory) -> str | None:
     """The first problem of any cell, as one line, or None: each setting's env is built once (its configuration
-    checked, e.g. a door speed above ``max_door_speed``) and each agent's files are checked (without loading it),
-    in this process, before anything runs. ``describe(cell)`` names a cell's setting in the message (default:
-    its keyword arguments)."""
-    from footstep_gym import policies
+    checked, e.g. a door speed above ``max_door_speed``), each agent's files are checked (without loading it), and
+    a submitted policy (imported by ``module:attr``, or any ``factory`` but the registry's) is built and acts once
+    (:func:`check_policy`), in this process, before anything runs. ``describe(cell)`` names a cell's setting in
+    the message (default: its keyword arguments)."""
+    from footstep_gym import registry
     from footstep_gym.rl.agents import check_run
 
     built: set[tuple[str, Any]] = set()
-    checked: set[str] = set()
+    checked: set[Any] = set()
     for cell in cells:
         if (cell.env_id, cell.params) not in built:
             built.add((cell.env_id, cell.params))
@@ -495,11 +565,27 @@ def check_cells(cells: "Sequence[Cell]", describe: "Callable[[Cell], str] | None
             except (ValueError, TypeError, KeyError) as exc:
                 what = describe(cell) if describe is not None else (cell.params_dict or "its defaults")
                 return f"{cell.env_id} with {what}: {exc}"
+        if factory is not default_factory:
+            if ("policy", cell.policy) not in checked:
+                checked.add(("policy", cell.policy))
+                problem = check_policy(cell, factory)
+                if problem:
+                    return problem
+            continue
+        try:
+            entry = registry.resolve(cell.policy)
+        except ValueError as exc:
+            return str(exc)
+        if entry.kind == "import" and ("policy", cell.policy) not in checked:
+            checked.add(("policy", cell.policy))
+            problem = check_policy(cell, factory)
+            if problem:
+                return problem
         if cell.run is not None and cell.run not in checked:
             checked.add(cell.run)
-            entry = policies.AGENTS.get(cell.policy)
             try:
-                check_run(cell.run, entry.algo if entry is not None else None)
+                check_run(cell.run, cell.algo or (entry.agent.algo if entry.agent is not None else None),
+                          cell.vecnormalize)
             except (OSError, ValueError) as exc:
                 return f"{cell.policy}: {exc}"
     return None

@@ -28,15 +28,32 @@ from footstep_gym.robot import Robot
 class PolicySpec:
     """A registered planner: its class, the ``configs/planner.yaml`` overrides that make it, what it is.
 
-    ``additions``: switches of the ``additions`` section set on top of the YAML (e.g. all
-    off for the paper's planners); ``readings``: other keys, ``{section: {key: value}}``
-    (e.g. :data:`PAPER_READINGS`); ``description``: one line (``eval_planner.py --help``).
+    ``planner``: a :class:`~footstep_gym.policy.Policy` subclass built as ``planner(robot, config, seed,
+    name)`` (a :class:`~footstep_gym.planners.staged.SnapshotPlanner` is; checked here, when the entry is
+    made); a policy with another constructor runs without registration (``eval_planner.py --policy
+    module:attr``, :mod:`footstep_gym.registry`). ``additions``: switches of the ``additions`` section
+    set on top of the YAML (e.g. all off for the paper's planners); ``readings``: other keys,
+    ``{section: {key: value}}`` (e.g. :data:`PAPER_READINGS`); ``description``: one line
+    (``eval_planner.py --help``).
     """
 
     planner: type[SnapshotPlanner]
     additions: Mapping[str, bool] = field(default_factory=dict)
     readings: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     description: str = ""
+
+    def __post_init__(self) -> None:
+        import inspect
+
+        cls = self.planner
+        if not (isinstance(cls, type) and issubclass(cls, Policy)):
+            raise TypeError(f"PolicySpec: {cls!r} is not a footstep_gym.policy.Policy subclass")
+        try:
+            inspect.signature(cls).bind("robot", "config", "seed", "name")
+        except TypeError:
+            raise TypeError(f"PolicySpec: {cls.__name__}{inspect.signature(cls)} cannot be built as "
+                            f"{cls.__name__}(robot, config, seed, name); a policy with another constructor runs "
+                            "unregistered: --policy module:attr") from None
 
     def defaults(self) -> dict[str, dict[str, Any]]:
         """The policy's own config values, ``{section: {key: value}}``, for :func:`load_planner_config`."""

@@ -10,14 +10,8 @@ predicts deterministically, and maps the action from the agent's box ([-1, 1] un
 trained with ``fixed_period`` (action ``[S, L, θ]``) plays in the ordinary five-field env:
 the period is appended at the robot's nominal one (:class:`ZooAgent`).
 
-The shipped agents are registered in :data:`AGENTS` (name -> :class:`AgentEntry`) and found
-under an agents folder in the zoo's layout, ``<agents>/<folder>/<EnvId>_<seed>/``
-(:func:`agent_runs`). Which agents folder: the ``agents_dir`` argument, else the
-environment variable ``FOOTSTEP_GYM_AGENTS_DIR``, else ``./baselines/agents`` relative to
-the current working directory (:func:`default_agents_dir`): the repository's shipped agents
-when run from the checkout's root, as the README's commands are. The agents are not part of
-the installed package: a non-editable install finds none unless the argument or the variable
-points at a checkout's ``baselines/agents``.
+The shipped agents are registered in :mod:`.registry` (:data:`~.registry.AGENTS`, where their
+runs are: :func:`~.registry.agent_runs`).
 
 torch and stable-baselines3 (sbx and JAX for the sbx algorithms) are imported only when an agent is loaded.
 """
@@ -67,110 +61,6 @@ def algorithm_class(algo: str) -> Any:
     return getattr(module, ALGORITHMS[algo])
 
 
-# ---------------------------------------------------------------- the registry of shipped agents
-@dataclass(frozen=True)
-class AgentEntry:
-    """A shipped agent.
-
-    ``algo``: its rl_zoo3 / stable-baselines3 algorithm (``ppo``, ``sac``); ``description``:
-    one line (``eval_planner.py --help``); ``trained_on``: the env id it was trained on
-    (None: the env being evaluated, one agent per env); ``folder``: its folder under the
-    agents folder (default ``algo``; several agents of one algorithm need their own);
-    ``default_folder``: a run of ``algo`` shipped without naming an agent goes here (False for a
-    second agent of an algorithm, e.g. one kept for reference, which takes a run only when named).
-    """
-
-    algo: str
-    description: str
-    trained_on: str | None = None
-    folder: str = ""
-    default_folder: bool = True
-
-    def __post_init__(self) -> None:
-        if not self.folder:
-            object.__setattr__(self, "folder", self.algo)
-
-
-AGENTS: dict[str, AgentEntry] = {
-    "ppo": AgentEntry("ppo", "PPO (stable-baselines3, rl_zoo3) trained on the env evaluated; one row per "
-                             "training seed, summarised over seeds"),
-    "ppo-all": AgentEntry("ppo", "one PPO trained across the three scenes (FootstepMix-v0)",
-                          trained_on="FootstepMix-v0"),
-    "sac": AgentEntry("sac_sbx", "SAC (sbx, the JAX implementation of stable-baselines3's; rl_zoo3-tuned, "
-                                 "configs/rl/sac_sbx.yml) trained on the env evaluated", folder="sac"),
-    "ppo-fixed-period": AgentEntry("ppo", "PPO trained with the period held at nominal (action [S, L, theta], "
-                                          "configs/rl/ppo-fixed-period.yml): the period ablation for agents",
-                                   folder="ppo-fixed-period"),
-    "td3": AgentEntry("td3_sbx", "TD3 (sbx, the JAX implementation of stable-baselines3's; rl_zoo3-tuned, "
-                                 "configs/rl/td3_sbx.yml) trained on the env evaluated", folder="td3"),
-    "ppo-wide": AgentEntry("ppo", "PPO trained on a wider distribution, the train tier's ranges stretched over the "
-                                  "shifted tier's (configs/rl/ppo-wide.yml)", folder="ppo-wide"),
-    "ppo-noisy": AgentEntry("ppo", "PPO trained on each scene sensed with the noise tier's profile "
-                                   "(configs/rl/ppo-noisy.yml): ppo-lstm's memoryless twin", folder="ppo-noisy"),
-    "ppo-lstm": AgentEntry("ppo_lstm", "RecurrentPPO (sb3-contrib, an LSTM policy) trained on each scene sensed with the "
-                                       "noise tier's profile (configs/rl/ppo-lstm.yml)", folder="ppo-lstm"),
-    "sac-sb3": AgentEntry("sac", "the first SAC (stable-baselines3, configs/rl/sac.yml, hand-set, 60k steps on the "
-                                 "door): a straw man kept for reference", folder="sac-sb3"),
-    "td3-b2048": AgentEntry("td3_sbx", "TD3 (sbx) with the tuner's top trial (batch 2048; ~20x td3's wall time), one "
-                                       "seed on the door: kept for reference", folder="td3-b2048",
-                            default_folder=False),
-}
-
-#: The environment variable naming the agents folder (:func:`default_agents_dir`).
-AGENTS_DIR_ENV_VAR = "FOOTSTEP_GYM_AGENTS_DIR"
-#: The agents folder without argument or variable, relative to the current working directory.
-DEFAULT_AGENTS_DIR = Path("baselines") / "agents"
-
-
-def default_agents_dir() -> Path:
-    """``$FOOTSTEP_GYM_AGENTS_DIR``, else ``./baselines/agents`` in the current working directory (absolute).
-
-    Not where the package is installed: run from a checkout's root (as the README's commands
-    are), this is its shipped agents; elsewhere set the variable or pass ``agents_dir``.
-    """
-    env = os.environ.get(AGENTS_DIR_ENV_VAR)
-    return Path(env).expanduser().absolute() if env else Path.cwd() / DEFAULT_AGENTS_DIR
-
-
-def agent_entry(name: str) -> AgentEntry:
-    """The :class:`AgentEntry` of ``name``; ``ValueError`` naming the registered agents otherwise."""
-    try:
-        return AGENTS[name]
-    except KeyError:
-        raise ValueError(f"unknown agent {name!r}; registered: {', '.join(AGENTS)}") from None
-
-
-def agent_runs(name: str, env_id: str, agents_dir: str | Path | None = None) -> list[Path]:
-    """The shipped training runs of agent ``name`` for evaluation on ``env_id`` (sorted by seed; [] if none).
-
-    ``agents_dir``: the agents folder; None: :func:`default_agents_dir`. A run is
-    ``<agents_dir>/<folder>/<EnvId>_<seed>/`` holding ``<EnvId>.zip``, where ``EnvId`` is
-    the env the agent was trained on (``trained_on``, else ``env_id``). The paths are
-    absolute (evaluation workers may run elsewhere).
-    """
-    entry = agent_entry(name)
-    root = Path(agents_dir).absolute() if agents_dir is not None else default_agents_dir()
-    trained_on = entry.trained_on or env_id
-    folder = root / entry.folder
-    runs = [p for p in folder.glob(f"{trained_on}_*") if p.is_dir() and (p / f"{trained_on}.zip").is_file()]
-
-    def seed_of(p: Path) -> tuple[int, str]:
-        tail = p.name.rsplit("_", 1)[-1]
-        return (int(tail), p.name) if tail.isdigit() else (1 << 30, p.name)
-
-    return sorted(runs, key=seed_of)
-
-
-def missing_agents_note(missing: dict[str, list[str]], agents_dir: str | Path | None = None) -> str:
-    """One line: which agents (name -> env ids) have no run under the agents folder, and how to point at one."""
-    root = Path(agents_dir) if agents_dir is not None else default_agents_dir()
-    where = f"in {root}" if root.is_dir() else (f"{root} does not exist; set --agents-dir or {AGENTS_DIR_ENV_VAR} "
-                                                f"to a checkout's baselines/agents")
-    return (f"note: no shipped agent ({where}) for "
-            + "; ".join(f"{name} on {', '.join(envs)}" for name, envs in missing.items())
-            + ": those rows are skipped")
-
-
 # ---------------------------------------------------------------- a zoo run's files
 def _rescale_bounds(config: dict[str, Any]) -> tuple[float, float] | None:
     """(min_action, max_action) of a ``RescaleAction`` in the zoo's ``env_wrapper``, or None."""
@@ -205,11 +95,13 @@ def resolve_run(path: str | Path) -> tuple[Path, Path, Path | None]:
     return model, folder, args if args.is_file() else None
 
 
-def check_run(path: str | Path, algo: str | None = None) -> tuple[Path, Path, str]:
+def check_run(path: str | Path, algo: str | None = None,
+              vecnormalize: str | Path | None = None) -> tuple[Path, Path, str]:
     """``(model zip, folder of config.yml/vecnormalize.pkl, algorithm)`` of a zoo run folder or ``.zip``.
 
     Everything :class:`ZooAgent` checks before it loads the model (no torch): the files are
-    there and the algorithm (``algo``, else the run's ``args.yml``) is one this loader knows.
+    there (``vecnormalize``: a ``VecNormalize`` file given apart from the run) and the algorithm
+    (``algo``, else the run's ``args.yml``) is one this loader knows.
     Raises ``FileNotFoundError`` or ``ValueError`` naming the agent.
     """
     model_path, folder, args_path = resolve_run(path)
@@ -217,7 +109,9 @@ def check_run(path: str | Path, algo: str | None = None) -> tuple[Path, Path, st
         algo = zoo_yaml(args_path).get("algo")
     if algo is None:
         raise ValueError(f"agent {str(path)!r}: no args.yml beside the model to name its algorithm; "
-                         f"pass algo= one of {sorted(ALGORITHMS)}")
+                         f"give its algorithm (--algo, algo=) one of {sorted(ALGORITHMS)}")
+    if vecnormalize is not None and not Path(vecnormalize).is_file():
+        raise FileNotFoundError(f"agent {str(path)!r}: VecNormalize file {str(vecnormalize)!r} not found")
     if algo not in ALGORITHMS:
         raise ValueError(f"agent {str(path)!r}: algorithm {algo!r} not supported; one of {sorted(ALGORITHMS)}")
     return model_path, folder, algo
@@ -319,13 +213,14 @@ class LoadedRun:
     config: dict[str, Any]
 
 
-def load_run(model_path: Path, folder: Path, algo: str) -> LoadedRun:
-    """The run whose model is ``model_path`` (its zoo folder ``folder``), loaded once per process and kept while it
-    is among the :data:`LOADED_RUNS_KEPT` most recent; a file rewritten since (another size or modification time)
-    is loaded anew."""
-    files = [model_path, folder / "vecnormalize.pkl", folder / "config.yml"]
+def load_run(model_path: Path, folder: Path, algo: str, vecnormalize: str | Path | None = None) -> LoadedRun:
+    """The run whose model is ``model_path`` (its zoo folder ``folder``; its ``VecNormalize`` file ``vecnormalize``,
+    default the folder's ``vecnormalize.pkl``), loaded once per process and kept while it is among the
+    :data:`LOADED_RUNS_KEPT` most recent; a file rewritten since (another size or modification time) is loaded anew."""
+    norm = Path(vecnormalize) if vecnormalize is not None else folder / "vecnormalize.pkl"
+    files = [model_path, norm, folder / "config.yml"]
     stamps = tuple((st.st_mtime_ns, st.st_size) if (st := _stat(f)) is not None else None for f in files)
-    return _load_run(str(model_path), str(folder), algo, stamps)
+    return _load_run(str(model_path), str(folder), str(norm), algo, stamps)
 
 
 def _stat(path: Path) -> os.stat_result | None:
@@ -336,12 +231,11 @@ def _stat(path: Path) -> os.stat_result | None:
 
 
 @lru_cache(maxsize=LOADED_RUNS_KEPT)
-def _load_run(model_path: str, folder: str, algo: str, stamps: tuple[Any, ...]) -> LoadedRun:
+def _load_run(model_path: str, folder: str, norm_path: str, algo: str, stamps: tuple[Any, ...]) -> LoadedRun:
     model = algorithm_class(algo).load(model_path, device="cpu")
     if ALGORITHM_PACKAGES.get(algo) == "sbx":  # JAX compiles the policy at its first call: here, not in act's time
         model.predict(np.zeros((1, *model.observation_space.shape), np.float32), deterministic=True)
     normalizer = None
-    norm_path = Path(folder) / "vecnormalize.pkl"
     if stamps[1] is not None:
         with open(norm_path, "rb") as fh:
             normalizer = pickle.load(fh)
@@ -359,6 +253,11 @@ class ZooAgent(Policy):
         robot: the robot whose command box the env uses (the agent's action is mapped into it).
         algo: the algorithm (``ppo``, ``sac``, ...); read from the run's ``args.yml`` if None.
         name: the policy's name (``last_info["policy"]``); default ``agent:<run folder>``.
+        vecnormalize: the run's ``VecNormalize`` file, if it is not the zoo's (``vecnormalize.pkl`` in the run's
+            ``<EnvId>/`` folder, or beside a ``.zip``).
+
+    A plain ``.zip`` (no zoo ``config.yml``) acts in the env's command box; one whose action space is
+    ``[-1, 1]`` per field was trained under ``RescaleAction(-1, 1)`` and is mapped back as the zoo's are.
 
     A run trained with the env option ``fixed_period`` (its ``config.yml``'s ``env_kwargs``;
     action ``[S, L, θ]``, the period at nominal) plays in the ordinary five-field env, so it is
@@ -369,12 +268,13 @@ class ZooAgent(Policy):
     then the one the fixed-period env would have applied, bit for bit (a test replays both).
     """
 
-    def __init__(self, path: str | Path, robot: Robot, algo: str | None = None, name: str | None = None) -> None:
+    def __init__(self, path: str | Path, robot: Robot, algo: str | None = None, name: str | None = None,
+                 vecnormalize: str | Path | None = None) -> None:
         super().__init__()
         import torch
 
         torch.set_num_threads(1)  # one core per evaluation worker (PLATFORM: more threads are slower)
-        model_path, folder, algo = check_run(path, algo)
+        model_path, folder, algo = check_run(path, algo, vecnormalize)
 
         self.algo = algo
         self.path = model_path
@@ -382,7 +282,7 @@ class ZooAgent(Policy):
         self._episode_start = np.ones((1,), dtype=bool)
         run_folder = folder.parent if folder != model_path.parent else None  # <EnvId>_<k>/ of a zoo run
         self.name = name or f"agent:{run_folder.name if run_folder is not None else model_path.stem}"
-        loaded = load_run(model_path, folder, algo)
+        loaded = load_run(model_path, folder, algo, vecnormalize)
         self.model, self.normalizer, config = loaded.model, loaded.normalizer, loaded.config
         #: The env options the agent was trained with (``config.yml``'s ``env_kwargs``).
         self.env_kwargs: dict[str, Any] = dict(config.get("env_kwargs") or {})
@@ -392,6 +292,10 @@ class ZooAgent(Policy):
         env_box = spaces.Box(robot.command_low[:n_act].astype(np.float32),
                              robot.command_high[:n_act].astype(np.float32), dtype=np.float32)
         bounds = _rescale_bounds(config)
+        box = self.model.action_space
+        if bounds is None and not config and box.shape == env_box.shape and np.all(box.low == -1) and np.all(
+                box.high == 1):
+            bounds = (-1.0, 1.0)  # a plain model trained under RescaleAction(-1, 1)
         self._to_command = None
         if bounds is not None:
             from gymnasium.wrappers.utils import rescale_box

@@ -6,7 +6,7 @@ several training seeds in a row with one torch thread each, the run's progress o
 console while it trains (its full output goes to a log file), an evaluation at the end of
 a run shorter than the evaluation period, the wall time and throughput of each run,
 shipping: a copy of the run's small files under ``<agents>/<agent>/<EnvId>_<seed>/``
-(``<agent>``: the registry's folder of the agent, :class:`~footstep_gym.rl.agents.AgentEntry`;
+(``<agent>``: the registry's folder of the agent, :class:`~footstep_gym.rl.registry.AgentEntry`;
 the algorithm's name by default; model ``.zip``,
 ``<EnvId>/{config.yml,args.yml,command.txt,vecnormalize.pkl}``, ``evaluations.npz``) with a
 ``manifest.json``, which does not replace a longer or better shipped agent unless forced,
@@ -36,6 +36,7 @@ import yaml
 
 from footstep_gym.config import config_dir
 from footstep_gym.errors import FootstepGymError
+from footstep_gym.rl.registry import default_agent_folder
 
 #: The zoo's files of a run that ship with an agent (small: no replay buffer, no checkpoints).
 SHIPPED_IN_ENV_FOLDER = ("config.yml", "args.yml", "command.txt", "vecnormalize.pkl")
@@ -286,25 +287,12 @@ def replace_problem(dest: str | Path, timesteps: int, success: float | None = No
     return None
 
 
-def default_agent_folder(algo: str) -> str:
-    """The agents folder a run of ``algo`` ships to when no agent is named: the algorithm's own name if a
-    registered agent of that algorithm has it (``ppo``), else the one folder of its registered agents
-    (``sac_sbx`` -> ``sac``, SB3's ``sac`` -> ``sac-sb3``; agents marked ``default_folder=False`` left
-    out), else the algorithm's name."""
-    from footstep_gym.rl.agents import AGENTS  # agents imports this module
-
-    folders = {e.folder for e in AGENTS.values() if e.algo == algo and e.default_folder}
-    if algo in folders or len(folders) != 1:
-        return algo
-    return folders.pop()
-
-
 def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int | None = None,
          force: bool = False, agent: str | None = None) -> Path:
     """Copy a finished zoo run's small files to ``<agents_dir>/<agent>/<EnvId>_<seed>/`` and write its manifest.
 
     ``agent``: the shipped folder, the agent's :attr:`AgentEntry.folder
-    <footstep_gym.rl.agents.AgentEntry.folder>` (e.g. ``ppo-fixed-period`` for a PPO run of
+    <footstep_gym.rl.registry.AgentEntry.folder>` (e.g. ``ppo-fixed-period`` for a PPO run of
     ``configs/rl/ppo-fixed-period.yml``); default :func:`default_agent_folder` of the run's algorithm
     (``ppo``; ``sac`` for an sbx ``sac_sbx`` run). A shipped agent of another algorithm is never replaced.
     The manifest records the agent's folder, the algorithm, env id and kwargs (the env

@@ -278,7 +278,7 @@ def _start(env: gym.Env, cell: Cell, seed: int, factory: PolicyFactory) -> tuple
     return base, policy, obs
 
 
-def _policy_call(cell: Cell, seed: int, what: str, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+def _policy_call(cell: Cell, seed: int, what: str, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Any:
     """``fn(*args, **kwargs)``, a failure raised as :class:`PolicyFailed` naming the policy, the episode and ``what``
     it was doing."""
     try:

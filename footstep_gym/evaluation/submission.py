@@ -113,7 +113,7 @@ def runs_by_env(agents: Sequence[AgentArg], env_ids: Sequence[str]) -> dict[str,
 class CallablePolicy(Policy):
     """A callable ``observation -> action`` (``snapshot``: ``(observation, snapshot) -> action``) as a
     :class:`~footstep_gym.policy.Policy`. The action is read as 5 float64 numbers ``[S, L, θ, T_SS, T_DS]``
-    in the env's units (a torch tensor or a JAX array alike); another shape raises ``ValueError``."""
+    in the env's units (a torch tensor or a JAX array alike)."""
 
     def __init__(self, fn: Callable[..., Any], name: str, snapshot: bool = False) -> None:
         super().__init__()
@@ -127,10 +127,7 @@ class CallablePolicy(Policy):
 
     def act(self, observation: Any, snapshot: Any = None) -> np.ndarray:
         action = self.fn(observation, snapshot) if self.snapshot else self.fn(observation)
-        command = np.asarray(action, dtype=np.float64)
-        if command.shape != (5,):
-            raise ValueError(f"returned shape {command.shape}, expected (5,): the footstep command "
-                             "[S, L, theta, T_SS, T_DS]")
+        command = np.asarray(action, dtype=np.float64)  # its shape is the env's to check (ActionError)
         self.last_info = {"policy": self.name, "command": command}
         return command
 

@@ -4,7 +4,8 @@ Ray tasks, and the learning curves of runs and of shipped agents.
 * :class:`Job`, :func:`train_and_ship` (one run through :func:`~footstep_gym.rl.training.train`, shipped
   with :func:`~footstep_gym.rl.training.ship` when asked) and :func:`run_jobs` (local or Ray);
 * :func:`shipped_longer`: a shipped agent a grid's shorter run may not replace, checked before training;
-* :func:`grid`: the jobs of a grid, checked;
+* :func:`grid`: the jobs of a grid of algorithms' configs, checked; :func:`agent_grid`: the jobs that train
+  registered agents again as they were shipped (their config, their evaluation, their folder);
 * :func:`draw_curves`, :func:`draw_shipped_curves`, :func:`draw_run_curves` and :func:`planner_reference` (the planners' success on the
   same env, the curves' reference lines); :func:`throughput_table`: PPO's env steps/s.
 
@@ -21,6 +22,7 @@ from typing import Any, Sequence
 
 import footstep_gym
 from footstep_gym.rl import training
+from footstep_gym.rl.registry import AGENTS, AgentEntry
 
 REFERENCE_PLANNERS = ("period-aware", "fixed-period")
 
@@ -85,11 +87,32 @@ def throughput_table(timesteps: int, rounds: int = 3) -> str:
 
 @dataclass(frozen=True)
 class Job:
-    """One training run of the grid."""
+    """One training run of the grid: ``algo`` on ``env_id`` with ``seed``; ``agent``: the registered agent it
+    trains (its config, evaluation options and shipped folder), None for the algorithm's own config."""
 
     algo: str
     env_id: str
     seed: int
+    agent: str | None = None
+
+    @property
+    def entry(self) -> AgentEntry | None:
+        return AGENTS[self.agent] if self.agent else None
+
+    @property
+    def conf_file(self) -> Path | None:
+        """The agent's hyperparameter file (None: ``configs/rl/<algo>.yml``)."""
+        entry = self.entry
+        return training.conf_path(entry.config) if entry is not None and entry.config else None
+
+    @property
+    def folder(self) -> str:
+        """The folder under the agents folder the run ships to."""
+        return self.entry.folder if self.entry is not None else training.default_agent_folder(self.algo)
+
+    @property
+    def name(self) -> str:
+        return self.agent or self.algo
 
 
 def grid(algos: Sequence[str], env_ids: Sequence[str], seeds: Sequence[int]) -> list[Job]:
@@ -101,13 +124,49 @@ def grid(algos: Sequence[str], env_ids: Sequence[str], seeds: Sequence[int]) -> 
     return [Job(algo, env_id, seed) for algo in algos for env_id in env_ids for seed in seeds]
 
 
+def agent_envs(name: str) -> list[str]:
+    """The env ids registered agent ``name`` was shipped for: its ``trained_on``, else every scene's env its config
+    has an entry for."""
+    entry = AGENTS[name]
+    if entry.trained_on:
+        return [entry.trained_on]
+    import yaml
+
+    data = yaml.safe_load(training.conf_path(entry.config).read_text(encoding="utf-8"))
+    return [env_id for env_id in footstep_gym.ENV_IDS.values() if env_id in data]
+
+
+def agent_grid(names: Sequence[str], env_ids: Sequence[str] | None, seeds: Sequence[int]) -> list[Job]:
+    """The jobs that train registered agents ``names`` again with the config they were shipped from, agents x envs x
+    seeds; ``env_ids`` None: each agent's own (:func:`agent_envs`). A ``ValueError`` (one line) for an unknown agent,
+    one whose hyperparameters are in no file of ``configs/rl/``, or an env it was not trained for."""
+    jobs = []
+    for name in names:
+        if name not in AGENTS:
+            raise ValueError(f"unknown agent {name!r}; registered: {', '.join(AGENTS)}")
+        entry = AGENTS[name]
+        if entry.config is None:
+            raise ValueError(f"{name} cannot be trained by name: {entry.why_not_trainable}")
+        own = agent_envs(name)
+        envs = list(env_ids) if env_ids else own
+        if entry.trained_on and envs != [entry.trained_on]:
+            raise ValueError(f"{name} is trained on {entry.trained_on}, not {', '.join(envs)}")
+        for env_id in envs:
+            try:
+                training.zoo_entry(entry.algo, env_id, training.conf_path(entry.config))
+            except KeyError as exc:
+                raise ValueError(f"{name}: {exc.args[0]}") from None
+        jobs += [Job(entry.algo, env_id, seed, agent=name) for env_id in envs for seed in seeds]
+    return jobs
+
+
 def shipped_longer(jobs: list[Job], agents_dir: Path, timesteps: int | None) -> str | None:
     """Why a job's run could not replace its shipped agent (a run with fewer timesteps), or None: checked before
     training (the success is checked when shipping)."""
     for job in jobs:
-        shipped = agents_dir / training.default_agent_folder(job.algo) / f"{job.env_id}_{job.seed}"
-        problem = training.replace_problem(shipped, training.planned_timesteps(job.algo, job.env_id, timesteps),
-                                           check_success=False)
+        shipped = agents_dir / job.folder / f"{job.env_id}_{job.seed}"
+        planned = training.planned_timesteps(job.algo, job.env_id, timesteps, job.conf_file)
+        problem = training.replace_problem(shipped, planned, check_success=False)
         if problem:
             return problem
     return None
@@ -115,19 +174,31 @@ def shipped_longer(jobs: list[Job], agents_dir: Path, timesteps: int | None) -> 
 
 def train_and_ship(job: Job, log_folder: str, agents_dir: str | None, force: bool = False,
                    **kwargs: Any) -> dict[str, Any]:
-    """Train ``job`` with rl_zoo3 (its own log folder per seed) and ship it if ``agents_dir``.
+    """Train ``job`` with rl_zoo3 (its own log folder per seed; per agent and seed for a registered agent, whose
+    config and evaluation options it takes where ``kwargs`` do not set them) and ship it if ``agents_dir``.
 
     Returns ``run`` (the zoo's run folder), ``wall`` [s], ``shipped`` (the agent's folder or
     None) and ``refused`` (why a shipped agent was not replaced, or None).
     """
-    run, wall = training.train(job.algo, job.env_id, job.seed, Path(log_folder) / f"seed{job.seed}", **kwargs)
-    print(f"  {job.algo} on {job.env_id}, seed {job.seed}: {run} in {wall:.0f} s", file=sys.stderr)
+    log = Path(log_folder) / f"seed{job.seed}"
+    entry = job.entry
+    if entry is not None:
+        log = Path(log_folder) / job.agent / f"seed{job.seed}"
+        kwargs = {"conf_file": job.conf_file, **kwargs}
+        kwargs.setdefault("eval_freq", entry.eval_freq)
+        if entry.eval_like_training:
+            kwargs.setdefault("eval_env_kwargs", "training")
+    kwargs["eval_freq"] = kwargs.get("eval_freq", 25_000)
+    run, wall = training.train(job.algo, job.env_id, job.seed, log, **kwargs)
+    print(f"  {job.name} on {job.env_id}, seed {job.seed}: {run} in {wall:.0f} s", file=sys.stderr)
     out = {"run": str(run), "wall": wall, "shipped": None, "refused": None}
     if agents_dir is None:
-        print(f"  to ship it: python baselines/train_rl.py --ship {run} --wall-time {wall:.0f}", file=sys.stderr)
+        named = f" --agent {job.agent}" if job.agent else ""
+        print(f"  to ship it: python baselines/train_rl.py --ship {run} --wall-time {wall:.0f}{named}",
+              file=sys.stderr)
     else:
         try:
-            out["shipped"] = str(training.ship(run, agents_dir, wall, seed=job.seed, force=force))
+            out["shipped"] = str(training.ship(run, agents_dir, wall, seed=job.seed, force=force, agent=job.folder))
         except training.ShipRefused as exc:
             out["refused"] = str(exc)
     return out
@@ -135,7 +206,7 @@ def train_and_ship(job: Job, log_folder: str, agents_dir: str | None, force: boo
 
 def run_jobs(jobs: list[Job], options: dict, backend: str, address: str | None, workers: int) -> list[dict[str, Any]]:
     """Every job, one after the other or as Ray tasks (a local Ray of ``workers`` CPUs without ``address``)."""
-    print(f"{len(jobs)} training run(s) ({backend}): " + ", ".join(f"{j.algo}/{j.env_id}/{j.seed}" for j in jobs),
+    print(f"{len(jobs)} training run(s) ({backend}): " + ", ".join(f"{j.name}/{j.env_id}/{j.seed}" for j in jobs),
           file=sys.stderr)
     if backend == "local":
         return [train_and_ship(job, **options) for job in jobs]
@@ -156,8 +227,8 @@ def draw_shipped_curves(jobs: list[Job], outcomes: list[dict[str, Any]], agents_
                         reference: Path) -> list[Path]:
     """The learning curves of the shipped agents of each (algorithm, env) of the grid a run was shipped to
     (:func:`draw_curves`)."""
-    shipped = {(j.algo, j.env_id) for j, o in zip(jobs, outcomes) if o["shipped"]}
-    return [path for key in dict.fromkeys((j.algo, j.env_id) for j in jobs) if key in shipped
+    shipped = {(j.folder, j.env_id) for j, o in zip(jobs, outcomes) if o["shipped"]}
+    return [path for key in dict.fromkeys((j.folder, j.env_id) for j in jobs) if key in shipped
             for path in draw_curves(agents_dir, curves_dir, reference, only=key)]
 
 
@@ -165,11 +236,11 @@ def draw_run_curves(jobs: list[Job], outcomes: list[dict[str, Any]], log_folder:
     """The learning curves of a grid's runs (not shipped), one per (algorithm, env) into
     ``<log_folder>/learning_curves/<algo>_<EnvId>.png``; runs with no evaluation recorded are left out."""
     written = []
-    for algo, env_id in dict.fromkeys((j.algo, j.env_id) for j in jobs):
-        runs = [Path(o["run"]) for j, o in zip(jobs, outcomes) if (j.algo, j.env_id) == (algo, env_id)]
+    for name, env_id in dict.fromkeys((j.name, j.env_id) for j in jobs):
+        runs = [Path(o["run"]) for j, o in zip(jobs, outcomes) if (j.name, j.env_id) == (name, env_id)]
         runs = [r for r in runs if training.success_curve(r)["success"]]
         if runs:
-            title = f"{algo.upper()} on {env_id}: success of the periodic evaluation ({len(runs)} run(s))"
-            written.append(training.learning_curves(runs, log_folder / "learning_curves" / f"{algo}_{env_id}.png",
+            title = f"{name.upper()} on {env_id}: success while training ({len(runs)} run(s))"
+            written.append(training.learning_curves(runs, log_folder / "learning_curves" / f"{name}_{env_id}.png",
                                                     title, planner_reference(reference, env_id)))
     return written

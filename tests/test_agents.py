@@ -431,12 +431,18 @@ def fake_training(tmp_path, monkeypatch):
 
     def train(algo, env_id, seed, log_folder, timesteps=None, **kwargs):
         calls.append((algo, env_id, seed, timesteps))
-        return fake_run(Path(log_folder), timesteps, 0.5, seed=seed, env_id=env_id), 12.0
+        options.append({"log_folder": Path(log_folder), **kwargs})
+        return fake_run(Path(log_folder), timesteps or 8192, 0.5, seed=seed, env_id=env_id), 12.0
+
+    options: list[dict] = []
+    train.options = options
 
     monkeypatch.setattr(training, "train", train)
     args = ["--log-folder", str(tmp_path / "runs"), "--agents-dir", str(tmp_path / "agents"),
             "--curves-dir", str(tmp_path / "curves"), "--reference", str(tmp_path / "none.json")]
-    return load_script("train_rl").main, args, calls
+    main = load_script("train_rl").main
+    main.options = options  # what each fake training was given beside (algo, env, seed, timesteps)
+    return main, args, calls
 
 
 def test_training_writes_under_runs_and_ships_nothing_by_default(tmp_path, fake_training, capsys):
@@ -472,6 +478,57 @@ def test_training_with_ship_refuses_a_shorter_run_before_training(tmp_path, fake
     assert json.loads((tmp_path / "agents" / "ppo" / "FootstepDoor-v0_1" / "manifest.json").read_text())[
         "timesteps"] == 8192
     assert (tmp_path / "curves" / "ppo_FootstepDoor-v0.png").is_file()
+
+
+@pytest.mark.parametrize("name, envs, conf, eval_freq, like_training", [
+    ("ppo-wide", ["FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0"], "ppo-wide.yml", -1, False),
+    ("ppo-all", ["FootstepMix-v0"], "ppo.yml", 25_000, False),
+    ("sac", ["FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0"], "sac_sbx.yml", 10_000, True),
+    ("ppo-lstm", ["FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0"], "ppo-lstm.yml", -1, False),
+])
+def test_a_shipped_agent_is_trained_by_its_name_as_it_was_shipped(tmp_path, fake_training, name, envs, conf,
+                                                                   eval_freq, like_training):
+    """Its config, its envs and evaluation as its manifest's command has them; into runs/<agent>/, nothing shipped."""
+    from footstep_gym.rl import AGENTS
+
+    main, common, calls = fake_training
+    assert main(["--agent", name, "--seeds", "1", "2", *common]) == 0
+    assert calls == [(AGENTS[name].algo, env, seed, None) for env in envs for seed in (1, 2)]
+    for options in main.options:
+        assert options["conf_file"].name == conf and options["eval_freq"] == eval_freq
+        assert options.get("eval_env_kwargs") == ("training" if like_training else None)
+        assert options["log_folder"].parent == tmp_path / "runs" / name
+    manifests = sorted(SHIPPED.glob(f"{AGENTS[name].folder}/*/manifest.json"))
+    shipped = [json.loads(m.read_text())["command"] for m in manifests]
+    assert any(f"--conf-file {conf}" in c or f"/{conf}" in c for c in shipped), shipped
+    assert not (tmp_path / "agents").exists()
+
+
+def test_a_shipped_agent_trained_by_name_ships_to_its_own_folder(tmp_path, fake_training):
+    main, common, calls = fake_training
+    assert main(["--agent", "ppo-fixed-period", "--env", "door", "--seeds", "3", "--ship", *common]) == 0
+    assert calls == [("ppo", "FootstepDoor-v0", 3, None)]
+    assert (tmp_path / "agents" / "ppo-fixed-period" / "FootstepDoor-v0_3" / "manifest.json").is_file()
+    assert not (tmp_path / "agents" / "ppo").exists()  # never into another agent's folder
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--agent", "ppo", "--seeds", "-1"], "a training seed is a whole number >= 0, got -1"),
+    (["--algo", "ppo", "--env", "door", "--seeds", "1", "1"], "a seed given twice"),
+    (["--agent", "td3-b2048"], "td3-b2048 cannot be trained by name: its hyperparameters are the tuner's"),
+    (["--agent", "teleport"], "--agent teleport: unknown agent"),
+    (["--agent", "ppo-all", "--env", "door"], "ppo-all is trained on FootstepMix-v0, not FootstepDoor-v0"),
+    (["--agent", "sac-sb3", "--env", "crowd"], "sac-sb3: configs/rl/sac.yml has no entry for FootstepCrowd-v0"),
+    (["--agent", "ppo", "--algo", "ppo", "--env", "door"], "not both"),
+])
+def test_bad_training_options_are_one_line_before_anything_runs(tmp_path, fake_training, capsys, args, message):
+    main, common, calls = fake_training
+    with pytest.raises(SystemExit) as exit_:
+        main([*args, *common])
+    assert exit_.value.code == 2 and calls == []
+    err = capsys.readouterr().err
+    assert message in err.strip().splitlines()[-1], err
+    assert not (tmp_path / "runs").exists()
 
 
 def test_a_run_shorter_than_eval_freq_is_evaluated_at_its_end():

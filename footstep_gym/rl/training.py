@@ -434,7 +434,7 @@ def zoo_entry(algo: str, env_id: str, conf_file: str | Path | None = None) -> di
     path = conf_path(algo, conf_file)
     data = yaml.safe_load(path.read_text(encoding="utf-8"))
     if env_id not in data:
-        shown = f"configs/rl/{algo}.yml" if conf_file is None else str(path)
+        shown = f"configs/rl/{path.name}" if path.parent == config_dir() / "rl" else str(path)
         raise KeyError(f"{shown} has no entry for {env_id}")
     return dict(data[env_id])
 

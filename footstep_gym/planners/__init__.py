@@ -4,13 +4,16 @@ The maths here never imports pygame or torch. One module per stage, each with a 
 that returns a small record: :class:`PeriodSearch` -> :class:`PeriodChoice` (stage 1,
 :mod:`.period_search` over the walks of :mod:`.rollouts`), :class:`PathSearch` ->
 :class:`PathChoice` (stage 2, :mod:`.rrt`), :class:`CommandRepair` ->
-:class:`RepairChoice` (stage 3, :mod:`.pso`). :mod:`.staged` holds the planners, :mod:`.oracle` the
-upper bound, and :mod:`.registry` their registry :data:`POLICIES` (``period-aware``, ``fixed-period``, ``pso-only``,
-``paper-period-aware``, ``paper-fixed-period``, and ``paper-period-aware-t0-<s>`` with T0
-fixed; the paper's planners follow :data:`PAPER_READINGS` where the paper differs from our
-defaults, docs/model.md §5.3); :mod:`.ablation` names the variants with one of our
-additions switched off. A planner is made by name with :func:`footstep_gym.make_policy`
-(the one factory, planners and agents alike; the interface is :class:`footstep_gym.policy.Policy`).
+:class:`RepairChoice` (stage 3, :mod:`.pso`). :mod:`.staged` holds the planners and :mod:`.oracle`
+the upper bound (``oracle``: period-aware told the true future, never a baseline). :mod:`.registry`,
+below them, is their registry :data:`POLICIES` (``period-aware``, ``fixed-period``, ``pso-only``,
+``paper-period-aware``, ``paper-fixed-period``, ``oracle``) and names their variants: ``<planner>-no-<switch>``
+(one of our additions off), ``<planner>-with-<switch>`` (one on, for the paper's planners) and
+``paper-period-aware-t0-<s>`` (T0 fixed); the paper's planners follow :data:`PAPER_READINGS` where
+the paper differs from our defaults (docs/model.md §5.3). :mod:`.ablation` lists the ablation's
+variants. A planner is made by name with :func:`footstep_gym.make_policy`, the one factory of
+planners, agents and policies of one's own (:mod:`footstep_gym.registry`; the interface is
+:class:`footstep_gym.policy.Policy`).
 """
 
 from footstep_gym.planners.ablation import ablation_variants

@@ -379,15 +379,15 @@ def test_an_agent_ships_into_its_registered_folder_with_its_env_options(tmp_path
     assert agent_runs("ppo", "FootstepDoor-v0", agents) == []  # not mixed with the PPO of the full action
     assert (tmp_path / "curves" / "ppo-fixed-period_FootstepDoor-v0.png").is_file()
     with pytest.raises(SystemExit):
-        main(["--agent", "ppo-fixed-period", "--algo", "ppo", "--env", "door"])  # --agent is for --ship RUN
-    assert "--agent applies with --ship RUN only" in capsys.readouterr().err
+        main(["--agent", "ppo-fixed-period", "--algo", "ppo", "--env", "door"])  # an agent's config or an algorithm's
+    assert "not both" in capsys.readouterr().err
     with pytest.raises(ValueError, match="one plain folder name"):
         training.ship(run, agents, 1.0, agent="../elsewhere")
 
 
 def test_the_agents_folder_is_an_argument_a_variable_or_the_working_directory(tmp_path, monkeypatch):
     """Not found through the package's own location: a non-editable install has no agents unless pointed at some."""
-    from footstep_gym.rl.agents import AGENTS_DIR_ENV_VAR, default_agents_dir, missing_agents_note
+    from footstep_gym.rl.registry import AGENTS_DIR_ENV_VAR, default_agents_dir, missing_agents_note
 
     monkeypatch.delenv(AGENTS_DIR_ENV_VAR, raising=False)
     monkeypatch.chdir(REPO)

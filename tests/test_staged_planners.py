@@ -126,7 +126,8 @@ def test_with_names_switch_one_addition_on_in_the_papers_planner():
     fixed = make_policy("paper-fixed-period-with-fallback")
     assert not fixed.vary_period and fixed.config.additions.fallback
     for bad in ("paper-period-aware-with-nothing", "pso-only-with-fallback", "paper-period-aware-with-"):
-        assert not is_policy(bad)
+        with pytest.raises(ValueError, match="unknown policy"):
+            resolve(bad)
 
 
 @pytest.mark.parametrize("name", ["period-aware-no-such-thing", "pso-only-no-fallback", "nonsense",

@@ -230,7 +230,7 @@ def agent_name(folder: str, manifest: dict[str, Any]) -> str:
     """The registered agent (``footstep_gym.rl.AGENTS``) a shipped run under ``<agents>/<folder>/`` is: the entry of
     that folder trained on the run's env (``ppo-all`` for ``ppo/FootstepMix-v0_1``), else the one trained on the env
     evaluated; the manifest's own name if none fits."""
-    from footstep_gym.rl.agents import AGENTS
+    from footstep_gym.rl.registry import AGENTS
 
     fits = [(entry.trained_on is None, name) for name, entry in AGENTS.items()
             if (entry.folder or entry.algo) == folder and entry.trained_on in (None, manifest["env_id"])]

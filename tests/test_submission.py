@@ -301,6 +301,8 @@ def test_evaluate_checks_the_callable_before_anything_runs(tmp_path):
     with pytest.raises(ValueError, match="ZeroDivisionError"):
         evaluate(lambda scene, seed: 1 / 0, name="broken", out=tmp_path / "x", episodes=1, scenes=["crossing"],
                  tiers=["paper"], workers=1)
+    with pytest.raises(ValueError, match="name 'ppo' is a registered policy's"):
+        evaluate(make_torch_policy, name="ppo", out=tmp_path / "x")
     with pytest.raises(ValueError, match="unknown benchmark tier"):
         evaluate(make_torch_policy, name="x", out=tmp_path / "x", tiers=["impossible"])
     assert not (tmp_path / "x").exists()

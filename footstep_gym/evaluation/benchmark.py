@@ -521,6 +521,8 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
 
     if not name or not isinstance(name, str):
         raise ValueError("evaluate: name= the method's name in the tables")
+    if name in registry.policy_names():
+        raise ValueError(f"evaluate: name {name!r} is a registered policy's; choose another for your method")
     if not callable(make_policy_fn):
         raise ValueError(f"evaluate: make_policy_fn must be callable, got {type(make_policy_fn).__name__}")
     out = Path(out)

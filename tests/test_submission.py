@@ -106,7 +106,8 @@ def test_a_policy_of_ones_own_by_import_path(users_folder, attr):
     assert proc.returncode == 0, proc.stderr
     doc = json.loads((users_folder / "out" / "benchmark.json").read_text())
     assert doc["policy"] == f"my_walker:{attr}" and not doc["upper_bound"]
-    assert [r["cell"] for r in doc["records"]] == ["default", "default"] and all(r["episodes"] == 1 for r in doc["records"])
+    assert [r["cell"] for r in doc["records"]] == ["default", "default"]
+    assert all(r["episodes"] == 1 for r in doc["records"])
     run = json.loads((users_folder / "out" / "run.json").read_text())
     source = run["policy_source"]
     assert source["import_path"] == f"my_walker:{attr}"

@@ -11,15 +11,16 @@ import footstep_gym
 from footstep_gym import make_policy
 from footstep_gym.planners import POLICIES
 from footstep_gym.planners.null import NULL_POLICIES, WALKER_PERIODS, WALKER_STRIDES, is_null, walker_name
-from footstep_gym.policies import describe, reads_truth
+from footstep_gym.registry import resolve
 from footstep_gym.robot import load_robot
 
 
 def test_every_null_baseline_is_registered_and_described():
     assert len(NULL_POLICIES) == len(WALKER_STRIDES) * len(WALKER_PERIODS) + 2
     for name in NULL_POLICIES:
-        assert name in POLICIES and is_null(name) and not reads_truth(name)
-        assert describe(name).startswith("null baseline") or "steps in place" in describe(name)
+        assert name in POLICIES and is_null(name) and not resolve(name).reads_truth
+        description = resolve(name).description
+        assert description.startswith("null baseline") or "steps in place" in description
     assert not any(is_null(name) for name in POLICIES if name not in NULL_POLICIES)
 
 

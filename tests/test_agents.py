@@ -311,7 +311,7 @@ def test_ppo_throughput_is_measured_inside_learn():
     assert 10 < rate < 100_000
 
 
-# ---------------------------------------------------------------- nothing a user made is lost (issue 17 §3)
+# ---------------------------------------------------------------- nothing a user made is lost
 TRAIN_SCRIPT = REPO / "baselines" / "train_rl.py"
 
 
@@ -548,7 +548,7 @@ def test_a_run_shorter_than_eval_freq_is_evaluated_at_its_end():
     assert run_eval_freq("sac", "FootstepDoor-v0", 25_000, 601) == 608
 
 
-# ---------------------------------------------------------------- what a user sees (issue 17 §4)
+# ---------------------------------------------------------------- what a user sees
 def test_loading_an_agent_raises_no_box_precision_warning(trained):
     import warnings
 

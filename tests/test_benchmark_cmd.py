@@ -1,4 +1,4 @@
-"""One command, one leaderboard row (issue 19 §4): ``eval_planner.py --benchmark``.
+"""One command, one leaderboard row: ``eval_planner.py --benchmark``.
 
 The command runs end to end on one episode per cell (every cell of every tier in process; a partial run
 of two scenes and two tiers as a user runs it, in a subprocess; the same on a local Ray), writes

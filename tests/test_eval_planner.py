@@ -384,7 +384,7 @@ def test_help_lists_every_policy():
         assert name in proc.stdout, name
 
 
-# ---------------------------------------------------------------- nothing a user made is lost (issue 17 §3)
+# ---------------------------------------------------------------- nothing a user made is lost
 def _earlier_run(out: Path) -> dict[str, bytes]:
     """A folder holding an earlier evaluation (and a user's note beside it); its files' bytes by path."""
     (out / "figures").mkdir(parents=True)
@@ -473,7 +473,7 @@ def test_a_finished_run_replaces_the_earlier_one_and_keeps_the_users_files(tmp_p
     assert sorted(p.name for p in tmp_path.iterdir()) == ["eval"]
 
 
-# ---------------------------------------------------------------- what a user sees (issue 17 §4)
+# ---------------------------------------------------------------- what a user sees
 def test_each_process_warms_a_cell_up_once_before_timing_it(monkeypatch):
     """The first acts of a fresh process load the compiled kernels: they run untimed, on a throwaway policy."""
     from footstep_gym.evaluation import runner

@@ -1,4 +1,4 @@
-"""The leaderboard across policies (issue 20 §4): ``baselines/make_leaderboard.py`` on benchmark.json files.
+"""The leaderboard across policies: ``baselines/make_leaderboard.py`` on benchmark.json files.
 
 The aggregates (IQM and optimality gap with stratified-bootstrap intervals over training runs) are checked against
 a hand-worked score matrix, the per-scene table against tiny fake benchmark.json files built with the records'

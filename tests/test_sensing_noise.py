@@ -1,4 +1,4 @@
-"""What a robot senses (issue 19 §3): noise on the moving obstacles, a sensing range, a field of view.
+"""What a robot senses: noise on the moving obstacles, a sensing range, a field of view.
 
 The options are keys of ``configs/env.yaml`` (``sensing_noise_position``, ``sensing_noise_velocity``,
 ``sensing_noise_angle``, ``sensing_noise_angular_velocity``, ``sensing_max_range``, ``sensing_fov``), all off by

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from speedlib import soak
 from speedlib.fmt import finite_json
-from speedlib.tables import soak_report
+from speedlib.reports import soak_report
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

@@ -77,7 +77,7 @@ from speedlib.memory_use import bench_memory
 from speedlib.planner_times import bench_planners
 from speedlib.ppo_rates import bench_ppo
 from speedlib.settings import MODES, SECTIONS, log
-from speedlib.tables import speed_report
+from speedlib.reports import speed_report
 from speedlib.targets import evaluate_targets
 from speedlib.tier_rates import bench_tiers
 

@@ -21,12 +21,13 @@ from footstep_gym.evaluation import figures as eval_report
 from footstep_gym.evaluation import profiles
 from footstep_gym.evaluation.runner import Cell, Task, planner_notes, run_episode
 from footstep_gym.evaluation.records import CellRecord, cell_record
+from footstep_gym.evaluation.splits import split_seeds
 from footstep_gym.evaluation.stats import OUTCOMES, TIMING_FIELDS, EpisodeResult, wilson_interval
 from script_helpers import load_script
 
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "baselines" / "eval_planner.py"
-FIRST_TEST_SEED = 20000  # configs/eval.yaml: the test split's first seed
+FIRST_TEST_SEED = split_seeds("test", 1)[0]  # configs/eval.yaml: the test split's first seed
 
 FASTEST_POLICY = "fixed-period"  # no period search; the quickest of the three per footstep
 REQUIRED_KEYS = {
@@ -348,7 +349,7 @@ def test_crowd_speed_cells_and_a_clean_output_folder(tmp_path):
     assert [r["params"] for r in records] == [{"crowd_speed": 0.2}, {"crowd_speed": 0.12}]
     assert not (out / "figures" / "stale.png").exists()  # an earlier run's figures are not left behind
     assert (out / "figures" / "crowd_0.2.png").is_file()
-    assert sorted(p.name for p in (out / "tables").iterdir())[0] == "crowd_0.12_fixed-period_seed20000.md"
+    assert sorted(p.name for p in (out / "tables").iterdir())[0] == f"crowd_0.12_fixed-period_seed{FIRST_TEST_SEED}.md"
     run = json.loads((out / "run.json").read_text())  # a list per sweep axis, named as ever
     assert run["crowd_speeds"] == [0.2, 0.12] and run["door_speeds"] == [17.0]  # the quick profile's door
     assert list(run)[list(run).index("seeds") + 1:][:2] == ["door_speeds", "crowd_speeds"]
@@ -366,7 +367,7 @@ def test_ray_backend_gives_the_local_results(tmp_path):
     from footstep_gym.evaluation.runner import run_tasks
 
     cells = [Cell("FootstepCrossing-v0", "crossing", FASTEST_POLICY), Cell("FootstepCrowd-v0", "crowd", FASTEST_POLICY)]
-    tasks = [Task(i, c, s) for i, c in enumerate(cells) for s in (20000, 20001)]
+    tasks = [Task(i, c, s) for i, c in enumerate(cells) for s in (FIRST_TEST_SEED, FIRST_TEST_SEED + 1)]
     local = run_tasks(tasks, workers=1, progress=False)
     remote = run_tasks(tasks, workers=2, backend="ray", progress=False)
     strip = lambda rs: [(r.cell_index, r.seed, r.outcome, r.steps, r.time, r.path_length, r.min_clearance)  # noqa: E731

@@ -19,6 +19,7 @@ from script_helpers import load_script
 
 from footstep_gym.evaluation import leaderboard as lb
 from footstep_gym.evaluation.records import cell_record
+from footstep_gym.evaluation.splits import PROTOCOL_VERSION, split_seeds
 from footstep_gym.evaluation.stats import EpisodeResult, iqm_over_tasks, wilson_interval
 
 REPS = 20  # few bootstrap resamples: the tests check the plumbing, not the intervals' precision
@@ -48,7 +49,7 @@ def squash(table: str) -> list[str]:
 
 
 def document(policy: str, wins: dict[tuple[str, str], list[int]], upper_bound: bool = False, sha: str = SHA,
-             episodes: int = EPISODES, version: int = 1) -> dict:
+             episodes: int = EPISODES, version: int = PROTOCOL_VERSION) -> dict:
     """A benchmark.json of ``policy``: ``wins[(scene, cell)]`` lists the successes of each training run (one
     entry: a planner). The cells it has no entry for are left out (a partial run)."""
     cells = [c for c in CELLS if (c[0], c[2]) in wins]
@@ -59,7 +60,7 @@ def document(policy: str, wins: dict[tuple[str, str], list[int]], upper_bound: b
     return {
         "benchmark": "footstep_gym", "protocol_version": version, "footstep_gym": "0.1.0", "policy": policy,
         "label": label, "upper_bound": upper_bound, "description": "a fake", "complete": len(cells) == len(CELLS),
-        "protocol": {"split": "test", "episodes_per_cell": episodes, "seeds": list(range(20000, 20000 + episodes)),
+        "protocol": {"split": "test", "episodes_per_cell": episodes, "seeds": split_seeds("test", episodes),
                      "tiers": list(dict.fromkeys(t for _, t, _ in cells)),
                      "scenes": list(dict.fromkeys(s for s, _, _ in cells)),
                      "cells": [{"scene": s, "tier": t, "cell": c, "env_id": ENV_IDS[s], "env_kwargs": {}}
@@ -228,7 +229,7 @@ def _bad(tmp_path: Path, case: str) -> list[str]:
         (bench / "benchmark.json").write_text("{", encoding="utf-8")
         return [str(bench / "benchmark.json")]
     if case == "protocol version":
-        write_fakes(bench, [document("agent", AGENT, version=2)])
+        write_fakes(bench, [document("agent", AGENT, version=PROTOCOL_VERSION + 1)])
         return [str(bench)]
     if case == "configs":
         write_fakes(bench, [document("agent", AGENT), document("planner", PLANNER, sha="cd" * 32)])
@@ -250,7 +251,7 @@ def _bad(tmp_path: Path, case: str) -> list[str]:
 @pytest.mark.parametrize("case, message", [
     ("missing", "no such file or folder"), ("empty folder", "no benchmark.json"),
     ("other format", "not a footstep_gym benchmark.json"), ("not json", "not a readable JSON file"),
-    ("protocol version", "protocol_version 2"), ("configs", "differ in protocol.env_configs_sha256"),
+    ("protocol version", f"protocol_version {PROTOCOL_VERSION + 1}"), ("configs", "differ in protocol.env_configs_sha256"),
     ("episodes", "differ in protocol.episodes_per_cell"), ("twice", "is in both"),
     ("out is a file", "is a file, not a folder"),
 ])

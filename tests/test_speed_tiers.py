@@ -16,7 +16,7 @@ import pytest
 
 from speedlib import timing
 from speedlib.machine import loadavg, machine_info
-from speedlib.tables import speed_report
+from speedlib.reports import speed_report
 from speedlib.settings import MODES, SECTIONS
 from speedlib.targets import TIER_PLAN_MEDIAN_S, TIER_PLAN_P99_S, evaluate_targets, tier_ratio_key
 from speedlib.tier_rates import NAMESPACE, bench_tiers, select_cells

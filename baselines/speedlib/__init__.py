@@ -21,7 +21,7 @@ tests through pytest's ``pythonpath`` setting (``pyproject.toml``). One job per 
   benchmark tier (configs/benchmark.yaml), beside the paper tier (``bench_tiers``);
 * :mod:`.ppo_rates`: PPO training throughput beside CartPole (``bench_ppo``);
 * :mod:`.targets`: the speed targets' PASS / MISS and the ratios (``evaluate_targets``);
-* :mod:`.tables`: the markdown of the speed run's and the soak's results;
+* :mod:`.reports`: the markdown of the speed run's and the soak's results;
 * :mod:`.fmt`: formatting of figures and strict JSON (``finite_json``);
 * :mod:`.fresh`: a function called in a fresh interpreter (memory probes, the PPO child, the soak's
   process per env);

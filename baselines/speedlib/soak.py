@@ -1,5 +1,5 @@
 """The soak engine: millions of fuzzed steps per env, checking that nothing unexpected ever happens
-(``baselines/soak.py`` is its command line; ``speedlib.tables.soak_report`` its markdown).
+(``baselines/soak.py`` is its command line; ``speedlib.reports.soak_report`` its markdown).
 
 :func:`run` soaks each env in a fresh interpreter of its own (so its memory figures are its own)
 with :func:`soak_env`, with a tqdm progress bar on stderr, and keeps **one env instance** for its

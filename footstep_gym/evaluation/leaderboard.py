@@ -42,12 +42,11 @@ import pandas as pd
 
 from footstep_gym.evaluation.outfolder import new_run_folder
 from footstep_gym.evaluation.records import CellRecord
+from footstep_gym.evaluation.splits import PROTOCOL_VERSION  # the version benchmark.json files must carry
 from footstep_gym.evaluation.stats import REPS, SEED, interval_estimates, score_matrix, seeded_bootstrap as seeded
 from footstep_gym.evaluation.stats import wilson_interval
 from footstep_gym.evaluation.tables import DASH, interval, markdown as markdown_table, plural
 
-#: The ``protocol_version`` of the benchmark files this module reads (footstep_gym.evaluation.benchmark).
-PROTOCOL_VERSION = 1
 #: The protocol fields that files must share (``--allow-mixed`` lifts this; the rows that differ are marked).
 PROTOCOL_KEYS = ("env_configs_sha256", "episodes_per_cell")
 #: The optimality gap's threshold: a success rate of 1 is optimal (rliable's ``gamma``).

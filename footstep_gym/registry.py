@@ -83,8 +83,9 @@ class ImportedPolicy:
         return self.path.partition(":")[0]
 
     def target(self) -> Any:
-        """The object ``attr`` names (imported now; :class:`PolicyLoadError` if it cannot be)."""
-        return _import_attr(self.path)
+        """The class or factory ``attr`` names (imported now; :class:`PolicyLoadError` if it cannot be, or if
+        it is neither a ``Policy`` subclass nor callable)."""
+        return _policy_target(self.path)
 
     def __call__(self, robot: Robot, seed: int | None) -> Policy:
         """The policy for ``robot``, seeded with ``seed``; :class:`PolicyLoadError` naming the path if what
@@ -93,12 +94,6 @@ class ImportedPolicy:
 
         target = self.target()
         what = "class" if isinstance(target, type) else "factory"
-        if isinstance(target, type) and not issubclass(target, Policy):
-            raise PolicyLoadError(f"--policy {self.path}: {target.__module__}.{target.__qualname__} is not a "
-                                  f"footstep_gym.policy.Policy subclass (nor a factory returning one)")
-        if not callable(target):
-            raise PolicyLoadError(f"--policy {self.path}: a {type(target).__name__}, not a Policy subclass or a "
-                                  f"factory returning one")
         try:
             policy = target(robot, seed)
         except Exception as exc:
@@ -147,9 +142,8 @@ def _import_error(path: str, exc: Exception) -> PolicyLoadError:
     return PolicyLoadError(f"--policy {path}: importing {module_name} failed: {type(exc).__name__}: {exc}")
 
 
-def imported_policy(path: str) -> ImportedPolicy:
-    """The :class:`ImportedPolicy` of ``module:attr``, its module imported now (the file hashed); a
-    :class:`PolicyLoadError` if ``attr`` is neither a ``Policy`` subclass nor callable."""
+def _policy_target(path: str) -> Any:
+    """The object ``module:attr`` names, checked to be a ``Policy`` subclass or a callable."""
     from footstep_gym.policy import Policy
 
     target = _import_attr(path)
@@ -159,6 +153,13 @@ def imported_policy(path: str) -> ImportedPolicy:
     if not callable(target):
         raise PolicyLoadError(f"--policy {path}: a {type(target).__name__}, not a Policy subclass or a factory "
                               f"returning one")
+    return target
+
+
+def imported_policy(path: str) -> ImportedPolicy:
+    """The :class:`ImportedPolicy` of ``module:attr``, its module imported now (the file hashed); a
+    :class:`PolicyLoadError` if ``attr`` is neither a ``Policy`` subclass nor callable."""
+    _policy_target(path)
     module = sys.modules[path.partition(":")[0]]
     file = getattr(module, "__file__", None)
     digest = hashlib.sha256(Path(file).read_bytes()).hexdigest() if file and Path(file).is_file() else None

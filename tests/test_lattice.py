@@ -12,9 +12,9 @@ import pytest
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym import footstep, lipm, make_policy
 from footstep_gym.errors import ConfigError
-from footstep_gym.planners.lattice import LatticeSearch, centre_speed_bound, lattice_size, transition_set
+from footstep_gym.planners.lattice import LatticeSearch, centre_speed_bound, transition_set
 from footstep_gym.planners.params import load_planner_config
-from footstep_gym.planners.prediction import ObstaclePredictor
+from footstep_gym.planners.prediction import ObstaclePredictor, sway_band
 from planner_helpers import play
 
 
@@ -37,13 +37,13 @@ def test_the_transition_set_is_the_product_of_its_axes_and_each_side_keeps_its_t
                                                  "turns": [-0.3, 0.0, 0.3], "periods": [0.5, 0.8]}})
     robot = make_policy("period-aware").robot
     commands = transition_set(robot, config.lattice)
-    assert commands.shape == (lattice_size(config.lattice), 5) == (24, 5)
+    assert commands.shape == (2 * 2 * 3 * 2, 5)
     assert np.allclose(commands[:, 4], robot.nominal_t_ds)
     assert set(np.round(commands[:, 3] + commands[:, 4], 9)) == {0.5, 0.8}
     search = LatticeSearch(robot, config.lattice, 0.1, 5)
     for side in (footstep.LEFT, footstep.RIGHT):
         lo, hi = footstep.turn_bounds(side, robot)
-        kept = commands[search._by_side[side], 2]
+        kept = commands[search.by_side[side], 2]
         assert ((kept >= lo) & (kept <= hi)).all()
         assert len(kept) == 16  # the turn of 0.3 rad is outer on one side only
     with pytest.raises(ConfigError, match="lattice.turns"):
@@ -68,6 +68,12 @@ def test_the_speed_bound_holds_for_every_step_of_random_walks():
         a, b, side = new, a, -side
 
 
+def _clear(search: LatticeSearch, predictor, com_start, com_end, t_start: float, period: float) -> bool:
+    """One CoM path clear: its clearance reaches the safe distance plus the LIPM's sway at ``period``."""
+    clearance = search.body_clearance(predictor, com_start, com_end[None], t_start, np.array([period]))[0]
+    return clearance >= search.safe + max(sway_band(search.robot, round(float(period), 4)))
+
+
 def _brute_force_time(search: LatticeSearch, snap, predictor, depth: int) -> float:
     """The shortest walking time to the goal over every command sequence of at most ``depth`` steps (inf: none)."""
     goal = np.asarray(snap.goal)
@@ -90,7 +96,7 @@ def _brute_force_time(search: LatticeSearch, snap, predictor, depth: int) -> flo
                 start_com = footstep.local_to_world(support, com)
                 end_com = footstep.local_to_world(new, res.end_com[0])
                 period = cmd[3] + cmd[4]
-                if not search.body_clear(predictor, start_com[None], end_com[None], t, np.array([period]))[0]:
+                if not _clear(search, predictor, start_com, end_com, t, period):
                     break
                 centre = 0.5 * (np.asarray(support[:2]) + np.asarray(new[:2]))
                 t += period
@@ -137,8 +143,7 @@ def test_a_wall_across_the_way_is_never_stepped_into():
     res = lipm.check_steps(robot, snap.com_local, snap.vel_local, command[None], side)
     assert res.feasible[0]
     end = footstep.local_to_world(new, res.end_com[0])[None]
-    assert policy.search.body_clear(predictor, np.asarray(snap.com)[None], end, 0.0,
-                                    np.array([command[3] + command[4]]))[0]
+    assert _clear(policy.search, predictor, np.asarray(snap.com), end[0], 0.0, command[3] + command[4])
 
 
 def test_lattice_episodes_replay_exactly_and_cross_the_crossing():

@@ -105,8 +105,12 @@ class LatticeSearch:
         lo_l, hi_l = footstep.turn_bounds(footstep.LEFT, robot)
         lo_r, hi_r = footstep.turn_bounds(footstep.RIGHT, robot)
         theta = self.commands[:, 2]
-        self._by_side = {footstep.LEFT: np.flatnonzero((theta >= lo_l - 1e-9) & (theta <= hi_l + 1e-9)),
-                         footstep.RIGHT: np.flatnonzero((theta >= lo_r - 1e-9) & (theta <= hi_r + 1e-9))}
+        #: The commands each support side may take (indices into :attr:`commands`).
+        self.by_side = {footstep.LEFT: np.flatnonzero((theta >= lo_l - 1e-9) & (theta <= hi_l + 1e-9)),
+                        footstep.RIGHT: np.flatnonzero((theta >= lo_r - 1e-9) & (theta <= hi_r + 1e-9))}
+        #: The clearance [m] each command's CoM path needs: the safe distance plus the LIPM's sway at its period.
+        self.needed = safe_distance + np.array([max(sway_band(robot, round(float(t), 4)))
+                                                for t in self.commands[:, 3] + self.commands[:, 4]])
 
     def _key(self, node: _Node) -> tuple[int, ...]:
         p = self.params
@@ -121,7 +125,7 @@ class LatticeSearch:
     def children(self, node: _Node, predictor: ObstaclePredictor, goal: np.ndarray, tolerance: float
                  ) -> list[_Node]:
         """The nodes one command of the set away from ``node`` that the LIPM accepts and the prediction keeps clear."""
-        idx = self._by_side[node.side]
+        idx = self.by_side[node.side]
         cmds = self.commands[idx]
         res = lipm.check_steps(self.robot, node.com, node.vel, cmds, node.side)
         ok = res.feasible
@@ -133,7 +137,8 @@ class LatticeSearch:
         centre = 0.5 * (np.asarray(node.support[:2])[None] + np.stack([fx, fy], axis=1))
         period = cmds[:, 3] + cmds[:, 4]
         start = footstep.local_to_world(node.support, node.com)[None]
-        clear = self.body_clear(predictor, start, footstep.local_to_world((fx, fy, fyaw), end_com), node.time, period)
+        end = footstep.local_to_world((fx, fy, fyaw), end_com)
+        clear = self.body_clearance(predictor, start, end, node.time, period) >= self.needed[idx]
         out = []
         for j in np.flatnonzero(clear):
             first = int(idx[j]) if node.first < 0 else node.first
@@ -142,15 +147,15 @@ class LatticeSearch:
                              self._heuristic(centre[j], goal, tolerance)))
         return out
 
-    def body_clear(self, predictor: ObstaclePredictor, com_start: np.ndarray, com_end: np.ndarray, t_start: float,
-                   period: np.ndarray) -> np.ndarray:
-        """Whether the body circle stays clear along straight CoM paths ``com_start -> com_end`` ``(N, 2)`` over
-        ``[t_start, t_start + period]``, its radius grown by the LIPM's sway at that period, ``(N,)`` bool."""
+    def body_clearance(self, predictor: ObstaclePredictor, com_start: np.ndarray, com_end: np.ndarray,
+                       t_start: float, period: np.ndarray) -> np.ndarray:
+        """The smallest clearance [m] of the body's centre along straight CoM paths ``com_start -> com_end``
+        ``(N, 2)`` over ``[t_start, t_start + period]``, ``(N,)``; a command's path is clear where this reaches its
+        :attr:`needed`."""
         n = len(period)
         pts, times = body_path_points(np.broadcast_to(com_start, (n, 2)), com_end, np.full(n, t_start),
                                       t_start + period, self.edge_samples)
-        sway = np.array([max(sway_band(self.robot, round(float(t), 4))) for t in period])
-        return predictor.clearance(pts, times).reshape(n, -1).min(axis=1) >= self.safe + sway
+        return predictor.clearance(pts, times).reshape(n, -1).min(axis=1)
 
     def search(self, snapshot: Snapshot, predictor: ObstaclePredictor) -> LatticeResult:
         """A* from the snapshot's stance to its goal over ``predictor``'s obstacles."""
@@ -214,21 +219,13 @@ class LatticePlanner(SnapshotPlanner):
         """No command of the set is both feasible and clear: the LIPM-feasible one whose CoM path keeps the most
         clearance (the nominal command if the LIPM rejects them all)."""
         side = int(snapshot.support_side)
-        cmds = self.search.commands[self.search._by_side[side]]
+        cmds = self.search.commands[self.search.by_side[side]]
         res = lipm.check_steps(self.robot, snapshot.com_local, snapshot.vel_local, cmds, side)
         if not res.feasible.any():
             return self.robot.nominal_command.copy()
         cmds, end_com = cmds[res.feasible], res.end_com[res.feasible]
         fx, fy, fyaw = footstep.place_foot(snapshot.support_foot, side, cmds[:, 0], cmds[:, 1], cmds[:, 2])
-        n = len(cmds)
-        start = np.broadcast_to(np.asarray(snapshot.com, dtype=float), (n, 2))
         end = footstep.local_to_world((fx, fy, fyaw), end_com)
-        pts, times = body_path_points(start, end, np.zeros(n), cmds[:, 3] + cmds[:, 4],
-                                      self.config.prediction.edge_samples)
-        clear = predictor.clearance(pts, times).reshape(n, -1).min(axis=1)
+        clear = self.search.body_clearance(predictor, np.asarray(snapshot.com, dtype=float), end, 0.0,
+                                           cmds[:, 3] + cmds[:, 4])
         return cmds[int(np.argmax(clear))].copy()
-
-
-def lattice_size(params: LatticeParams) -> int:
-    """How many commands the transition set holds (before the per-side turn limits)."""
-    return math.prod(len(v) for v in (params.strides, params.side_strides, params.turns, params.periods))

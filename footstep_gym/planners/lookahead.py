@@ -2,18 +2,20 @@
 
 The paper's planner (``period-aware``) is greedy: it chooses one footstep per call. The
 paper names multi-step optimisation as its future work; this planner does it by sampling.
-Each call optimises a sequence of ``K`` commands ``[S, L, θ, T_SS]`` (``T_DS`` nominal) with
+With ``greedy_seed`` (the default) each call first asks ``period-aware`` for its command and its
+RRT path's next footsteps and rolls that plan out as below, with ``period-aware``'s own prediction
+(its tracker and unsteady horizons included); if the plan holds for K footsteps, its command is
+returned unchanged. Otherwise (and always without ``greedy_seed``) the call optimises a sequence of ``K`` commands ``[S, L, θ, T_SS]`` (``T_DS`` nominal) with
 the cross-entropy method: a population of sequences is rolled out through the LIPM (each
 step's CoM state carried to the next, every step checked for feasibility,
-:func:`footstep_gym.lipm.check_steps`) and through the constant-velocity prediction of the
-obstacles (:class:`.prediction.ObstaclePredictor`, the staged planners' own; never the
-simulator's future): the body's CoM path is checked at every step, and the last stance for
+:func:`footstep_gym.lipm.check_steps`) and through the prediction of the obstacles
+(:class:`.prediction.ObstaclePredictor`; never the simulator's future): the body's CoM path is checked at every step, and the last stance for
 ``dwell_s`` seconds after the sequence (a plan must not end where it is trapped). The cost is
 the time to the goal (reached: when; not reached: the time walked plus the remaining distance
 over the fastest centre speed), plus penalties for a collision or an infeasible step (larger
 the earlier it comes) and for clearance below ``soft_margin_m``. The elites refit a Gaussian per
-command dimension; the best sequence's first command is executed, and the rest seeds the next
-call (shifted by one footstep).
+command dimension; the best sequence's first command is executed (through stage 3's PSO if the
+LIPM rejects it), and the rest seeds the next call (shifted by one footstep).
 """
 
 from __future__ import annotations

@@ -147,6 +147,7 @@ class PeriodAwarePlanner(SnapshotPlanner):
         # What was sensed at the last steps, oldest first (the previous snapshot last).
         self._history: deque[Snapshot] = deque(maxlen=pp.acceleration_steps if add.acceleration else 1)
         self.tracker = Tracker(config.tracking) if add.tracking else None  # filters what is sensed, step to step
+        self.predictor: ObstaclePredictor | None = None  # the last call's prediction, for planners built on this one
 
     @property
     def _previous_snapshot(self) -> Snapshot | None:
@@ -194,7 +195,7 @@ class PeriodAwarePlanner(SnapshotPlanner):
         self._history.append(snapshot)
         predictor = ObstaclePredictor(snapshot, horizon=self.horizon, horizons=unsteady, accelerations=accelerations,
                                       acceleration_horizon=self.acceleration_horizon)
-        self.predictor = predictor  # the last prediction, for planners built on this one (.lookahead)
+        self.predictor = predictor
         body = BodyModel(predictor, self.robot, self.margin, sway=self.com_sway)
         search_body = BodyModel(predictor, self.robot, self.search_margin, sway=self.com_sway)
         return body, search_body, len(unsteady)

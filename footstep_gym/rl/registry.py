@@ -36,6 +36,10 @@ class AgentEntry:
     ``configs/rl/`` and ``why_not_trainable`` says where they are); ``eval_freq``, the zoo's
     evaluation period in env steps (``-1``: none, the config's ``ValidationCallback`` draws the
     curve); ``eval_like_training``: the zoo's evaluation env gets the config's ``env_kwargs``.
+
+    Its track (docs/benchmark.md): ``tier`` None, the generalisation track (trained on ``train``, tested on
+    every tier); a tier's name, the in-distribution track (trained on that tier's cells, tested on that tier
+    only).
     """
 
     algo: str
@@ -47,6 +51,7 @@ class AgentEntry:
     eval_freq: int = 25_000
     eval_like_training: bool = False
     why_not_trainable: str = ""
+    tier: str | None = None
 
     def __post_init__(self) -> None:
         if not self.folder:
@@ -87,6 +92,16 @@ AGENTS: dict[str, AgentEntry] = {
                             default_folder=False, config=None,
                             why_not_trainable="its hyperparameters are the tuner's top trial, kept in its shipped "
                                               "run's config.yml (configs/rl/td3_sbx.yml holds td3's)"),
+    # The in-distribution track: trained on a tier's cells (train split seeds), tested on that tier only.
+    "ppo-structure": AgentEntry("ppo", "PPO trained on each scene's structure tier (its cells drawn per episode), "
+                                       "tested there only: the in-distribution track", folder="ppo-structure",
+                                config="ppo-structure", eval_freq=-1, tier="structure"),
+    "ppo-noise": AgentEntry("ppo", "PPO trained on each scene's noise tier (its cells drawn per episode), tested "
+                                   "there only: the in-distribution track", folder="ppo-noise", config="ppo-noise",
+                            eval_freq=-1, tier="noise"),
+    "ppo-lstm-noise": AgentEntry("ppo_lstm", "RecurrentPPO (sb3-contrib) trained on each scene's noise tier, tested "
+                                             "there only: the in-distribution track", folder="ppo-lstm-noise",
+                                 config="ppo-lstm-noise", eval_freq=-1, tier="noise"),
 }
 
 #: The environment variable naming the agents folder (:func:`default_agents_dir`).

@@ -47,6 +47,8 @@ scene x tier x cell x training run, the records over runs, per tier the IQM with
 stratified-bootstrap interval over runs), ``benchmark.md`` (the leaderboard row and every cell),
 ``episodes.csv`` and ``run.json``, with the same checks and the same temporary folder as above.
 ``--env`` and ``--tier`` restrict it to some scenes or tiers: a partial run, no leaderboard row.
+A method trained on one tier's cells (the in-distribution track: ``--trained-on-tier TIER``, or a shipped
+agent registered with its tier) runs on that tier only; its row is the in-distribution table's.
 """
 
 from __future__ import annotations
@@ -183,6 +185,10 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--tier", action="append", metavar="TIER",
                        help="with --benchmark: only this tier of configs/benchmark.yaml (paper, train, shifted, "
                             "structure, noise); repeatable; a partial run (so is --env)")
+    bench.add_argument("--trained-on-tier", metavar="TIER",
+                       help="with --benchmark: the method trained on this tier's cells (train-split seeds), the "
+                            "in-distribution track: it is tested on that tier only (structure, noise, ...; a "
+                            "shipped agent registered with a tier, such as ppo-structure, needs no option)")
     bench.add_argument("--name", metavar="LABEL",
                        help="with --benchmark --agent: the method's name in the tables (agent:LABEL; default the "
                             "first run's folder name)")
@@ -213,8 +219,9 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings | BenchmarkSet
                 policies=args.policy, agents=args.agent, name=args.name, full=args.full, episodes=args.episodes,
                 envs=args.env, tiers=args.tier, out=args.out, workers=args.workers, backend=args.backend,
                 ray_address=args.ray_address, agents_dir=args.agents_dir, algo=args.algo,
-                vecnormalize=args.vecnormalize)
-        given = [flag for flag, value in (("--full", args.full), ("--tier", args.tier), ("--name", args.name)) if value]
+                vecnormalize=args.vecnormalize, trained_on_tier=args.trained_on_tier)
+        given = [flag for flag, value in (("--full", args.full), ("--tier", args.tier), ("--name", args.name),
+                                          ("--trained-on-tier", args.trained_on_tier)) if value]
         if given:
             parser.error(f"{', '.join(given)} {'goes' if len(given) == 1 else 'go'} with --benchmark only")
         chosen = {name for flag, name in ((args.paper, "paper"), (args.ablation, "ablation")) if flag}

@@ -131,6 +131,54 @@ def test_a_partial_run_from_the_command_line(tmp_path):
     assert not doc["complete"] and "Partial run" in (out / "benchmark.md").read_text()
 
 
+def _walk_forward(scene: str, seed: int):
+    return lambda observation: [0.04, 0.08, 0.0, 0.6, 0.2]
+
+
+def test_an_in_distribution_row_is_its_tier_only(tmp_path):
+    """A method trained on a tier's cells runs on that tier's cells only, and is a complete row of that track."""
+    doc = benchmark.evaluate(_walk_forward, name="walker-noise", out=tmp_path / "id", episodes=1, workers=1,
+                             trained_on_tier="noise")
+    assert [f"{c['scene']}/{c['tier']}/{c['cell']}" for c in doc["protocol"]["cells"]] == \
+        [c.label for c in benchmark.benchmark_cells(tiers=["noise"])]
+    assert doc["track"] == benchmark.IN_DISTRIBUTION and doc["trained_on_tier"] == "noise" and doc["complete"]
+    assert [a["tier"] for a in doc["aggregates"]] == ["noise"]
+    assert "**In-distribution track**: trained on the noise tier" in (tmp_path / "id" / "benchmark.md").read_text()
+    some = benchmark.evaluate(_walk_forward, name="walker-noise", out=tmp_path / "some", episodes=1, workers=1,
+                              trained_on_tier="noise", scenes=["door"])
+    assert not some["complete"]  # one scene of the tier: a partial row
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"trained_on_tier": "paper"}, "'paper' has no distribution to train on"),
+    ({"trained_on_tier": "train"}, "is on the generalisation track"),
+    ({"trained_on_tier": "hard"}, "unknown tier 'hard'"),
+    ({"trained_on_tier": "noise", "tiers": ["structure"]}, "tested on it only"),
+])
+def test_a_bad_in_distribution_tier_is_refused_before_anything_runs(kwargs, message, tmp_path):
+    with pytest.raises(ValueError, match=re.escape(message)):
+        benchmark.evaluate(_walk_forward, name="walker", out=tmp_path / "x", episodes=1, workers=1, **kwargs)
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_shipped_agent_registered_with_a_tier_runs_there_only(tmp_path):
+    """ppo-structure (registered with tier structure) gets the structure tier's cells without an option; a
+    registered policy cannot be moved to another track."""
+    for env_id in ("FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0"):
+        run = tmp_path / "agents" / "ppo-structure" / f"{env_id}_1"
+        run.mkdir(parents=True)
+        (run / f"{env_id}.zip").write_bytes(b"")
+    common = dict(agents=None, name=None, full=False, episodes=1, envs=None, out=tmp_path / "x", workers=1,
+                  backend="local", ray_address=None, agents_dir=tmp_path / "agents")
+    settings = benchmark.benchmark_settings(policies=["ppo-structure"], tiers=None, **common)
+    assert settings.trained_on_tier == "structure" and settings.tiers == ("structure",)
+    assert {c.tier for c in settings.cells} == {"structure"}
+    with pytest.raises(benchmark.OptionError, match="tested on it only"):
+        benchmark.benchmark_settings(policies=["ppo-structure"], tiers=["noise"], **common)
+    with pytest.raises(benchmark.OptionError, match="registered as trained on tier 'structure'"):
+        benchmark.benchmark_settings(policies=["ppo-structure"], tiers=None, trained_on_tier="noise", **common)
+
+
 def test_the_ray_backend_gives_the_same_records(tmp_path):
     pytest.importorskip("ray")
     script = load_script("eval_planner")
@@ -156,6 +204,7 @@ def test_the_ray_backend_gives_the_same_records(tmp_path):
     (["--policy", FAST, "--tier", "impossible"], "unknown benchmark tier"),
     (["--policy", "teleport"], "unknown policy 'teleport'"),
     (["--policy", FAST, "--name", "x"], "--name names an --agent"),
+    (["--policy", FAST, "--trained-on-tier", "noise"], "fixed-period is registered on the generalisation track"),
 ])
 def test_bad_benchmark_options_exit_2_before_touching_out(args, message, tmp_path):
     proc = run_cli("--benchmark", *args, "--out", str(tmp_path / "x"), timeout=120)

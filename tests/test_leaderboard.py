@@ -151,6 +151,35 @@ def test_the_board_pairs_runs_and_marks_partial_and_upper_bound():
     assert f"{hard['iqm']:.2f} [{hard['iqm_ci95'][0]:.2f}, {hard['iqm_ci95'][1]:.2f}]" in head[2]
 
 
+def test_the_in_distribution_track_is_its_own_table():
+    """A file of a method trained on one tier is no row of the headline (nor of the figures): it has its own table,
+    beside the generalisation track's learned rows and upper bounds on the same tier."""
+    agent = {**document("agent", AGENT), "run": {"command": "fake", "agent_runs": ["FootstepDoor-v0_1"]}}
+    hard_only = {key: wins for key, wins in AGENT.items() if key[1] != "default"}
+    trained_here = {**document("agent-hard", {k: [min(10, w + 5) for w in ws] for k, ws in hard_only.items()}),
+                    "track": "in-distribution", "trained_on_tier": "hard", "complete": True,
+                    "run": {"command": "fake", "agent_runs": ["FootstepDoor-v0_1"]}}
+    board = lb.build([document("planner", PLANNER), document("oracle", ORACLE, upper_bound=True), agent,
+                      trained_here], reps=REPS)
+    assert [p["policy"] for p in board["policies"]] == ["agent", "planner", "oracle"]
+    (entry,) = board["in_distribution"]
+    assert entry["policy"] == "agent-hard" and entry["complete"] and entry["trained_on_tier"] == "hard"
+    assert [a["tier"] for a in board["aggregates"] if a["policy"] == "agent-hard"] == ["hard"]
+    assert "agent-hard" not in lb.headline_markdown(board)
+    assert [p["policy"] for p in lb.in_figure(board, "hard")[0]] == ["agent", "planner", "oracle"]
+    table = squash(lb.in_distribution_markdown(board))
+    assert table[0] == "| policy | trained on | runs | hard (3 cells) |"
+    mine = next(a for a in board["aggregates"] if a["policy"] == "agent-hard")
+    assert table[2] == f"| agent-hard | hard | 2 | {mine['iqm']:.2f} [{mine['iqm_ci95'][0]:.2f}, " \
+                       f"{mine['iqm_ci95'][1]:.2f}] |"
+    assert table[3].startswith("| agent | train | 2 | ") and table[4].startswith("| *oracle (upper bound)* | no ")
+    assert len(table) == 5  # the planner (it does not learn) is left to the headline table
+    text = lb.markdown(board)
+    assert "## In-distribution track" in text and "tested on that tier's test seeds only" in text
+    no_track = lb.build(fakes(), reps=REPS)
+    assert lb.in_distribution_markdown(no_track) == "" and "## In-distribution track" not in lb.markdown(no_track)
+
+
 def test_the_per_scene_table_from_fake_files():
     board = lb.build(fakes(), reps=REPS)
     rows = {(r["policy"], r["tier"], r["scene"]): r for r in board["per_scene"]}

@@ -129,9 +129,40 @@ def benchmark_cells(scenes: Sequence[str] | None = None, tiers: Sequence[str] | 
             if (scenes is None or scene in scenes) and (tiers is None or tier in tiers)]
 
 
-def is_complete(cells: Sequence[BenchmarkCell]) -> bool:
-    """Whether ``cells`` are every cell of the benchmark (a leaderboard row needs them all)."""
-    return {c.label for c in cells} == {c.label for c in benchmark_cells()}
+#: The tracks (docs/benchmark.md): generalisation (trained on ``train``, tested on every tier) and in-distribution
+#: (trained on tier T's cells with train-split seeds, tested on T only).
+GENERALISATION, IN_DISTRIBUTION = "generalisation", "in-distribution"
+
+
+def is_complete(cells: Sequence[BenchmarkCell], trained_on_tier: str | None = None) -> bool:
+    """Whether ``cells`` are every cell of the benchmark (a generalisation row needs them all), or with
+    ``trained_on_tier`` every cell of that tier (an in-distribution row)."""
+    every = benchmark_cells(tiers=[trained_on_tier] if trained_on_tier else None)
+    return {c.label for c in cells} == {c.label for c in every}
+
+
+def track_tier(tier: str | None, tiers: Sequence[str] | None, where: str) -> tuple[str, ...] | None:
+    """The tiers a method trained on ``tier`` (the in-distribution track; None: the generalisation track) is run
+    on, given the asked ``tiers``: ``(tier,)``; ``ValueError`` (one line, naming ``where``) for a tier without a
+    distribution to train on (the default), an unknown tier, or asked tiers other than it."""
+    from footstep_gym import tiers as tier_module
+
+    if tier is None:
+        return tuple(tiers) if tiers else None
+    known = tier_module.tier_names()
+    tracked = [t for t in known if t not in (tier_module.DEFAULT_TIER, "train")]
+    if tier not in known:
+        raise ValueError(f"{where}: unknown tier {tier!r}; choose one of {', '.join(tracked)}")
+    if tier == tier_module.DEFAULT_TIER:
+        raise ValueError(f"{where}: {tier!r} has no distribution to train on (its cells are the paper's fixed "
+                         f"scenes); the in-distribution track has {', '.join(tracked)}")
+    if tier == "train":
+        raise ValueError(f"{where}: a method trained on 'train' is on the generalisation track (tested on every "
+                         f"tier): leave the option out; the in-distribution track has {', '.join(tracked)}")
+    if tiers and set(tiers) != {tier}:
+        raise ValueError(f"{where}: a method trained on tier {tier!r} is tested on it only (the in-distribution "
+                         f"track); --tier {', '.join(t for t in tiers if t != tier)} contradicts it")
+    return (tier,)
 
 
 # ---------------------------------------------------------------- what runs
@@ -261,13 +292,17 @@ def source_commit() -> str | None:
 
 
 def benchmark_document(entry: registry.PolicyEntry, cells: Sequence[BenchmarkCell], records: Sequence[CellRecord],
-                       episodes: int, run_info: Mapping[str, Any]) -> dict[str, Any]:
-    """What ``benchmark.json`` holds: the protocol, the per-run records, their summary over runs, the aggregates."""
+                       episodes: int, run_info: Mapping[str, Any], trained_on_tier: str | None = None
+                       ) -> dict[str, Any]:
+    """What ``benchmark.json`` holds: the protocol, the per-run records, their summary over runs, the aggregates;
+    ``track`` and ``trained_on_tier`` say which track the row is on (:data:`GENERALISATION`: ``trained_on_tier``
+    None)."""
     return {
         "benchmark": "footstep_gym", "protocol_version": PROTOCOL_VERSION, "footstep_gym": footstep_gym.__version__,
         "policy": entry.name, "label": entry.label, "upper_bound": entry.reads_truth,
         "description": entry.description,
-        "complete": is_complete(cells),
+        "track": IN_DISTRIBUTION if trained_on_tier else GENERALISATION, "trained_on_tier": trained_on_tier,
+        "complete": is_complete(cells, trained_on_tier),
         "protocol": {
             "split": SPLIT, "episodes_per_cell": episodes, "seeds": seeds(episodes),
             "tiers": list(dict.fromkeys(c.tier for c in cells)), "scenes": list(dict.fromkeys(c.scene for c in cells)),
@@ -321,6 +356,10 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
     n = protocol["episodes_per_cell"]
     lines.append(f"{len(protocol['cells'])} cells (tiers {', '.join(tiers)}; scenes {', '.join(protocol['scenes'])}), "
                  f"{n} episode{'s' if n != 1 else ''} per cell, test seeds {seeds_[0]}..{seeds_[-1]}.")
+    trained_on = doc.get("trained_on_tier")
+    if trained_on:
+        lines += ["", f"**In-distribution track**: trained on the {trained_on} tier's cells (train-split seeds), "
+                      f"tested on its test seeds only."]
     if not doc["complete"]:
         lines += ["", "**Partial run** (some tiers or scenes left out): not a leaderboard row."]
     by_tier = {a["tier"]: a for a in aggregates}
@@ -366,6 +405,7 @@ class BenchmarkSettings:
     backend: str
     ray_address: str | None
     factory: PolicyFactory = default_factory
+    trained_on_tier: str | None = None  # the in-distribution track's tier; None: the generalisation track
 
     @property
     def policy(self) -> str:
@@ -380,12 +420,15 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str |
                        full: bool, episodes: int | None, envs: Sequence[str] | None, tiers: Sequence[str] | None,
                        out: Path, workers: int | None, backend: str, ray_address: str | None,
                        agents_dir: Path | None, algo: str | None = None,
-                       vecnormalize: Sequence[str] | None = None) -> BenchmarkSettings:
+                       vecnormalize: Sequence[str] | None = None,
+                       trained_on_tier: str | None = None) -> BenchmarkSettings:
     """A run's settings from its options, checked: the first bad one raises
     :class:`~footstep_gym.evaluation.profiles.OptionError` (one line; nothing is run or written).
 
     ``agents``: ``--agent`` values, ``PATH`` or ``SCENE=PATH`` (:func:`~footstep_gym.evaluation.submission.
-    parse_agents`; ``algo`` and ``vecnormalize`` for plain ``.zip`` files)."""
+    parse_agents`; ``algo`` and ``vecnormalize`` for plain ``.zip`` files). ``trained_on_tier``
+    (``--trained-on-tier``): the method trained on that tier's cells, the in-distribution track: it runs on
+    that tier only (a shipped agent registered with a ``tier`` is on that track by itself)."""
     named = list(policies or [])
     if bool(named) == bool(agents) or len(named) > 1:
         raise OptionError("--benchmark evaluates one method: give one --policy NAME, or --agent [SCENE=]PATH "
@@ -397,9 +440,27 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str |
     if full and episodes not in (None, FULL_EPISODES):
         raise OptionError(f"--full is {FULL_EPISODES} episodes per cell; --episodes {episodes} contradicts it")
     episodes = FULL_EPISODES if full else episodes or EPISODES
+    entry = None
+    if named:
+        try:
+            entry = registry.resolve(named[0])
+        except ValueError as exc:
+            raise OptionError(str(exc) if isinstance(exc, registry.PolicyLoadError) else
+                              f"unknown policy {named[0]!r}; choose from {', '.join(registry.policy_names())}, or "
+                              "give a policy of your own as module:attr") from None
+        if entry.kind != "import":  # a registered policy's track is its registration's
+            registered_tier = getattr(entry.agent, "tier", None)
+            if trained_on_tier and registered_tier != trained_on_tier:
+                raise OptionError(
+                    f"--trained-on-tier {trained_on_tier}: {entry.name} is registered "
+                    + (f"as trained on tier {registered_tier!r}" if registered_tier else
+                       "on the generalisation track") + "; --trained-on-tier is for a method of your own "
+                    "(--policy module:attr, --agent PATH)")
+            trained_on_tier = registered_tier
     try:
         scenes = unique([scene_of(resolve_env_id(e)) for e in envs]) if envs else None
-        tiers = unique(tiers) if tiers else None
+        tiers = track_tier(trained_on_tier, unique(tiers) if tiers else None,
+                           f"--trained-on-tier {trained_on_tier}" if trained_on_tier else "--tier")
         cells = benchmark_cells(scenes, tiers)
         split_seeds(SPLIT, episodes)
     except ValueError as exc:
@@ -416,12 +477,7 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str |
             raise OptionError(str(exc)) from None
         entry = registry.resolve(f"{registry.USER_AGENT_PREFIX}{name or parsed[0].label}")
     else:
-        try:
-            entry = registry.resolve(named[0])
-        except ValueError as exc:
-            raise OptionError(str(exc) if isinstance(exc, registry.PolicyLoadError) else
-                              f"unknown policy {named[0]!r}; choose from {', '.join(registry.policy_names())}, or "
-                              "give a policy of your own as module:attr") from None
+        assert entry is not None
         if entry.kind == "agent":
             from footstep_gym.rl.registry import agent_runs, missing_agents_note
 
@@ -432,7 +488,8 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str |
                                   f"({missing_agents_note({entry.name: missing}, agents_dir)}); a benchmark "
                                   "row needs every scene (--env restricts it: a partial run)")
     return BenchmarkSettings(entry=entry, runs=runs, scenes=scenes, tiers=tiers, episodes=episodes, out=out,
-                             workers=workers or usable_cores(), backend=backend, ray_address=ray_address)
+                             workers=workers or usable_cores(), backend=backend, ray_address=ray_address,
+                             trained_on_tier=trained_on_tier)
 
 
 def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell],
@@ -451,7 +508,8 @@ def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell]
     if isinstance(settings.factory, CallableFactory):
         run_info["policy_source"] = {"callable": settings.factory.name, "pickle_sha256": settings.factory.key}
     records = cell_records(cells, owners, results, settings.entry.reads_truth)
-    doc = benchmark_document(settings.entry, settings.cells, records, settings.episodes, run_info)
+    doc = benchmark_document(settings.entry, settings.cells, records, settings.episodes, run_info,
+                             settings.trained_on_tier)
     text = markdown(doc, command)
     files = [folder / "benchmark.json", folder / "benchmark.md", folder / "episodes.csv", folder / "run.json"]
     files[0].write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
@@ -494,7 +552,8 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
 # ---------------------------------------------------------------- the library's way in
 def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str | Path, snapshot: bool = False,
              episodes: int = EPISODES, scenes: Sequence[str] | None = None, tiers: Sequence[str] | None = None,
-             workers: int | None = None, backend: str = "local", ray_address: str | None = None) -> dict[str, Any]:
+             workers: int | None = None, backend: str = "local", ray_address: str | None = None,
+             trained_on_tier: str | None = None) -> dict[str, Any]:
     """Run the benchmark for any policy and write ``benchmark.json`` (and ``benchmark.md``, ``episodes.csv``,
     ``run.json``) to ``out``, as ``eval_planner.py --benchmark`` does; returns the ``benchmark.json`` document.
 
@@ -511,6 +570,8 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
         episodes: seeds per cell (:data:`EPISODES`; :data:`FULL_EPISODES` for a full run).
         scenes, tiers: only these (a partial run, no leaderboard row); ``None``: every one.
         workers, backend, ray_address: as ``eval_planner.py``'s ``--workers``, ``--backend``, ``--ray-address``.
+        trained_on_tier: the method trained on this tier's cells (train-split seeds): the in-distribution
+            track, run on that tier only; ``None``: the generalisation track (trained on ``train``).
 
     Raises ``ValueError`` (one line) before anything runs for a bad option or a policy that cannot be built
     or returns no 5-number command on the first cell's first observation;
@@ -527,6 +588,7 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
         raise ValueError(f"evaluate: make_policy_fn must be callable, got {type(make_policy_fn).__name__}")
     out = Path(out)
     try:
+        tiers = track_tier(trained_on_tier, tiers, "trained_on_tier")
         cells = benchmark_cells(scenes, tiers)
         split_seeds(SPLIT, episodes)
     except ValueError as exc:
@@ -539,7 +601,7 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
     settings = BenchmarkSettings(entry=entry, runs=None, scenes=tuple(scenes) if scenes else None,
                                  tiers=tuple(tiers) if tiers else None, episodes=episodes, out=out,
                                  workers=workers or usable_cores(), backend=backend, ray_address=ray_address,
-                                 factory=factory)
+                                 factory=factory, trained_on_tier=trained_on_tier)
     runner, owners = runner_cells(cells, name)
     problem = check_cells(runner, factory=factory) or check_out(out)
     if problem:

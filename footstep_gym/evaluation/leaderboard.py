@@ -20,6 +20,12 @@
 * :func:`write_leaderboard`: every file, written into a temporary folder beside ``out`` and then moved in one by
   one (:data:`OWN_FILES`; a user's other files in ``out``, such as the policies' own folders, are left alone).
 
+Two tracks (docs/benchmark.md): a file whose method trained on ``train`` (``"track": "generalisation"``, every
+file without the key) is a row of the headline table and the figures, ``board["policies"]``; one whose method
+trained on tier T's cells (``"track": "in-distribution"``, ``"trained_on_tier": T``) is a row of the
+in-distribution table, ``board["in_distribution"]`` (:func:`in_distribution_markdown`), complete when it covers
+every cell of T, shown beside the generalisation track's learned rows and upper bounds on the same tiers.
+
 A policy that covers only some of a tier's cells (a partial run, ``"complete": false``) gets its aggregate over the
 cells it covers, marked as such in the tables, and is left out of that tier's figures (they compare policies on
 the same cells). A policy with fewer runs for some scene is cut to the fewest, as the benchmark's own aggregate
@@ -40,6 +46,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from footstep_gym.evaluation.benchmark import GENERALISATION, IN_DISTRIBUTION
 from footstep_gym.evaluation.outfolder import new_run_folder
 from footstep_gym.evaluation.records import CellRecord
 from footstep_gym.evaluation.splits import PROTOCOL_VERSION  # the version benchmark.json files must carry
@@ -237,12 +244,13 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
     tiers = list(cells)
     scenes = _ordered([c.split("/")[0] for cs in cells.values() for c in cs])
     paths = list(paths) if paths is not None else [None] * len(docs)
-    policies, aggregates, scene_rows = [], [], []
+    policies, in_distribution, aggregates, scene_rows = [], [], [], []
     for doc, path in zip(docs, paths):
         name = doc["policy"]
+        trained_on = doc.get("trained_on_tier") if doc.get("track") == IN_DISTRIBUTION else None
         rows = []
         records = _records(doc)
-        for tier in tiers:
+        for tier in ([trained_on] if trained_on else tiers):
             matrix, covered = score_matrix([r for r in records if r.tier == tier], cells[tier])
             if not covered:
                 continue
@@ -258,9 +266,12 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
             })
         aggregates += rows
         scene_rows += per_scene(doc, tiers, scenes)
-        covered_all = all(r["covers_tier"] for r in rows) and {r["tier"] for r in rows} == set(tiers)
-        policies.append({
+        covered_all = (all(r["covers_tier"] for r in rows)
+                       and {r["tier"] for r in rows} == ({trained_on} if trained_on else set(tiers)))
+        (in_distribution if trained_on else policies).append({
             "policy": name, "label": _label(doc), "upper_bound": bool(doc.get("upper_bound")),
+            "track": IN_DISTRIBUTION if trained_on else GENERALISATION, "trained_on_tier": trained_on,
+            "learned": bool((doc.get("run") or {}).get("agent_runs")),
             "complete": bool(doc.get("complete")) and covered_all,
             "scenes": _ordered([s for s in scenes if any(r.scene == s for r in records)]),
             "protocol": {key: doc["protocol"].get(key) for key in PROTOCOL_KEYS},
@@ -274,7 +285,8 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
         return (p["upper_bound"], not p["complete"], -float(np.mean(iqms)) if iqms else 0.0, p["policy"])
 
     policies.sort(key=rank)
-    order = {p["policy"]: i for i, p in enumerate(policies)}
+    in_distribution.sort(key=lambda p: (tiers.index(p["trained_on_tier"]), *rank(p)))
+    order = {p["policy"]: i for i, p in enumerate(policies + in_distribution)}
     aggregates.sort(key=lambda a: (tiers.index(a["tier"]), order[a["policy"]]))
     scene_rows.sort(key=lambda a: (tiers.index(a["tier"]), scenes.index(a["scene"]), order[a["policy"]]))
     protocol: dict[str, Any] = {}
@@ -285,7 +297,8 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
         "leaderboard": "footstep_gym", "protocol_version": PROTOCOL_VERSION, "protocol": protocol,
         "tiers": tiers, "scenes": scenes, "tier_cells": cells,
         "bootstrap": {"reps": reps, "seed": seed, "confidence": 0.95, "gamma": GAMMA},
-        "policies": policies, "aggregates": aggregates, "per_scene": scene_rows,
+        "policies": policies, "in_distribution": in_distribution, "aggregates": aggregates,
+        "per_scene": scene_rows,
     }
 
 
@@ -375,6 +388,46 @@ def headline_notes(board: Mapping[str, Any]) -> list[str]:
     return notes
 
 
+def in_distribution_markdown(board: Mapping[str, Any]) -> str:
+    """The in-distribution track's table: a row per method trained on a tier (its IQM there, the other tiers –),
+    then, on the same tiers, the generalisation track's learned rows (trained on ``train``) and upper bounds, for
+    comparison. Empty text when no file is on the track."""
+    entries = board.get("in_distribution") or []
+    if not entries:
+        return ""
+    tiers = [t for t in board["tiers"] if any(p["trained_on_tier"] == t for p in entries)]
+    cells = board["tier_cells"]
+    rows = []
+    others = [p for p in board["policies"] if p["complete"] and (p.get("learned") or p["upper_bound"])]
+    for p in [*entries, *others]:
+        row = []
+        for t in tiers:
+            a = _aggregate(board, p["policy"], t) if p["trained_on_tier"] in (None, t) else None
+            row.append(DASH if a is None else interval(a["iqm"], a["iqm_ci95"]) + ("" if a["covers_tier"] else " †"))
+        label = p["label"] if p["complete"] else f"{p['label']} (partial)"
+        rows.append([f"*{label}*" if p["upper_bound"] else label,
+                     p["trained_on_tier"] or ("no training" if not p.get("learned") else "train"),
+                     _runs(p["runs"]), *row])
+    table = pd.DataFrame(rows, columns=["policy", "trained on", "runs",
+                                        *(f"{t} ({plural(len(cells[t]), 'cell')})" for t in tiers)])
+    return markdown_table(table).rstrip("\n")
+
+
+def in_distribution_notes(board: Mapping[str, Any]) -> list[str]:
+    """The lines under the in-distribution table."""
+    entries = board.get("in_distribution") or []
+    if not entries:
+        return []
+    notes = ["Methods trained on a tier's cells (its train-split seeds) and tested on that tier's test seeds only; "
+             "below them, for comparison on the same tiers, the generalisation track's learned methods (trained on "
+             "`train`) and the upper bounds. IQM over the tier's cells [95 % stratified-bootstrap interval over "
+             "training runs], as in the table above. Methods that do not learn (planners, null baselines) score "
+             "the same on both tracks: the table above."]
+    notes += [f"{p['label']}: partial run (not every cell of {p['trained_on_tier']}); marked †."
+              for p in entries if not p["complete"]]
+    return notes
+
+
 def scene_markdown(board: Mapping[str, Any]) -> str:
     """Per tier and scene (rows) and policy (columns): the mean success over the scene's cells [pooled Wilson
     95 % CI]."""
@@ -415,6 +468,9 @@ def markdown(board: Mapping[str, Any]) -> str:
              "`python baselines/make_leaderboard.py` (docs/benchmark.md §4).", "",
              "## IQM success per tier", "", headline_markdown(board), ""]
     lines += [note + "\n" for note in headline_notes(board)]
+    if board.get("in_distribution"):
+        lines += ["## In-distribution track", "", in_distribution_markdown(board), ""]
+        lines += [note + "\n" for note in in_distribution_notes(board)]
     lines += ["## Per scene", "", scene_markdown(board), "",
               "Mean success over the scene's cells of the tier (each cell's success pooled over the training runs) "
               "[95 % Wilson interval of all those episodes pooled, runs and cells: it counts the episodes as "

@@ -40,8 +40,8 @@ def test_ppo_wide_is_ppo_on_wider_ranges():
         ranges = kwargs["randomize"]
         for key, (lo, hi) in base_kwargs["randomize"].items():
             assert ranges[key][0] <= lo and ranges[key][1] >= hi, (env_id, key)
-        if scene == "crossing":
-            continue  # ppo-wide trained on protocol 1's crossing (a timed car); protocol 2's is a stream
+        assert {k: v for k, v in kwargs.items() if k != "randomize" and k in base_kwargs} == \
+            {k: v for k, v in base_kwargs.items() if k != "randomize"}, env_id  # the stream's layout is train's
         for cell in tiers.cells(scene, "shifted"):
             for key, value in tiers.plain(cell.kwargs).get("randomize", {}).items():
                 assert ranges[key][0] <= value[0] and ranges[key][1] >= value[1], (env_id, cell.name, key)
@@ -61,11 +61,29 @@ def test_ppo_noisy_and_ppo_lstm_are_ppo_on_the_noisy_scenes():
         (cell,) = tiers.cells(scene, "noise", "train")
         noise = {k: v for k, v in tiers.plain(cell.kwargs).items() if k.startswith("sensing_")}
         assert noise and {k: v for k, v in noisy["env_kwargs"].items() if k.startswith("sensing_")} == noise, env_id
-        assert noisy["env_kwargs"]["randomize"] == ppo["env_kwargs"]["randomize"], env_id
-        assert set(noisy["env_kwargs"]) == {"randomize", *noise}, env_id
+        assert {k: v for k, v in noisy["env_kwargs"].items() if not k.startswith("sensing_")} == ppo["env_kwargs"], \
+            env_id
         strip = ("env_kwargs", "n_timesteps")
         assert {k: v for k, v in noisy.items() if k not in strip} == {k: v for k, v in ppo.items() if k not in strip}
         assert lstm.pop("policy") == "MlpLstmPolicy" and noisy.pop("policy") == "MlpPolicy"
         assert lstm.pop("policy_kwargs").replace(", lstm_hidden_size=64, enable_critic_lstm=True", "") == \
             noisy.pop("policy_kwargs")
         assert lstm == noisy, env_id
+
+
+def test_the_in_distribution_configs_are_their_generalisation_twins_on_a_tier():
+    """ppo-structure and ppo-noise: ppo's hyperparameters; ppo-lstm-noise: ppo-lstm's; each trains on every cell of
+    its tier (``env_kwargs: {tier: T}``, T the tier its registered agent is tested on) of every scene."""
+    from footstep_gym.rl.registry import AGENTS
+
+    scenes = ["FootstepDoor-v0", "FootstepCrossing-v0", "FootstepCrowd-v0"]
+    for name, twin in (("ppo-structure", "ppo.yml"), ("ppo-noise", "ppo.yml"), ("ppo-lstm-noise", "ppo-lstm.yml")):
+        entry = AGENTS[name]
+        data, base = _load(f"{entry.config}.yml"), _load(twin)
+        assert entry.tier in ("structure", "noise") and entry.eval_freq == -1
+        assert sorted(k for k in data if k.startswith("Footstep")) == sorted(scenes), name
+        for env_id in scenes:
+            mine, theirs = copy.deepcopy(data[env_id]), copy.deepcopy(base[env_id])
+            assert mine.pop("env_kwargs") == {"tier": entry.tier}, (name, env_id)
+            theirs.pop("env_kwargs"), mine.pop("n_timesteps"), theirs.pop("n_timesteps")
+            assert mine == theirs, (name, env_id)

@@ -311,15 +311,16 @@ def headline_table(repo: Path) -> str:
 LEADERBOARD = Path("baselines") / "results" / "benchmark" / "leaderboard.md"
 
 
-def leaderboard_block(repo: Path) -> str:
-    """The README's leaderboard: the "IQM success per tier" section of the committed ``leaderboard.md`` (its table
-    and notes, as ``baselines/make_leaderboard.py`` wrote them; the bootstrap is not redone here)."""
+def leaderboard_block(repo: Path, section: str = "IQM success per tier") -> str:
+    """The README's leaderboard: a section of the committed ``leaderboard.md`` (its table and notes, as
+    ``baselines/make_leaderboard.py`` wrote them; the bootstrap is not redone here): ``IQM success per tier``, the
+    generalisation track, or ``In-distribution track``."""
     path = repo / LEADERBOARD
     lines = path.read_text(encoding="utf-8").split("\n")
     try:
-        start = lines.index("## IQM success per tier") + 1
+        start = lines.index(f"## {section}") + 1
     except ValueError:
-        raise ValueError(f"{LEADERBOARD}: no '## IQM success per tier' section; regenerate it with "
+        raise ValueError(f"{LEADERBOARD}: no '## {section}' section; regenerate it with "
                          "python baselines/make_leaderboard.py") from None
     end = next((i for i in range(start, len(lines)) if lines[i].startswith("## ")), len(lines))
     return "\n".join(lines[start:end]).strip("\n") + "\n"
@@ -348,6 +349,7 @@ def speed_blocks(repo: Path) -> dict[str, str]:
 BLOCKS: dict[str, Callable[[Path], str]] = {
     "headline": lambda repo: headline_table(repo),
     "leaderboard": lambda repo: leaderboard_block(repo),
+    "leaderboard_in_distribution": lambda repo: leaderboard_block(repo, "In-distribution track"),
     "speed": lambda repo: speed_blocks(repo)["speed"],
     "speed_tiers": lambda repo: speed_blocks(repo)["speed_tiers"],
     "soak": lambda repo: speed_blocks(repo)["soak"],

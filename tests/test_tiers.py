@@ -251,7 +251,7 @@ def test_the_train_tier_is_what_the_shipped_agents_trained_on():
     for path in manifests:
         m = json.loads(path.read_text(encoding="utf-8"))
         fixed = bool(m["env_kwargs"].get("fixed_period", False))
-        old = m["agent"] in PROTOCOL_1_CROSSING_AGENTS or m["env_id"] == footstep_gym.MIX_ENV_ID
+        old = path.parents[1].name in PROTOCOL_1_CROSSING_AGENTS or m["env_id"] == footstep_gym.MIX_ENV_ID
         if m["env_id"] == footstep_gym.MIX_ENV_ID:
             want = {s: _train_kwargs(s, protocol_1=True) for s in SCENES}
         else:

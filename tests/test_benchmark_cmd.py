@@ -262,3 +262,27 @@ def test_the_oracle_is_marked_upper_bound_and_not_run_by_default():
     assert script.parse_settings(["--policy", "oracle"]).policies == ("oracle",)
     record = cell_record("FootstepDoor-v0", "door", "oracle", {}, episodes(1, 1))
     assert "| oracle (upper bound) |" in squash(report.markdown_table([record]))
+
+
+def test_the_config_hash_is_of_the_content_not_the_bytes(tmp_path, monkeypatch):
+    """A comment or spacing in an env config keeps the benchmark's config hash; a value or a key order changes it."""
+    import shutil
+
+    from footstep_gym.config import config_dir
+
+    folder = tmp_path / "configs"
+    shutil.copytree(config_dir(), folder)
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(folder))
+    release = benchmark.env_configs_sha256()
+    door = folder / "scenarios" / "door.yaml"
+    text = door.read_text(encoding="utf-8")
+    door.write_text("# a comment of one's own\n" + text.replace(": ", ":   ", 3), encoding="utf-8")
+    assert benchmark.env_configs_sha256() == release
+    lines = text.splitlines(keepends=True)
+    first, second = [i for i, line in enumerate(lines) if line[:1].isalpha() and ":" in line][:2]
+    swapped = lines.copy()
+    swapped[first], swapped[second] = lines[second], lines[first]
+    door.write_text("".join(swapped), encoding="utf-8")
+    assert benchmark.env_configs_sha256() != release  # the order of the keys is the order of the draws
+    door.write_text(text.replace("drum_segments: 8", "drum_segments: 6"), encoding="utf-8")
+    assert "drum_segments: 8" in text and benchmark.env_configs_sha256() != release

@@ -263,14 +263,17 @@ def env_config_files() -> list[str]:
 
 
 def env_configs_sha256() -> str:
-    """One SHA-256 over the files of :func:`env_config_files` (name and bytes of each, in that order)."""
+    """One SHA-256 over the files of :func:`env_config_files`: each one's name and content (its YAML as loaded,
+    written as JSON in the file's key order, which is the order of a ``randomize`` range's draws), in that
+    order. A comment or a layout change keeps it; a value, a key or an order changes it."""
     import hashlib
 
-    from footstep_gym.config import config_dir
+    from footstep_gym.config import read_yaml
 
     digest = hashlib.sha256()
     for name in env_config_files():
-        digest.update(name.encode() + b"\0" + (config_dir() / name).read_bytes() + b"\0")
+        content = json.dumps(read_yaml(name), separators=(",", ":"))
+        digest.update(name.encode() + b"\0" + content.encode() + b"\0")
     return digest.hexdigest()
 
 

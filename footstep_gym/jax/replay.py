@@ -1,7 +1,7 @@
 """Episodes of the reference env replayed in the JAX backend: the check that the two are one env.
 
 :func:`record` plays an episode in the reference env (``gymnasium.make``) with a policy's commands and keeps
-where it started (feet, door), the actions exactly as sent, and every step's observation, reward and ending.
+where it started (feet, the obstacles and the scene's draws), the actions exactly as sent, and every step's observation, reward and ending.
 :func:`replay` starts the JAX env from the same place, feeds it the same actions (batched: ``vmap`` over
 episodes, ``lax.scan`` over steps) and :func:`compare` says, per episode, whether it ended the same way at the
 same step and how far apart the observations and rewards were. Where it did not, :func:`compare` reports the
@@ -10,7 +10,7 @@ margin): a *near-tie* is a disagreement where that margin is below :data:`NEAR_T
 
 Policies (``kind``): ``planner`` (the period-aware planner, through ``make_policy``), ``walk`` (open-loop
 random walks near the nominal gait, float32: forward strides, turns, period changes, so episodes reach the
-door, hit it and fall) and ``fuzz`` (float32 actions uniform over a box 20 % wider than the action box, so
+obstacles, hit them and fall) and ``fuzz`` (float32 actions uniform over a box 20 % wider than the action box, so
 most are clipped and many fall at once).
 """
 
@@ -27,7 +27,7 @@ import numpy as np
 
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym.jax.env import TERMINATION_CODES, FootstepJaxEnv
-from footstep_gym.jax.shapes import Rods
+from footstep_gym.jax.scenes import SCENES
 
 KINDS = ("planner", "walk", "fuzz")
 #: [m] a disagreement whose reference margin (clearance, ZMP margin, goal distance - tolerance) is below this is
@@ -49,7 +49,7 @@ class Episode:
     seed: int
     kind: str
     feet: np.ndarray  # (2, 3): right, left
-    rod: tuple  # (position (2,), angle, angular velocity) of the door
+    start: dict  # the obstacles and the scene's draws at reset (``Scene.reference_start``)
     config: Any  # the episode's scenario config (its randomize keys drawn)
     actions: np.ndarray  # (T, 5), the dtype sent
     obs: np.ndarray  # (T + 1, D) float32
@@ -95,9 +95,7 @@ def record(env_id: str, seed: int, kind: str, env_kwargs: dict | None = None, ma
     else:
         span = high - low
         planned = rng.uniform(low - 0.1 * span, high + 0.1 * span, (limit, 5)).astype(np.float32)
-    rod = next(o for o in u.world.obstacles if not o.static).body
-    start = (np.array([u.feet[-1], u.feet[1]], dtype=np.float64),
-             (np.array(rod.position, dtype=np.float64), float(rod.angle), float(rod.angular_velocity)))
+    start = (np.array([u.feet[-1], u.feet[1]], dtype=np.float64), SCENES[u.scenario_name].reference_start(u))
     actions, observations, rewards, margins = [], [obs], [], []
     outcome = "truncated"
     for i in range(limit):
@@ -146,15 +144,13 @@ def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Re
     actions = np.stack([np.concatenate([e.actions, np.tile(nominal, (n_steps - len(e.actions), 1))])
                         for e in episodes])
     params = [jenv.cell_params(dataclasses.replace(e.config, randomize={})) for e in episodes]  # as drawn
-    p = jax.tree.map(lambda *x: jnp.stack(x), *params)
+    starts = [jenv.scene.start_from(e.start, q) for e, q in zip(episodes, params)]
+    stack = lambda *x: jnp.stack(x)  # noqa: E731
+    p = jax.tree.map(stack, *params)
+    rods, scene = jax.tree.map(stack, *starts)
     feet = jnp.asarray(np.stack([e.feet for e in episodes]), dt)
-    rods = Rods(jnp.asarray(np.stack([e.rod[0] for e in episodes]), dt)[:, None],
-                jnp.asarray([e.rod[1] for e in episodes], dt)[:, None],
-                jnp.zeros((len(episodes), 1, 2), dt),
-                jnp.asarray([e.rod[2] for e in episodes], dt)[:, None],
-                p.rod_a[:, None], p.rod_b[:, None], p.rod_r[:, None])
     keys = jax.random.split(jax.random.key(0), len(episodes))
-    state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, p, jnp.zeros(len(episodes), jnp.int32))
+    state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, scene, p, jnp.zeros(len(episodes), jnp.int32))
     out = _run(jenv, state, jnp.asarray(actions))
     obs, rew, term, trunc = (np.asarray(x) for x in out)
     obs = np.concatenate([np.asarray(obs0)[:, None], np.swapaxes(obs, 0, 1)], axis=1)

@@ -120,12 +120,13 @@ def record(env_id: str, seed: int, kind: str, env_kwargs: dict | None = None, ma
 @dataclass
 class Replayed:
     """The JAX env's run of the episodes: per step observations ``(N, T + 1, D)``, rewards, terminations
-    (codes), truncations ``(N, T)``."""
+    (codes), truncations and clearances [m] (``inf`` on a fall, as the reference's margins) ``(N, T)``."""
 
     obs: np.ndarray
     rewards: np.ndarray
     termination: np.ndarray
     truncated: np.ndarray
+    clearance: np.ndarray
 
 
 def max_steps(episodes: list[Episode]) -> int:
@@ -152,9 +153,11 @@ def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Re
     keys = jax.random.split(jax.random.key(0), len(episodes))
     state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, scene, p, jnp.zeros(len(episodes), jnp.int32))
     out = _run(jenv, state, jnp.asarray(actions))
-    obs, rew, term, trunc = (np.asarray(x) for x in out)
+    obs, rew, term, trunc, clear = (np.asarray(x) for x in out)
     obs = np.concatenate([np.asarray(obs0)[:, None], np.swapaxes(obs, 0, 1)], axis=1)
-    return Replayed(obs, np.swapaxes(rew, 0, 1), np.swapaxes(term, 0, 1), np.swapaxes(trunc, 0, 1))
+    clear = np.where(np.isnan(clear), np.inf, clear)
+    return Replayed(obs, np.swapaxes(rew, 0, 1), np.swapaxes(term, 0, 1), np.swapaxes(trunc, 0, 1),
+                    np.swapaxes(clear, 0, 1))
 
 
 def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
@@ -165,7 +168,7 @@ def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
         def run(state, actions):
             def body(s, a):
                 s, obs, reward, _, truncated, info = step(s, a)
-                return s, (obs, reward, info["termination"], truncated)
+                return s, (obs, reward, info["termination"], truncated, info["clearance"])
 
             return jax.lax.scan(body, state, jnp.swapaxes(actions, 0, 1))[1]
 
@@ -176,8 +179,10 @@ def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
 @dataclass
 class Agreement:
     """How one replayed episode compares: the reference's and the JAX env's ending (outcome, step), the
-    largest observation and reward differences over the steps both took, and where the endings differ, the
-    reference's margin at the first step that differs (``near_tie``: below the threshold of :func:`compare`)."""
+    largest observation, reward and clearance differences over the steps both took (the clearance, the
+    smallest gap at the sweep's checks, shows the checks were made at the same instants; ``inf`` where one is
+    finite and the other not), and where the endings differ, the reference's margin at the first step that
+    differs (``near_tie``: below the threshold of :func:`compare`)."""
 
     seed: int
     kind: str
@@ -185,6 +190,7 @@ class Agreement:
     jax: tuple[str, int]
     obs_error: float
     reward_error: float
+    clearance_error: float = 0.0
     margin: float = np.nan
     near_tie: bool = False
 
@@ -214,7 +220,12 @@ def compare(episodes: list[Episode], replayed: Replayed, near_tie: float = NEAR_
         both = min(ref[1], got[1])
         obs_err = float(np.max(np.abs(replayed.obs[i, :both + 1] - e.obs[:both + 1])))
         rew_err = float(np.max(np.abs(replayed.rewards[i, :both] - e.rewards[:both]), initial=0.0))
-        a = Agreement(e.seed, e.kind, ref, got, obs_err, rew_err)
+        ref_clear = np.array([m[0] for m in e.margins[:both]], dtype=np.float64)
+        jax_clear = replayed.clearance[i, :both]
+        same_inf = (ref_clear == jax_clear) & np.isinf(ref_clear)
+        with np.errstate(invalid="ignore"):  # inf - inf where both are inf: counted as equal
+            clear_err = float(np.max(np.where(same_inf, 0.0, np.abs(ref_clear - jax_clear)), initial=0.0))
+        a = Agreement(e.seed, e.kind, ref, got, obs_err, rew_err, clear_err)
         if not a.same:
             step = both - 1  # the first step whose ending differs
             clearance, zmp, goal = e.margins[step]

@@ -6,12 +6,12 @@ batch. The reference env (:class:`footstep_gym.env.FootstepEnv`, pymunk) is the 
 action box and float32 handling, the same observation layout, reward terms, terminations and truncations
 (docs/model.md), shown by replaying its episodes (:mod:`footstep_gym.jax.replay`).
 
-Supported (the scenes of :mod:`footstep_gym.jax.scenes`): ``FootstepDoor-v0`` with one door (``randomize`` of
-``door_speed``) and ``FootstepCrowd-v0``'s scripted ring (any size and ring; ``randomize`` of ``crowd_speed``,
-``crowd_accel_time``, ``breathing_amplitude``, ``angle_jitter``), every other setting of their YAMLs but the
-sensing options, and the tiers whose cells are such (``paper``, ``train``, ``shifted``; the structure tier's
-crowd cells ``dense`` and ``tight`` by ``tier_cell``). Anything else (the ORCA crowd, a second door, the
-crossing) raises :class:`~footstep_gym.errors.ConfigError` in one line naming what is not supported.
+Supported (the scenes of :mod:`footstep_gym.jax.scenes`, each with the ``randomize`` keys it lists):
+``FootstepDoor-v0`` with one door, ``FootstepCrossing-v0`` (the timed car and the traffic lanes) and
+``FootstepCrowd-v0``'s scripted ring (any size and ring), every other setting of their YAMLs but the sensing
+options, and the tiers whose cells are such (``paper``, ``train``, ``shifted``; the structure tier's cells
+``any_phase``, ``wide_cars``, ``dense`` and ``tight`` by ``tier_cell``). Anything else (the ORCA crowd, a
+second door, ``fixed_period``) raises :class:`~footstep_gym.errors.ConfigError` in one line naming it.
 
 Precision: float32 by default; ``dtype="float64"`` needs JAX's 64-bit mode (``JAX_ENABLE_X64=1`` or
 ``jax.config.update("jax_enable_x64", True)`` before any array is made).
@@ -70,7 +70,7 @@ class State(NamedTuple):
 def _unsupported(what: str) -> ConfigError:
     scenes = "; ".join(f"{name} (randomize of {', '.join(cls.randomizable)})" for name, cls in SCENES.items())
     return ConfigError(f"FootstepJaxEnv: {what} is not supported by the batched JAX backend yet (supported: "
-                       f"{scenes}: the door with one door, the crowd scripted, no sensing options); use the reference env")
+                       f"{scenes}: one door, the scripted crowd, no sensing options); use the reference env")
 
 
 def _dtype(dtype: Any) -> Any:

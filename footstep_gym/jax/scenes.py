@@ -3,10 +3,10 @@
 One class per scene, the twin of its reference scenario (:mod:`footstep_gym.scenarios`): a
 :class:`Scene` turns each tier cell's config into arrays (its ``Params``, stacked over the cells by
 :class:`~footstep_gym.jax.env.FootstepJaxEnv`), draws an episode's obstacles from a JAX key
-(:meth:`Scene.draw`), sets their velocities before a footstep (:meth:`Scene.before_step`, the reference's
+(:meth:`Scene.draw`), sets their places and velocities before a footstep (:meth:`Scene.before_step`, the reference's
 ``Scenario.before_step``) and reads a reference episode's start for a replay (:meth:`Scene.reference_start`).
-The moving obstacles are :class:`~footstep_gym.jax.shapes.Rods`: the door's rod, the crowd's cylinders (a
-circle is a rod of zero length, the same distance in Chipmunk's arithmetic).
+The moving obstacles are :class:`~footstep_gym.jax.shapes.Rods`: the door's rod, the crossing's capsules, the
+crowd's cylinders (a circle is a rod of zero length, the same distance in Chipmunk's arithmetic).
 
 Every ``Params`` has the keys all scenarios share (``start``, ``start_yaw``, ``start_jitter``, ``goal``,
 ``goal_tolerance``, ``time_limit``, ``max_steps``). Units are the YAML's.
@@ -297,4 +297,158 @@ class CrowdScene(Scene):
         return self._rods(scene, p.member_radius, pad(start["position"], PARKED)), scene
 
 
-SCENES: dict[str, type[Scene]] = {cls.name: cls for cls in (DoorScene, CrowdScene)}
+# ---------------------------------------------------------------------------------------------------- the crossing
+class CrossingParams(NamedTuple):
+    """One tier cell's settings of the crossing (:class:`footstep_gym.scenarios.crossing.CrossingConfig`):
+    ``(lo, hi)`` pairs for the keys an episode may draw; ``lanes`` 0 is the paper's one timed car, else the
+    traffic's lanes of ``per_lane`` cars (``count`` cars in all; the env holds the tier's most, the others stand
+    :data:`PARKED`). Each car is a capsule: a rod from ``(0, -half)`` to ``(0, half)`` of half thickness ``r``."""
+
+    lanes: jax.Array
+    per_lane: jax.Array
+    count: jax.Array
+    obstacle_speed: jax.Array
+    arrival_speed: jax.Array
+    timing_jitter: jax.Array
+    traffic_speed: jax.Array
+    traffic_gap: jax.Array
+    crossing_x: jax.Array
+    traffic_spacing: jax.Array
+    traffic_lane_width: jax.Array
+    half: jax.Array
+    r: jax.Array
+    start: jax.Array
+    start_yaw: jax.Array
+    start_jitter: jax.Array
+    goal: jax.Array
+    goal_tolerance: jax.Array
+    time_limit: jax.Array
+    max_steps: jax.Array
+
+
+class CrossingState(NamedTuple):
+    """An episode's traffic (``CrossingTraffic``'s draws): each car's lane line ``x`` [m], place along its loop
+    at 0 s ``offset`` [m] and ``direction`` (+1: +y) ``(M,)``, the loop's length and start ``loop``, ``y0`` [m],
+    the cars' ``speed`` [m/s], which of the ``M`` are cars (``active``); ``traffic``: False for the one timed car
+    (it is never set before a step)."""
+
+    x: jax.Array
+    offset: jax.Array
+    direction: jax.Array
+    loop: jax.Array
+    y0: jax.Array
+    speed: jax.Array
+    active: jax.Array
+    traffic: jax.Array
+
+
+class CrossingScene(Scene):
+    """``FootstepCrossing-v0`` (:class:`footstep_gym.scenarios.crossing.Crossing`): the paper's one timed car
+    (``traffic_lanes: 0``), or lanes of cars on loops (``CrossingTraffic``), put at their scheduled places
+    before each footstep (a car past its loop's end re-enters at its start) and driving at their lane's
+    velocity through it."""
+
+    name = "crossing"
+    moves = True
+    randomizable = ("obstacle_speed", "arrival_speed", "timing_jitter", "traffic_speed", "traffic_gap")
+
+    def __init__(self, cfgs: list[Any], dtype: Any) -> None:
+        super().__init__(cfgs, dtype)
+        #: Cars held per env: the most of the tier's cells.
+        self.size = max(self._counts(c)[2] for c in cfgs)
+
+    @staticmethod
+    def _counts(cfg: Any) -> tuple[int, int, int]:
+        """``(lanes, cars per lane, cars)`` of a config (``CrossingTraffic.__init__``'s rule)."""
+        if not cfg.traffic_lanes:
+            return 0, 1, 1
+        per_lane = max(1, math.ceil(2.0 * cfg.traffic_extent / cfg.traffic_spacing - 1e-9))
+        return cfg.traffic_lanes, per_lane, cfg.traffic_lanes * per_lane
+
+    def cell_params(self, cfg: Any) -> CrossingParams:
+        dt = self.dtype
+        lanes, per_lane, count = self._counts(cfg)
+        return CrossingParams(jnp.asarray(lanes, jnp.int32), jnp.asarray(per_lane, jnp.int32),
+                              jnp.asarray(count, jnp.int32), *(_arr(_range(cfg, k), dt) for k in self.randomizable),
+                              _arr(cfg.crossing_x, dt), _arr(cfg.traffic_spacing, dt), _arr(cfg.traffic_lane_width, dt),
+                              _arr(0.5 * (cfg.obstacle_length - cfg.obstacle_width), dt),
+                              _arr(0.5 * cfg.obstacle_width, dt), **self.common(cfg))
+
+    def _rods(self, p: CrossingParams, position: jax.Array, velocity: jax.Array) -> Rods:
+        dt, m = self.dtype, self.size
+        zero = jnp.zeros((m,), dt)
+        a = jnp.broadcast_to(jnp.stack([jnp.zeros((), dt), -p.half]), (m, 2))
+        b = jnp.broadcast_to(jnp.stack([jnp.zeros((), dt), p.half]), (m, 2))
+        return Rods(position, zero, velocity, zero, a, b, jnp.broadcast_to(p.r, (m,)).astype(dt))
+
+    def draw(self, key: jax.Array, p: CrossingParams) -> tuple[Rods, CrossingState]:
+        dt, m = self.dtype, self.size
+        keys = jax.random.split(key, 7)
+        obstacle_speed, arrival_speed, jitter, speed, gap = (_draw(k, b, dt) for k, b in
+                                                             zip(keys[:5], (p.obstacle_speed, p.arrival_speed,
+                                                                            p.timing_jitter, p.traffic_speed,
+                                                                            p.traffic_gap)))
+        sx, sy = p.start[0], p.start[1]
+        i = jnp.arange(m)
+        active = i < p.count
+        # The traffic (CrossingTraffic.__init__): lane k, car j; each lane's phase anywhere in its repeating unit.
+        k, j = i // p.per_lane, i % p.per_lane
+        loop = (p.per_lane - 1).astype(dt) * p.traffic_spacing + jnp.where(gap > 0, gap, p.traffic_spacing)
+        x = sx + p.crossing_x + (k.astype(dt) - 0.5 * (p.lanes - 1).astype(dt)) * p.traffic_lane_width
+        direction = jnp.where(k % 2 == 0, 1.0, -1.0).astype(dt)
+        phases = jax.random.uniform(keys[5], (m,), dt) * jnp.where(gap > 0, loop, p.traffic_spacing)
+        offset = phases[k] + j.astype(dt) * p.traffic_spacing
+        traffic = p.lanes > 0
+        scene = CrossingState(x, offset, direction, loop, sy - 0.5 * loop, speed, active, traffic)
+        # The one timed car (Crossing.build): it meets a robot walking at arrival_speed, +- the jitter.
+        t_meet = p.crossing_x / arrival_speed + jax.random.uniform(keys[6], (), dt, -1.0, 1.0) * jitter
+        car = jnp.stack([sx + p.crossing_x, sy - obstacle_speed * t_meet])
+        timed = jnp.zeros((m, 2), dt).at[0].set(car)
+        position = jnp.where(traffic, self.positions(scene, jnp.zeros((), dt)), timed)
+        vy = jnp.where(traffic, direction * speed, obstacle_speed)
+        velocity = jnp.stack([jnp.zeros((m,), dt), vy], axis=1)
+        return self._park(p, position, velocity, active), scene
+
+    def _park(self, p: CrossingParams, position: jax.Array, velocity: jax.Array, active: jax.Array) -> Rods:
+        return self._rods(p, jnp.where(active[:, None], position, PARKED), jnp.where(active[:, None], velocity, 0.0))
+
+    @staticmethod
+    def positions(scene: CrossingState, t: jax.Array) -> jax.Array:
+        """Car centres ``(M, 2)`` [m] at time ``t`` [s] (``CrossingTraffic.positions``, operation for operation)."""
+        along = jnp.mod(scene.offset + scene.direction * scene.speed * t, scene.loop)
+        return jnp.stack([scene.x, scene.y0 + along], axis=1)
+
+    def before_step(self, scene: CrossingState, rods: Rods, t: jax.Array, duration: jax.Array) -> Rods:
+        now = jnp.where(scene.active[:, None], self.positions(scene, t), PARKED)
+        return rods._replace(position=jnp.where(scene.traffic, now, rods.position))
+
+    @staticmethod
+    def reference_start(env: Any) -> dict[str, np.ndarray]:
+        sc = env.scenario
+        bodies = [o.body for o in env.world.obstacles if not o.static]
+        out = {"position": np.array([tuple(b.position) for b in bodies], dtype=np.float64),
+               "velocity": np.array([tuple(b.velocity) for b in bodies], dtype=np.float64)}
+        if hasattr(sc, "offset"):  # the traffic's draws
+            out.update(x=np.asarray(sc.x, np.float64), offset=np.asarray(sc.offset, np.float64),
+                       direction=np.asarray(sc.direction, np.float64), loop=np.float64(sc.loop),
+                       y0=np.float64(sc.y0))
+        return out
+
+    def start_from(self, start: dict[str, Any], p: CrossingParams) -> tuple[Rods, CrossingState]:
+        dt, m = self.dtype, self.size
+        n = start["position"].shape[0]
+
+        def pad(x: Any, value: float = 0.0) -> jax.Array:
+            x = jnp.asarray(x, dt)
+            return jnp.concatenate([x, jnp.full((m - n,) + x.shape[1:], value, dt)]) if m > n else x
+
+        traffic = "offset" in start
+        zeros = np.zeros(n)
+        scene = CrossingState(pad(start.get("x", zeros)), pad(start.get("offset", zeros)),
+                              pad(start.get("direction", zeros)), jnp.asarray(start.get("loop", 1.0), dt),
+                              jnp.asarray(start.get("y0", 0.0), dt), p.traffic_speed[0], jnp.arange(m) < n,
+                              jnp.asarray(traffic))
+        return self._park(p, pad(start["position"]), pad(start["velocity"]), scene.active), scene
+
+
+SCENES: dict[str, type[Scene]] = {cls.name: cls for cls in (DoorScene, CrowdScene, CrossingScene)}

@@ -31,7 +31,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--fuzz", type=int, default=1000, help="episodes of fuzzed float32 actions")
     p.add_argument("--planner", type=int, default=100, help="episodes of the period-aware planner")
     p.add_argument("--first-seed", type=int, default=0, help="first train-split seed (default 0)")
-    p.add_argument("--scene", default="door", help="door or crowd (footstep_gym.jax.scenes.SCENES)")
+    p.add_argument("--scene", default="door", help="door, crossing or crowd (footstep_gym.jax.scenes.SCENES)")
     p.add_argument("--tier", default="train")
     p.add_argument("--tier-cell", default=None, help="one cell of the tier (default: a cell drawn per episode)")
     p.add_argument("--dtype", default="float64", choices=("float32", "float64"))

@@ -27,7 +27,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="footsteps per timed run (default: about 2^18 env steps per run, at least 32)")
     p.add_argument("--repeats", type=int, default=3, help="timed runs per size (median reported)")
     p.add_argument("--reference-steps", type=int, default=3000, help="reference env steps timed per workload")
-    p.add_argument("--scene", default="door", help="door or crowd (footstep_gym.jax.scenes.SCENES)")
+    p.add_argument("--scene", default="door", help="door, crossing or crowd (footstep_gym.jax.scenes.SCENES)")
     p.add_argument("--tier", default="train", help="benchmark tier of the scene (default train)")
     p.add_argument("--dtype", default="float32", choices=("float32", "float64"))
     p.add_argument("--block", type=int, default=8, help="collision checks per sweep iteration")

@@ -31,7 +31,7 @@ from footstep_gym.env import FootstepEnv
 from footstep_gym.errors import ConfigError
 from footstep_gym.footstep import RIGHT
 from footstep_gym.jax import shapes, walker
-from footstep_gym.jax.scenes import SCENES, CrowdParams, DoorParams, Scene
+from footstep_gym.jax.scenes import SCENES, DoorParams, Scene, SceneParams  # noqa: F401  (DoorParams re-exported)
 from footstep_gym.observation import ObservationScales, command_to_unit, observations
 from footstep_gym.world import World
 
@@ -127,7 +127,7 @@ class FootstepJaxEnv:
         self.wall_table = shapes.wall_table(self.walls)
         self.wall_names = [o.name for o in world.obstacles if o.static]
         cells = [self.cell_params(cfg) for cfg, _ in ref._cell_configs]
-        self.params: DoorParams | CrowdParams = jax.tree.map(lambda *x: jnp.stack(x), *cells)
+        self.params: SceneParams = jax.tree.map(lambda *x: jnp.stack(x), *cells)
         # The action box, its float32-rounded limits, and the nominal command (the previous one after reset).
         limits = action_limits(robot)
         self.low, self.high = limits.low, limits.high
@@ -138,18 +138,18 @@ class FootstepJaxEnv:
         ref.close()
 
     # ------------------------------------------------------------------ settings
-    def cell_params(self, cfg: Any) -> DoorParams | CrowdParams:
-        """The scene's params (:mod:`footstep_gym.jax.scenes`) of one scenario config (a ``DoorConfig``, a
-        ``CrowdConfig``)."""
+    def cell_params(self, cfg: Any) -> SceneParams:
+        """The scene's params (:mod:`footstep_gym.jax.scenes`) of one scenario config (a ``DoorConfig``,
+        ``CrossingConfig`` or ``CrowdConfig``)."""
         return self.scene.cell_params(cfg)
 
     @property
-    def default_params(self) -> DoorParams | CrowdParams:
+    def default_params(self) -> SceneParams:
         """Every tier cell's settings, stacked (a reset draws one cell uniformly; one cell: no draw)."""
         return self.params
 
     # ------------------------------------------------------------------ reset
-    def reset(self, key: jax.Array, params: DoorParams | CrowdParams | None = None) -> tuple[State, jax.Array]:
+    def reset(self, key: jax.Array, params: SceneParams | None = None) -> tuple[State, jax.Array]:
         """A new episode from ``key``: ``(state, observation)``. The episode's draws (cell, randomize keys, the
         obstacles' placement, start jitter) come from ``key``; they are not the reference env's numpy draws for
         a seed."""
@@ -168,7 +168,7 @@ class FootstepJaxEnv:
         return self.start_state(key, feet, rods, scene, p, cell)
 
     def start_state(self, key: jax.Array, feet: jax.Array, rods: shapes.Rods, scene: Any,
-                    p: DoorParams | CrowdParams, cell: jax.Array) -> tuple[State, jax.Array]:
+                    p: SceneParams, cell: jax.Array) -> tuple[State, jax.Array]:
         """The state (and observation) of an episode that starts with these feet, obstacles and scene draws:
         the robot on its right foot, its CoM in the steady gait of stepping in place (``FootstepEnv.reset``)."""
         dt = self.dtype
@@ -212,7 +212,7 @@ class FootstepJaxEnv:
         cmd = jnp.where(values < low, low, jnp.where(values > high, high, values))
         return cmd, jnp.any(cmd != values)
 
-    def step(self, state: State, action: jax.Array, params: DoorParams | CrowdParams | None = None
+    def step(self, state: State, action: jax.Array, params: SceneParams | None = None
              ) -> tuple[State, jax.Array, jax.Array, jax.Array, jax.Array, dict[str, jax.Array]]:
         """One footstep: ``(state, obs, reward, terminated, truncated, info)`` (``FootstepEnv.step``).
 

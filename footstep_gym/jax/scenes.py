@@ -15,7 +15,7 @@ Every ``Params`` has the keys all scenarios share (``start``, ``start_yaw``, ``s
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar, NamedTuple
+from typing import Any, ClassVar, NamedTuple, Union
 
 import jax
 import jax.numpy as jnp
@@ -451,4 +451,6 @@ class CrossingScene(Scene):
         return self._park(p, pad(start["position"]), pad(start["velocity"]), scene.active), scene
 
 
-SCENES: dict[str, type[Scene]] = {cls.name: cls for cls in (DoorScene, CrowdScene, CrossingScene)}
+SCENES: dict[str, type[Scene]] = {cls.name: cls for cls in (DoorScene, CrossingScene, CrowdScene)}
+#: Any scene's ``Params``.
+SceneParams = Union[DoorParams, CrossingParams, CrowdParams]

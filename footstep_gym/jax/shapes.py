@@ -2,7 +2,8 @@
 
 The batched twin of :mod:`footstep_gym.world` and :mod:`footstep_gym.sweep_kernel` for one env (``jax.vmap``
 batches it): static walls are thick segments in world coordinates (:class:`Walls`), each moving obstacle a
-thick segment on a kinematic body (:class:`Rods`: its pose, velocity and turn rate). Distances use the
+thick segment on a kinematic body (:class:`Rods`: its pose, velocity and turn rate; a circle on its body's
+origin is a segment of zero length, whose Chipmunk distance is the circle's). Distances use the
 operations of Chipmunk's point queries (the compiled sweep's), the observation's nearest shapes those of
 ``World.nearest``, and the sweep is the reference's conservative advancement check for check (docs/model.md
 §4.1): the same instants, the same first contact, the same bodies' poses, up to the last bits of libm's

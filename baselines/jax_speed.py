@@ -1,6 +1,7 @@
-"""Steps/s of the batched JAX door beside the reference env; compile time apart.
+"""Steps/s of the batched JAX backend beside the reference env; compile time apart.
 
-    python baselines/jax_speed.py                                  # N = 1, 64, 1024, 4096, 16384; both workloads
+    python baselines/jax_speed.py                                  # the door: N = 1, 64, 1024, 4096, 16384; both workloads
+    python baselines/jax_speed.py --scene crowd                    # the scripted crowd
     python baselines/jax_speed.py --sizes 4096 --workloads walk --repeats 5
     python baselines/jax_speed.py --dtype float64                  # (sets JAX's 64-bit mode)
 
@@ -26,7 +27,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="footsteps per timed run (default: about 2^18 env steps per run, at least 32)")
     p.add_argument("--repeats", type=int, default=3, help="timed runs per size (median reported)")
     p.add_argument("--reference-steps", type=int, default=3000, help="reference env steps timed per workload")
-    p.add_argument("--tier", default="train", help="benchmark tier of the door (default train)")
+    p.add_argument("--scene", default="door", help="door, crossing or crowd (footstep_gym.jax.scenes.SCENES)")
+    p.add_argument("--tier", default="train", help="benchmark tier of the scene (default train)")
     p.add_argument("--dtype", default="float32", choices=("float32", "float64"))
     p.add_argument("--block", type=int, default=8, help="collision checks per sweep iteration")
     p.add_argument("--chunk", type=int, default=64, help="envs per vmap chunk (FootstepJaxEnv.step_batch)")
@@ -54,13 +56,18 @@ def main(argv: list[str] | None = None) -> int:
 
     from footstep_gym.jax import speed
     from footstep_gym.jax.env import FootstepJaxEnv
+    from footstep_gym.scenarios import SCENARIOS
 
-    env = FootstepJaxEnv("door", dtype=args.dtype, tier=args.tier, block=args.block)
-    print(f"FootstepDoor-v0 tier={args.tier} dtype={args.dtype} block={args.block} chunk={args.chunk}; jax {jax.__version__} on "
+    if args.scene not in SCENARIOS:
+        print(f"jax_speed.py: unknown scene {args.scene!r}; choose from {sorted(SCENARIOS)}")
+        return 2
+    env_id = SCENARIOS[args.scene].env_id
+    env = FootstepJaxEnv(args.scene, dtype=args.dtype, tier=args.tier, block=args.block)
+    print(f"{env_id} tier={args.tier} dtype={args.dtype} block={args.block} chunk={args.chunk}; jax {jax.__version__} on "
           f"{jax.devices()[0].platform} ({os.cpu_count()} CPUs), {platform.processor() or platform.machine()}; "
           f"load average {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
     for workload in args.workloads:
-        ref = speed.reference_rate(args.reference_steps, workload, {"tier": args.tier})
+        ref = speed.reference_rate(args.reference_steps, workload, {"tier": args.tier}, env_id=env_id)
         print(f"\n{workload}: reference env (one FootstepEnv) {ref:,.0f} steps/s")
         print(f"{'N':>7} {'steps/run':>9} {'steps/s':>12} {'min':>12} {'max':>12} {'x ref':>8} "
               f"{'compile s':>9} {'state B/env':>11}")

@@ -164,7 +164,7 @@ def test_reset_is_seeded_jittable_and_vmappable():
 
 
 @pytest.mark.parametrize("kwargs, named", [
-    ({"scenario": "crossing"}, "scene 'crossing'"),
+    ({"scenario": "mix"}, "scene 'mix'"),
     ({"tier": "structure", "tier_cell": "two_doors"}, "door_count=2"),
     ({"tier": "noise", "tier_cell": "train"}, "sensing options"),
     ({"fixed_period": True}, "fixed_period"),

@@ -112,8 +112,8 @@ def test_unsupported_settings_are_one_clear_line():
                      tier_cell="two_doors")
     text = str(err.value)
     assert "door_count=2" in text and "vectorization_mode='sync'" in text and "\n" not in text
-    with pytest.raises(gym.error.Error, match="FootstepCrossing-v0"):
-        gym.make_vec("FootstepCrossing-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    with pytest.raises(gym.error.Error, match="FootstepMix-v0"):
+        gym.make_vec("FootstepMix-v0", num_envs=2, vectorization_mode="vector_entry_point")
 
 
 def test_vector_entry_points_are_the_supported_scenes():

@@ -2,8 +2,9 @@
 
 * :class:`footstep_gym.jax.env.FootstepJaxEnv`: ``reset(key, params)`` / ``step(state, action, params)`` over a
   state pytree (gymnax / Brax style), for JAX users;
-* ``gymnasium.make_vec("FootstepDoor-v0", num_envs=N, vectorization_mode="vector_entry_point")``: the same
-  behind Gymnasium's ``VectorEnv`` (numpy in and out), :class:`footstep_gym.jax.vector.FootstepVectorEnv`;
+* ``gymnasium.make_vec("FootstepDoor-v0", num_envs=N, vectorization_mode="vector_entry_point")`` (the crossing's
+  and the crowd's ids too): the same behind Gymnasium's ``VectorEnv`` (numpy in and out),
+  :class:`footstep_gym.jax.vector.FootstepVectorEnv`;
 * :mod:`footstep_gym.jax.replay`: episodes of the reference env replayed here (the equivalence check).
 
 Importing this package imports JAX; ``import footstep_gym`` does not.

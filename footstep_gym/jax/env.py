@@ -6,10 +6,12 @@ batch. The reference env (:class:`footstep_gym.env.FootstepEnv`, pymunk) is the 
 action box and float32 handling, the same observation layout, reward terms, terminations and truncations
 (docs/model.md), shown by replaying its episodes (:mod:`footstep_gym.jax.replay`).
 
-Supported: ``FootstepDoor-v0`` with one door, every setting of its YAML that keeps one door and no
-sensing option, ``randomize`` of ``door_speed``, and the tiers whose door cells are such (``paper``,
-``train``, ``shifted``). Anything else raises :class:`~footstep_gym.errors.ConfigError` in one line naming
-what is not supported.
+Supported (the scenes of :mod:`footstep_gym.jax.scenes`, each with the ``randomize`` keys it lists):
+``FootstepDoor-v0`` with one door, ``FootstepCrossing-v0`` (the timed car and the traffic lanes) and
+``FootstepCrowd-v0``'s scripted ring (any size and ring), every other setting of their YAMLs but the sensing
+options, and the tiers whose cells are such (``paper``, ``train``, ``shifted``; the structure tier's cells
+``any_phase``, ``wide_cars``, ``dense`` and ``tight`` by ``tier_cell``). Anything else (the ORCA crowd, a
+second door, ``fixed_period``) raises :class:`~footstep_gym.errors.ConfigError` in one line naming it.
 
 Precision: float32 by default; ``dtype="float64"`` needs JAX's 64-bit mode (``JAX_ENABLE_X64=1`` or
 ``jax.config.update("jax_enable_x64", True)`` before any array is made).
@@ -29,44 +31,23 @@ from footstep_gym.env import FootstepEnv
 from footstep_gym.errors import ConfigError
 from footstep_gym.footstep import RIGHT
 from footstep_gym.jax import shapes, walker
+from footstep_gym.jax.scenes import SCENES, DoorParams, Scene, SceneParams  # noqa: F401  (DoorParams re-exported)
 from footstep_gym.observation import ObservationScales, command_to_unit, observations
 from footstep_gym.world import World
 
 #: Termination codes of ``info["termination"]`` (0: none): the reference's names in this order.
 TERMINATION_CODES = {"goal": 1, "collision": 2, "fall": 3}
-#: The one scene supported, and the scenario keys that may be drawn per episode.
-SUPPORTED_SCENES = ("door",)
-SUPPORTED_RANDOMIZE = ("door_speed",)
+#: The scenes supported (:data:`footstep_gym.jax.scenes.SCENES`).
+SUPPORTED_SCENES = tuple(SCENES)
 #: The reward terms of ``info["rewards"]``, in the reference's order (their sum is the reward).
 REWARD_TERMS = ("progress", "time", "step", "goal", "collision", "fall")
-
-
-class DoorParams(NamedTuple):
-    """One tier cell's per-episode settings (leaves lead with the cell axis in :attr:`FootstepJaxEnv.params`).
-
-    Units are the YAML's: ``door_speed_*`` [deg/s], angles [deg], lengths [m], times [s]."""
-
-    door_speed_low: jax.Array
-    door_speed_high: jax.Array
-    door_start_angle: jax.Array
-    door_angle_jitter: jax.Array
-    door_centre: jax.Array
-    rod_a: jax.Array
-    rod_b: jax.Array
-    rod_r: jax.Array
-    start: jax.Array
-    start_yaw: jax.Array
-    start_jitter: jax.Array
-    goal: jax.Array
-    goal_tolerance: jax.Array
-    time_limit: jax.Array
-    max_steps: jax.Array
 
 
 class State(NamedTuple):
     """One env's state. Feet ``(2, 3)``: row 0 the right foot, row 1 the left, ``(x, y, yaw)`` [m, rad];
     ``support``: +1 left, -1 right; CoM position [m] and velocity [m/s] in the world; ``previous``: the last
-    command applied; ``goal_dist``: the robot centre's distance to the goal [m] now."""
+    command applied; ``goal_dist``: the robot centre's distance to the goal [m] now; ``rods``: the moving
+    obstacles now; ``scene``: the episode's draws its scene moves them by (:mod:`footstep_gym.jax.scenes`)."""
 
     key: jax.Array
     feet: jax.Array
@@ -78,6 +59,7 @@ class State(NamedTuple):
     previous: jax.Array
     goal_dist: jax.Array
     rods: shapes.Rods
+    scene: Any
     goal: jax.Array
     goal_tolerance: jax.Array
     time_limit: jax.Array
@@ -86,9 +68,9 @@ class State(NamedTuple):
 
 
 def _unsupported(what: str) -> ConfigError:
-    return ConfigError(f"FootstepJaxEnv: {what} is not supported by the batched JAX backend yet "
-                       f"(supported: FootstepDoor-v0 with one door, no sensing options, randomize of "
-                       f"{', '.join(SUPPORTED_RANDOMIZE)}); use the reference env")
+    scenes = "; ".join(f"{name} (randomize of {', '.join(cls.randomizable)})" for name, cls in SCENES.items())
+    return ConfigError(f"FootstepJaxEnv: {what} is not supported by the batched JAX backend yet (supported: "
+                       f"{scenes}: one door, the scripted crowd, no sensing options); use the reference env")
 
 
 def _dtype(dtype: Any) -> Any:
@@ -110,7 +92,7 @@ class FootstepJaxEnv:
 
     def __init__(self, scenario: str = "door", *, dtype: Any = "float32", tier: str | None = tiers.DEFAULT_TIER,
                  tier_cell: str | None = None, block: int = 8, **env_kwargs: Any) -> None:
-        if scenario not in SUPPORTED_SCENES:
+        if scenario not in SCENES:
             raise _unsupported(f"scene {scenario!r}")
         if "render_mode" in env_kwargs:
             raise _unsupported("render_mode")
@@ -123,16 +105,17 @@ class FootstepJaxEnv:
         self.robot = robot = ref.robot
         self.config = env_cfg = ref.config
         self.action_space, self.observation_space = ref.action_space, ref.observation_space
+        dt = self.dtype
+        #: The scene's arrays and moves (:mod:`footstep_gym.jax.scenes`).
+        self.scene: Scene = SCENES[scenario]([cfg for cfg, _ in ref._cell_configs], dt)
         for cell, (cfg, ecfg) in zip(self.cells, ref._cell_configs):
             if ecfg.sensing_limited:
                 raise _unsupported(f"tier cell {cell!r}: the sensing options (noise, range, field of view)")
             if ecfg.fixed_period:
                 raise _unsupported("fixed_period")
-            if cfg.door_count != 1:
-                raise _unsupported(f"tier cell {cell!r}: door_count={cfg.door_count}")
-            extra = sorted(set(cfg.randomize) - set(SUPPORTED_RANDOMIZE))
-            if extra:
-                raise _unsupported(f"tier cell {cell!r}: randomize of {', '.join(extra)}")
+            what = self.scene.unsupported(cfg)
+            if what:
+                raise _unsupported(f"tier cell {cell!r}: {what}")
         cls = ref._scenario_cls
         keys = {cls.static_key(cfg) for cfg, _ in ref._cell_configs}
         if len(keys) > 1:
@@ -140,12 +123,11 @@ class FootstepJaxEnv:
         world = World(robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
                       env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks, compiled=False)
         cls(ref._cell_configs[0][0], np.random.default_rng(0)).build_static(world)
-        dt = self.dtype
         self.walls = shapes.walls_of(world, dt)
         self.wall_table = shapes.wall_table(self.walls)
         self.wall_names = [o.name for o in world.obstacles if o.static]
         cells = [self.cell_params(cfg) for cfg, _ in ref._cell_configs]
-        self.params: DoorParams = jax.tree.map(lambda *x: jnp.stack(x), *cells)
+        self.params: SceneParams = jax.tree.map(lambda *x: jnp.stack(x), *cells)
         # The action box, its float32-rounded limits, and the nominal command (the previous one after reset).
         limits = action_limits(robot)
         self.low, self.high = limits.low, limits.high
@@ -156,52 +138,39 @@ class FootstepJaxEnv:
         ref.close()
 
     # ------------------------------------------------------------------ settings
-    def cell_params(self, cfg: Any) -> DoorParams:
-        """The :class:`DoorParams` of a scenario config (a :class:`~footstep_gym.scenarios.door.DoorConfig`)."""
-        dt = self.dtype
-        lo, hi = cfg.randomize.get("door_speed", (cfg.door_speed, cfg.door_speed))
-        r = cfg.door_radius
-
-        def a(x: Any) -> jax.Array:
-            return jnp.asarray(np.asarray(x, dtype=np.float64), dt)
-
-        return DoorParams(
-            a(float(lo)), a(float(hi)), a(cfg.door_start_angle), a(cfg.door_angle_jitter), a(cfg.door_centre),
-            a((-r, 0.0)), a((r, 0.0)), a(0.5 * cfg.door_thickness), a(cfg.start), a(cfg.start_yaw),
-            a(cfg.start_jitter), a(cfg.goal), a(cfg.goal_tolerance), a(cfg.time_limit),
-            jnp.asarray(cfg.max_steps, jnp.int32))
+    def cell_params(self, cfg: Any) -> SceneParams:
+        """The scene's params (:mod:`footstep_gym.jax.scenes`) of one scenario config (a ``DoorConfig``,
+        ``CrossingConfig`` or ``CrowdConfig``)."""
+        return self.scene.cell_params(cfg)
 
     @property
-    def default_params(self) -> DoorParams:
+    def default_params(self) -> SceneParams:
         """Every tier cell's settings, stacked (a reset draws one cell uniformly; one cell: no draw)."""
         return self.params
 
     # ------------------------------------------------------------------ reset
-    def reset(self, key: jax.Array, params: DoorParams | None = None) -> tuple[State, jax.Array]:
-        """A new episode from ``key``: ``(state, observation)``. The episode's draws (cell, door speed, door
-        angle, start jitter) come from ``key``; they are not the reference env's numpy draws for a seed."""
+    def reset(self, key: jax.Array, params: SceneParams | None = None) -> tuple[State, jax.Array]:
+        """A new episode from ``key``: ``(state, observation)``. The episode's draws (cell, randomize keys, the
+        obstacles' placement, start jitter) come from ``key``; they are not the reference env's numpy draws for
+        a seed."""
         params = self.params if params is None else params
         dt = self.dtype
-        key, k_cell, k_speed, k_angle, k_start = jax.random.split(key, 5)
+        key, k_cell, k_scene, k_start = jax.random.split(key, 4)
         n_cells = params.max_steps.shape[0]
         cell = jax.random.randint(k_cell, (), 0, n_cells) if n_cells > 1 else jnp.zeros((), jnp.int32)
         p = jax.tree.map(lambda x: x[cell], params)
-        u = jax.random.uniform(k_speed, (), dt)
-        speed = p.door_speed_low + (p.door_speed_high - p.door_speed_low) * u
-        angle = jnp.deg2rad(p.door_start_angle + jax.random.uniform(k_angle, (), dt, -1.0, 1.0) * p.door_angle_jitter)
-        rods = shapes.Rods(p.door_centre[None], angle[None], jnp.zeros((1, 2), dt), -jnp.deg2rad(speed)[None],
-                           p.rod_a[None], p.rod_b[None], p.rod_r[None])
+        rods, scene = self.scene.draw(k_scene, p)
         jitter = p.start_jitter * jax.random.uniform(k_start, (2,), dt, -1.0, 1.0)
         centre = (p.start[0] + jitter[0], p.start[1] + jitter[1])
         half = 0.5 * self.robot.nominal_side_stride
         feet = jnp.stack([jnp.stack(footstep.foot_from_node(centre, p.start_yaw, side, half, xp=jnp))
                           for side in (RIGHT, -RIGHT)])
-        return self.start_state(key, feet, rods, p, cell)
+        return self.start_state(key, feet, rods, scene, p, cell)
 
-    def start_state(self, key: jax.Array, feet: jax.Array, rods: shapes.Rods, p: DoorParams, cell: jax.Array
-                    ) -> tuple[State, jax.Array]:
-        """The state (and observation) of an episode that starts with these feet and rods: the robot on its
-        right foot, its CoM in the steady gait of stepping in place (``FootstepEnv.reset``)."""
+    def start_state(self, key: jax.Array, feet: jax.Array, rods: shapes.Rods, scene: Any,
+                    p: SceneParams, cell: jax.Array) -> tuple[State, jax.Array]:
+        """The state (and observation) of an episode that starts with these feet, obstacles and scene draws:
+        the robot on its right foot, its CoM in the steady gait of stepping in place (``FootstepEnv.reset``)."""
         dt = self.dtype
         com_local, vel_local = self._start_com
         support = feet[0]
@@ -212,7 +181,7 @@ class FootstepJaxEnv:
         zero = jnp.zeros((), dt)
         state = State(key, feet.astype(dt), jnp.asarray(RIGHT, jnp.int32), jnp.stack([com.real, com.imag]).astype(dt),
                       jnp.stack([vel.real, vel.imag]).astype(dt), zero, jnp.zeros((), jnp.int32),
-                      jnp.asarray(self.robot.nominal_command, dt), self._goal_distance(feet, p.goal), rods,
+                      jnp.asarray(self.robot.nominal_command, dt), self._goal_distance(feet, p.goal), rods, scene,
                       p.goal, p.goal_tolerance, p.time_limit, p.max_steps, jnp.asarray(cell, jnp.int32))
         return state, self.observation(state)
 
@@ -243,7 +212,7 @@ class FootstepJaxEnv:
         cmd = jnp.where(values < low, low, jnp.where(values > high, high, values))
         return cmd, jnp.any(cmd != values)
 
-    def step(self, state: State, action: jax.Array, params: DoorParams | None = None
+    def step(self, state: State, action: jax.Array, params: SceneParams | None = None
              ) -> tuple[State, jax.Array, jax.Array, jax.Array, jax.Array, dict[str, jax.Array]]:
         """One footstep: ``(state, obs, reward, terminated, truncated, info)`` (``FootstepEnv.step``).
 
@@ -270,9 +239,10 @@ class FootstepJaxEnv:
         zmp_margin = jnp.minimum(hx - jnp.abs(v.p.real), hy - jnp.abs(v.p.imag))
         period = cmd[3] + cmd[4]
         path, bound = walker.path_of(robot, v, cmd, side, origin, rot)
-        result = shapes.sweep(path, period, bound, self.wall_table, state.rods, robot.body_radius,
+        rods = self.scene.before_step(state.scene, state.rods, state.time, period)
+        result = shapes.sweep(path, period, bound, self.wall_table, rods, robot.body_radius,
                               cfg.max_check_interval, cfg.collision_motion_fraction, cfg.max_sweep_checks,
-                              self.block, active=feasible)
+                              self.block, active=feasible, cached=state.rods.position if self.scene.moves else None)
         collided = feasible & result.collided
         moved = feasible & ~result.collided
         elapsed = jnp.where(feasible, result.time, 0.0)

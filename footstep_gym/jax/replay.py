@@ -1,7 +1,7 @@
 """Episodes of the reference env replayed in the JAX backend: the check that the two are one env.
 
 :func:`record` plays an episode in the reference env (``gymnasium.make``) with a policy's commands and keeps
-where it started (feet, door), the actions exactly as sent, and every step's observation, reward and ending.
+where it started (feet, the obstacles and the scene's draws), the actions exactly as sent, and every step's observation, reward and ending.
 :func:`replay` starts the JAX env from the same place, feeds it the same actions (batched: ``vmap`` over
 episodes, ``lax.scan`` over steps) and :func:`compare` says, per episode, whether it ended the same way at the
 same step and how far apart the observations and rewards were. Where it did not, :func:`compare` reports the
@@ -10,7 +10,7 @@ margin): a *near-tie* is a disagreement where that margin is below :data:`NEAR_T
 
 Policies (``kind``): ``planner`` (the period-aware planner, through ``make_policy``), ``walk`` (open-loop
 random walks near the nominal gait, float32: forward strides, turns, period changes, so episodes reach the
-door, hit it and fall) and ``fuzz`` (float32 actions uniform over a box 20 % wider than the action box, so
+obstacles, hit them and fall) and ``fuzz`` (float32 actions uniform over a box 20 % wider than the action box, so
 most are clipped and many fall at once).
 """
 
@@ -27,7 +27,7 @@ import numpy as np
 
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym.jax.env import TERMINATION_CODES, FootstepJaxEnv
-from footstep_gym.jax.shapes import Rods
+from footstep_gym.jax.scenes import SCENES
 
 KINDS = ("planner", "walk", "fuzz")
 #: [m] a disagreement whose reference margin (clearance, ZMP margin, goal distance - tolerance) is below this is
@@ -49,7 +49,7 @@ class Episode:
     seed: int
     kind: str
     feet: np.ndarray  # (2, 3): right, left
-    rod: tuple  # (position (2,), angle, angular velocity) of the door
+    start: dict  # the obstacles and the scene's draws at reset (``Scene.reference_start``)
     config: Any  # the episode's scenario config (its randomize keys drawn)
     actions: np.ndarray  # (T, 5), the dtype sent
     obs: np.ndarray  # (T + 1, D) float32
@@ -95,9 +95,7 @@ def record(env_id: str, seed: int, kind: str, env_kwargs: dict | None = None, ma
     else:
         span = high - low
         planned = rng.uniform(low - 0.1 * span, high + 0.1 * span, (limit, 5)).astype(np.float32)
-    rod = next(o for o in u.world.obstacles if not o.static).body
-    start = (np.array([u.feet[-1], u.feet[1]], dtype=np.float64),
-             (np.array(rod.position, dtype=np.float64), float(rod.angle), float(rod.angular_velocity)))
+    start = (np.array([u.feet[-1], u.feet[1]], dtype=np.float64), SCENES[u.scenario_name].reference_start(u))
     actions, observations, rewards, margins = [], [obs], [], []
     outcome = "truncated"
     for i in range(limit):
@@ -122,12 +120,13 @@ def record(env_id: str, seed: int, kind: str, env_kwargs: dict | None = None, ma
 @dataclass
 class Replayed:
     """The JAX env's run of the episodes: per step observations ``(N, T + 1, D)``, rewards, terminations
-    (codes), truncations ``(N, T)``."""
+    (codes), truncations and clearances [m] (``inf`` on a fall, as the reference's margins) ``(N, T)``."""
 
     obs: np.ndarray
     rewards: np.ndarray
     termination: np.ndarray
     truncated: np.ndarray
+    clearance: np.ndarray
 
 
 def max_steps(episodes: list[Episode]) -> int:
@@ -146,19 +145,19 @@ def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Re
     actions = np.stack([np.concatenate([e.actions, np.tile(nominal, (n_steps - len(e.actions), 1))])
                         for e in episodes])
     params = [jenv.cell_params(dataclasses.replace(e.config, randomize={})) for e in episodes]  # as drawn
-    p = jax.tree.map(lambda *x: jnp.stack(x), *params)
+    starts = [jenv.scene.start_from(e.start, q) for e, q in zip(episodes, params)]
+    stack = lambda *x: jnp.stack(x)  # noqa: E731
+    p = jax.tree.map(stack, *params)
+    rods, scene = jax.tree.map(stack, *starts)
     feet = jnp.asarray(np.stack([e.feet for e in episodes]), dt)
-    rods = Rods(jnp.asarray(np.stack([e.rod[0] for e in episodes]), dt)[:, None],
-                jnp.asarray([e.rod[1] for e in episodes], dt)[:, None],
-                jnp.zeros((len(episodes), 1, 2), dt),
-                jnp.asarray([e.rod[2] for e in episodes], dt)[:, None],
-                p.rod_a[:, None], p.rod_b[:, None], p.rod_r[:, None])
     keys = jax.random.split(jax.random.key(0), len(episodes))
-    state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, p, jnp.zeros(len(episodes), jnp.int32))
+    state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, scene, p, jnp.zeros(len(episodes), jnp.int32))
     out = _run(jenv, state, jnp.asarray(actions))
-    obs, rew, term, trunc = (np.asarray(x) for x in out)
+    obs, rew, term, trunc, clear = (np.asarray(x) for x in out)
     obs = np.concatenate([np.asarray(obs0)[:, None], np.swapaxes(obs, 0, 1)], axis=1)
-    return Replayed(obs, np.swapaxes(rew, 0, 1), np.swapaxes(term, 0, 1), np.swapaxes(trunc, 0, 1))
+    clear = np.where(np.isnan(clear), np.inf, clear)
+    return Replayed(obs, np.swapaxes(rew, 0, 1), np.swapaxes(term, 0, 1), np.swapaxes(trunc, 0, 1),
+                    np.swapaxes(clear, 0, 1))
 
 
 def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
@@ -169,7 +168,7 @@ def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
         def run(state, actions):
             def body(s, a):
                 s, obs, reward, _, truncated, info = step(s, a)
-                return s, (obs, reward, info["termination"], truncated)
+                return s, (obs, reward, info["termination"], truncated, info["clearance"])
 
             return jax.lax.scan(body, state, jnp.swapaxes(actions, 0, 1))[1]
 
@@ -180,8 +179,10 @@ def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
 @dataclass
 class Agreement:
     """How one replayed episode compares: the reference's and the JAX env's ending (outcome, step), the
-    largest observation and reward differences over the steps both took, and where the endings differ, the
-    reference's margin at the first step that differs (``near_tie``: below the threshold of :func:`compare`)."""
+    largest observation, reward and clearance differences over the steps both took (the clearance, the
+    smallest gap at the sweep's checks, shows the checks were made at the same instants; ``inf`` where one is
+    finite and the other not), and where the endings differ, the reference's margin at the first step that
+    differs (``near_tie``: below the threshold of :func:`compare`)."""
 
     seed: int
     kind: str
@@ -189,6 +190,7 @@ class Agreement:
     jax: tuple[str, int]
     obs_error: float
     reward_error: float
+    clearance_error: float = 0.0
     margin: float = np.nan
     near_tie: bool = False
 
@@ -218,7 +220,12 @@ def compare(episodes: list[Episode], replayed: Replayed, near_tie: float = NEAR_
         both = min(ref[1], got[1])
         obs_err = float(np.max(np.abs(replayed.obs[i, :both + 1] - e.obs[:both + 1])))
         rew_err = float(np.max(np.abs(replayed.rewards[i, :both] - e.rewards[:both]), initial=0.0))
-        a = Agreement(e.seed, e.kind, ref, got, obs_err, rew_err)
+        ref_clear = np.array([m[0] for m in e.margins[:both]], dtype=np.float64)
+        jax_clear = replayed.clearance[i, :both]
+        same_inf = (ref_clear == jax_clear) & np.isinf(ref_clear)
+        with np.errstate(invalid="ignore"):  # inf - inf where both are inf: counted as equal
+            clear_err = float(np.max(np.where(same_inf, 0.0, np.abs(ref_clear - jax_clear)), initial=0.0))
+        a = Agreement(e.seed, e.kind, ref, got, obs_err, rew_err, clear_err)
         if not a.same:
             step = both - 1  # the first step whose ending differs
             clearance, zmp, goal = e.margins[step]

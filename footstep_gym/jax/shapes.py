@@ -2,7 +2,8 @@
 
 The batched twin of :mod:`footstep_gym.world` and :mod:`footstep_gym.sweep_kernel` for one env (``jax.vmap``
 batches it): static walls are thick segments in world coordinates (:class:`Walls`), each moving obstacle a
-thick segment on a kinematic body (:class:`Rods`: its pose, velocity and turn rate). Distances use the
+thick segment on a kinematic body (:class:`Rods`: its pose, velocity and turn rate; a circle on its body's
+origin is a segment of zero length, whose Chipmunk distance is the circle's). Distances use the
 operations of Chipmunk's point queries (the compiled sweep's), the observation's nearest shapes those of
 ``World.nearest``, and the sweep is the reference's conservative advancement check for check (docs/model.md
 §4.1): the same instants, the same first contact, the same bodies' poses, up to the last bits of libm's
@@ -125,7 +126,7 @@ class SweepResult(NamedTuple):
 
 def sweep(path: Any, duration: jax.Array, robot_speed_bound: jax.Array, table: jax.Array, rods: Rods,
           radius: float, max_check_interval: float, motion_fraction: float, max_checks: int, block: int = 8,
-          active: Any = True) -> SweepResult:
+          active: Any = True, cached: jax.Array | None = None) -> SweepResult:
     """The reference's collision sweep (``World.sweep``) over one footstep of ``duration`` [s].
 
     ``path(t) -> (x, y)`` is the CoM (body centre) at ``t`` (``(B,)`` times at once); ``robot_speed_bound``
@@ -133,6 +134,10 @@ def sweep(path: Any, duration: jax.Array, robot_speed_bound: jax.Array, table: j
     ``motion_fraction * radius / speed`` apart where contact is possible, and no closer than
     ``duration / max_checks``. ``block`` checks are evaluated per iteration (module docstring). Where
     ``active`` is False nothing is checked (a fall: the step takes no time) and the rods stay where they are.
+
+    ``cached``: the rods' positions ``(M, 2)`` as pymunk last cached their shapes, where a scene has set the
+    bodies elsewhere since (the crowd and the car stream put theirs at their scheduled places before a step):
+    pymunk's query answers the first check there, so this one does too; the rods then move on from ``rods``.
     """
     dtype = duration.dtype
     speed = robot_speed_bound + rods.max_speed()
@@ -166,7 +171,10 @@ def sweep(path: Any, duration: jax.Array, robot_speed_bound: jax.Array, table: j
         tb = jnp.stack(ts)
         rb = jax.tree.map(lambda *x: jnp.stack(x), *rs)
         qx, qy = path(tb)
-        d = distances(qx, qy, table, rb)  # (block, shapes)
+        seen = rb
+        if cached is not None:  # the sweep's first check sees the shapes where pymunk cached them
+            seen = rb._replace(position=rb.position.at[0].set(jnp.where(checks == 0, cached, rb.position[0])))
+        d = distances(qx, qy, table, seen)  # (block, shapes)
         horizon = radius + speed * (duration - tb) + HORIZON_SLACK
         dmin = jnp.min(d, axis=-1)
         hit = dmin < horizon

@@ -6,8 +6,8 @@ measured apart, on the first call. Two workloads:
 
 * ``random``: actions uniform in the action box (about half fall at once and reset: resets weigh heavily,
   as in the reference env's speed tiers);
-* ``walk``: every env walks 5 cm strides at the nominal period towards the door (the sweep's checks weigh
-  heavily: envs walk the corridor, reach the door and hit it or pass).
+* ``walk``: every env walks 5 cm strides at the nominal period towards the goal (the sweep's checks weigh
+  heavily: envs walk the door's corridor, reach the door and hit it or pass; in the crowd the ring closes in).
 """
 
 from __future__ import annotations
@@ -92,9 +92,10 @@ def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str
     return Rate(n, statistics.median(rates), compile_s, rates, int(state_bytes))
 
 
-def reference_rate(steps: int, workload: str, env_kwargs: dict, seed: int = 0) -> float:
-    """Steps/s of one reference env (``gymnasium.make``) on the same workload, reset at episode end."""
-    env = gym.make("FootstepDoor-v0", **env_kwargs)
+def reference_rate(steps: int, workload: str, env_kwargs: dict, seed: int = 0, env_id: str = "FootstepDoor-v0"
+                   ) -> float:
+    """Steps/s of one reference env (``gymnasium.make(env_id)``) on the same workload, reset at episode end."""
+    env = gym.make(env_id, **env_kwargs)
     env.action_space.seed(seed)
     env.reset(seed=seed)
     walk = np.asarray(WALK, np.float32)

@@ -1,7 +1,7 @@
 """``FootstepVectorEnv``: the batched JAX backend behind Gymnasium's ``VectorEnv`` (numpy in and out).
 
 ``gymnasium.make_vec("FootstepDoor-v0", num_envs=N, vectorization_mode="vector_entry_point", **env_kwargs)``
-makes one (and so does ``make_vec`` without a mode, Gymnasium's rule for an id with a vector entry point;
+(or ``FootstepCrossing-v0``, ``FootstepCrowd-v0``) makes one (and so does ``make_vec`` without a mode, Gymnasium's rule for an id with a vector entry point;
 ``vectorization_mode="sync"`` gives N reference envs instead). Everything that is not Gymnasium's (the
 settings, the observation, rewards and endings) is :class:`footstep_gym.jax.env.FootstepJaxEnv`'s.
 """

@@ -91,6 +91,7 @@ class Crossing(Scenario):
     static_keys = ()  # no walls
     Config = CrossingConfig
     env_id = "FootstepCrossing-v0"
+    vector_entry_point = "footstep_gym.jax.vector:FootstepVectorEnv"  # the batched JAX backend (footstep_gym.jax)
     sweep_axes = {}  # one setting, the YAML's (the paper's §3.2)
     command_tables = False  # the paper gives no command table for it (its Table 3 compares totals)
 

@@ -1,0 +1,124 @@
+"""The JAX crossing (footstep_gym.jax.scenes.CrossingScene) against the reference env: replays of reference
+episodes (the paper's timed car, the train tier's car stream with its gap, the wide cars), the traffic's
+schedule against ``CrossingTraffic``'s through a car's re-entry, seeding, the vector env, unsupported settings.
+
+JAX compiles each distinct function once per process: the episodes here are few and short.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import gymnasium as gym
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import footstep_gym  # noqa: F401
+from footstep_gym.errors import ConfigError
+from footstep_gym.jax import replay as R
+from footstep_gym.jax.env import FootstepJaxEnv
+from footstep_gym.jax.vector import FootstepVectorEnv
+
+CROSSING = "FootstepCrossing-v0"
+TRAIN = {"tier": "train"}
+PAPER = {"tier": "paper"}
+WIDE = {"tier": "structure", "tier_cell": "wide_cars"}
+OBS_TOL_64, REWARD_TOL_64, CLEARANCE_TOL_64 = 1e-6, 1e-9, 1e-12  # as tests/test_jax_crowd.py's
+
+
+@pytest.fixture(scope="module")
+def x64():
+    with jax.enable_x64(True):
+        yield
+
+
+def _check(agreements, outcomes):
+    for a in agreements:
+        assert a.same or a.near_tie, a
+        assert a.obs_error <= OBS_TOL_64 and a.reward_error <= REWARD_TOL_64, a
+        assert a.clearance_error <= CLEARANCE_TOL_64, a
+        outcomes.add(a.reference[0])
+
+
+@pytest.mark.parametrize("kwargs", [TRAIN, PAPER, WIDE], ids=["train", "paper", "wide_cars"])
+def test_replayed_episodes_end_alike(x64, kwargs):
+    """Reference episodes (open-loop walks, fuzzed float32 actions, the period-aware planner on the train tier;
+    train-split seeds) replayed in float64: the same ending at the same step, observations, rewards and the
+    sweep's clearances within the stated tolerances."""
+    jenv = FootstepJaxEnv("crossing", dtype="float64", **kwargs)
+    outcomes: set[str] = set()
+    walks = R.record_many(CROSSING, range(300, 304), "walk", kwargs, max_steps=30)
+    fuzz = R.record_many(CROSSING, range(300, 302), "fuzz", kwargs, max_steps=30)
+    _check(R.compare(walks + fuzz, R.replay(jenv, walks + fuzz, pad_to=30)), outcomes)
+    assert {"collision", "fall"} & outcomes
+    if kwargs is TRAIN:
+        planned = R.record_many(CROSSING, [300], "planner", kwargs, max_steps=30)
+        _check(R.compare(planned, R.replay(jenv, planned, pad_to=30)), outcomes)
+
+
+def test_traffic_schedule_is_the_references(x64):
+    """``CrossingScene.positions`` against ``CrossingTraffic.positions`` on a reference episode's draws, before
+    and after cars re-enter their lane; ``before_step`` puts the cars there and keeps their velocities."""
+    env = gym.make(CROSSING, tier="train")
+    env.reset(seed=11)
+    u = env.unwrapped
+    jenv = FootstepJaxEnv("crossing", dtype="float64", **TRAIN)
+    params = jenv.cell_params(dataclasses.replace(u.episode_config, randomize={}))
+    rods, scene = jenv.scene.start_from(jenv.scene.reference_start(u), params)
+    loop_time = float(scene.loop) / float(scene.speed)
+    for t in (0.0, 1.3, 0.5 * loop_time, loop_time + 0.7, 2.3 * loop_time):
+        got = np.asarray(jenv.scene.positions(scene, jnp.asarray(t)))
+        assert np.allclose(got, u.scenario.positions(t), rtol=0, atol=1e-12)
+    t = 0.6 * loop_time
+    moved = jenv.scene.before_step(scene, rods, jnp.asarray(t), jnp.asarray(0.8))
+    u.scenario.before_step(u.world, t, 0.8)
+    bodies = [m.body for m in u.scenario.members]
+    assert np.allclose(np.asarray(moved.position), [tuple(b.position) for b in bodies], rtol=0, atol=1e-12)
+    assert np.array_equal(np.asarray(moved.velocity), [tuple(b.velocity) for b in bodies])
+    env.close()
+
+
+def test_reset_draws_the_tiers_cars():
+    env = FootstepJaxEnv("crossing", **TRAIN)
+    keys = jax.random.split(jax.random.key(2), 5)
+    reset = jax.jit(jax.vmap(env.reset))
+    state, obs = reset(keys)
+    again, obs_again = reset(keys)
+    assert np.array_equal(np.asarray(obs), np.asarray(obs_again))
+    assert np.array_equal(np.asarray(state.rods.position), np.asarray(again.rods.position))
+    speeds = np.abs(np.asarray(state.rods.velocity[:, :, 1]))
+    assert np.all((speeds >= 0.2 - 1e-6) & (speeds <= 0.3 + 1e-6))  # the train tier's traffic_speed
+    assert len({float(s) for s in speeds[:, 0]}) == 5
+    loops = np.asarray(state.scene.loop)
+    assert np.all((loops >= 11 * 0.9 + 1.5 - 1e-5) & (loops <= 11 * 0.9 + 1.7 + 1e-5))  # 12 cars, one gap
+    paper = FootstepJaxEnv("crossing", **PAPER)
+    s, _ = paper.reset(jax.random.key(0))
+    assert s.rods.position.shape == (1, 2) and not bool(s.scene.traffic)
+    assert float(s.rods.velocity[0, 1]) == pytest.approx(0.25)
+
+
+def test_make_vec_gives_the_batched_crossing():
+    envs = gym.make_vec(CROSSING, num_envs=3, vectorization_mode="vector_entry_point", tier="train")
+    try:
+        assert isinstance(envs, FootstepVectorEnv) and envs.jax_env.scenario == "crossing"
+        obs, _ = envs.reset(seed=3)
+        assert obs.shape == (3, 42) and obs in envs.observation_space
+        walk = np.tile(np.array([0.05, 0.08, 0.0, 0.6, 0.2], np.float32), (3, 1))
+        for _ in range(3):
+            obs, reward, *_ = envs.step(walk)
+        assert obs in envs.observation_space and np.all(np.isfinite(reward))
+    finally:
+        envs.close()
+
+
+@pytest.mark.parametrize("kwargs, named", [
+    ({"tier": "noise", "tier_cell": "wide_cars"}, "sensing options"),
+    ({"randomize": {"obstacle_length": [0.4, 0.6]}}, "randomize of obstacle_length"),
+    ({"fixed_period": True}, "fixed_period"),
+])
+def test_unsupported_crossing_settings_raise_one_line(kwargs, named):
+    with pytest.raises(ConfigError) as err:
+        FootstepJaxEnv("crossing", **kwargs)
+    assert named in str(err.value) and "\n" not in str(err.value)

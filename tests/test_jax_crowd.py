@@ -1,0 +1,187 @@
+"""The JAX scripted crowd (footstep_gym.jax.scenes.CrowdScene) against the reference env: replays of reference
+episodes (the tiers' crowd sizes and rings), the sweep's first check against pymunk's cached shapes, the
+schedule against ``Crowd.positions``, seeding, the vector env, unsupported cells.
+
+JAX compiles each distinct function once per process: the episodes here are few and short.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import gymnasium as gym
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import footstep_gym  # noqa: F401
+from footstep_gym import lipm
+from footstep_gym.errors import ConfigError
+from footstep_gym.jax import replay as R
+from footstep_gym.jax import shapes, walker
+from footstep_gym.jax.env import FootstepJaxEnv
+from footstep_gym.jax.scenes import CrowdState
+from footstep_gym.jax.vector import FootstepVectorEnv
+from footstep_gym.robot import load_robot
+from footstep_gym.world import World
+
+CROWD = "FootstepCrowd-v0"
+TRAIN = {"tier": "train"}
+DENSE = {"tier": "structure", "tier_cell": "dense"}
+#: Float64 replay tolerances (as the door's, tests/test_jax_door.py): the observation is float32.
+OBS_TOL_64, REWARD_TOL_64 = 1e-6, 1e-9
+#: [m] the clearance at the sweep's checks: the same instants and distances up to float64 rounding.
+CLEARANCE_TOL_64 = 1e-12
+
+
+@pytest.fixture(scope="module")
+def x64():
+    with jax.enable_x64(True):
+        yield
+
+
+@pytest.fixture(scope="module")
+def dense64(x64):
+    """A float64 env of the structure tier's dense cell: 10 members, so 8-member episodes run with 2 padded."""
+    return FootstepJaxEnv("crowd", dtype="float64", **DENSE)
+
+
+def _check(agreements, outcomes):
+    for a in agreements:
+        assert a.same or a.near_tie, a
+        assert a.obs_error <= OBS_TOL_64 and a.reward_error <= REWARD_TOL_64, a
+        assert a.clearance_error <= CLEARANCE_TOL_64, a
+        outcomes.add(a.reference[0])
+
+
+def test_replayed_episodes_end_alike(dense64):
+    """Reference episodes (period-aware planner, open-loop walks, fuzzed float32 actions; train-split seeds) of
+    the train tier (8 members) and the dense cell (10) replayed in float64 in one env: the same ending at the
+    same step, observations, rewards and the sweep's clearances within the stated tolerances."""
+    outcomes: set[str] = set()
+    walks = R.record_many(CROWD, range(200, 204), "walk", TRAIN, max_steps=30)
+    fuzz = R.record_many(CROWD, range(200, 203), "fuzz", TRAIN, max_steps=30)
+    dense = R.record_many(CROWD, range(210, 213), "walk", DENSE, max_steps=30)
+    _check(R.compare(walks + fuzz + dense, R.replay(dense64, walks + fuzz + dense, pad_to=30)), outcomes)
+    planned = R.record_many(CROWD, [200], "planner", TRAIN, max_steps=30)
+    _check(R.compare(planned, R.replay(dense64, planned, pad_to=30)), outcomes)
+    assert {"collision", "fall"} <= outcomes and outcomes & {"goal", "cut"}
+
+
+def test_schedule_is_the_reference_crowds(x64):
+    """``CrowdScene.positions`` and ``before_step`` against ``Crowd.positions`` and ``Crowd.before_step`` on a
+    reference episode's draws, through the acceleration and after it."""
+    env = gym.make(CROWD, tier="train")
+    env.reset(seed=7)
+    u = env.unwrapped
+    jenv = FootstepJaxEnv("crowd", dtype="float64", **TRAIN)
+    params = jenv.cell_params(dataclasses.replace(u.episode_config, randomize={}))
+    rods, scene = jenv.scene.start_from(jenv.scene.reference_start(u), params)
+    for t in (0.0, 0.37, 3.9, 4.0, 11.3):
+        got = np.asarray(jenv.scene.positions(scene, jnp.asarray(t)))
+        assert np.allclose(got, u.scenario.positions(t), rtol=0, atol=1e-14)
+    moved = jenv.scene.before_step(scene, rods, jnp.asarray(2.5), jnp.asarray(0.8))
+    u.scenario.before_step(u.world, 2.5, 0.8)
+    for body, p, v in zip((m.body for m in u.scenario.members), np.asarray(moved.position), np.asarray(moved.velocity)):
+        assert np.allclose(p, tuple(body.position), rtol=0, atol=1e-14)
+        assert np.allclose(v, tuple(body.velocity), rtol=0, atol=1e-13)
+    env.close()
+
+
+def test_first_check_sees_pymunks_cached_shapes(x64):
+    """A member put elsewhere between two sweeps (as the crowd's schedule does before each footstep): pymunk's
+    first check still sees it where its shape was cached, later checks where it moves from; the JAX sweep given
+    ``cached`` makes the same checks (their count, clearance, contact), and without it does not."""
+    robot = load_robot()
+    rng = np.random.default_rng(4)
+    radius = robot.body_radius
+    differs = collided = 0
+    fn = jax.jit(lambda path, dur, bound, rods, cached: shapes.sweep(
+        path, dur, bound, jnp.zeros((0, 8)), rods, radius, 0.02, 0.25, 2000, 8, cached=cached))
+    for _ in range(16):
+        world = World(radius, 0.001, 0.02, 0.25, 2000, compiled=True)
+        centres = rng.uniform(-0.35, 0.35, (4, 2)) + np.array([0.35, 0.0])
+        members = [world.add_circle(f"m{i}", tuple(c), 0.08, tuple(rng.uniform(-0.1, 0.1, 2)))
+                   for i, c in enumerate(centres)]
+        com, vel = lipm.steady_state(robot, robot.nominal_command, -1)
+        cmd = np.array([rng.uniform(0.0, 0.1), 0.08, 0.0, rng.uniform(0.2, 0.6), rng.uniform(0.1, 0.3)])
+        kin, zmp, p, *_ = lipm.check_step(robot, com, vel, tuple(cmd), -1)
+        traj = lipm.StepTrajectory(robot.omega, com, vel, p, complex(cmd[0], cmd[1]), cmd[3], cmd[4])
+        world.sweep(traj.world_path(-0.4 + 0j, 1 + 0j), 0.05, traj.speed_bound())  # pymunk caches the shapes
+        cached = np.array([tuple(m.body.position) for m in members])
+        jump = cached + rng.uniform(-0.06, 0.06, (4, 2))  # the schedule's places: elsewhere
+        velocity = rng.uniform(-0.3, 0.3, (4, 2))
+        for m, q, v in zip(members, jump, velocity):
+            m.body.position = tuple(q)
+            m.body.velocity = tuple(v)
+        origin = complex(rng.uniform(-0.1, 0.2), rng.uniform(-0.1, 0.1))
+        ref = world.sweep(traj.world_path(origin, 1 + 0j), cmd[3] + cmd[4], traj.speed_bound())
+        v = walker.verdict(robot, jnp.asarray(com), jnp.asarray(vel), jnp.asarray(cmd), jnp.asarray(-1))
+        path, bound = walker.path_of(robot, v, jnp.asarray(cmd), jnp.asarray(-1), jnp.asarray(origin),
+                                     jnp.asarray(1 + 0j))
+        zeros = jnp.zeros((4, 2))
+        rods = shapes.Rods(jnp.asarray(jump), jnp.zeros(4), jnp.asarray(velocity), jnp.zeros(4), zeros, zeros,
+                           jnp.full(4, 0.08))
+        got = fn(path, jnp.asarray(cmd[3] + cmd[4]), bound, rods, jnp.asarray(cached))
+        assert bool(got.collided) == ref.collided and int(got.checks) == ref.checks
+        assert float(got.clearance) == pytest.approx(ref.clearance, abs=1e-12)
+        assert float(got.time) == pytest.approx(ref.time, abs=1e-12)
+        assert np.allclose(np.asarray(got.rods.position), [tuple(m.body.position) for m in members], atol=1e-12)
+        naive = fn(path, jnp.asarray(cmd[3] + cmd[4]), bound, rods, jnp.asarray(jump))
+        differs += int(naive.checks) != ref.checks or float(naive.clearance) != pytest.approx(ref.clearance, abs=1e-12)
+        collided += ref.collided
+    assert differs >= 3  # the cached places matter in these sweeps
+    assert 1 <= collided <= 15
+
+
+def test_reset_is_seeded_and_draws_the_ring():
+    env = FootstepJaxEnv("crowd", **TRAIN)
+    reset = jax.jit(jax.vmap(env.reset))
+    keys = jax.random.split(jax.random.key(5), 6)
+    s1, o1 = reset(keys)
+    s2, o2 = reset(keys)
+    assert o1.shape == (6, env.obs_size) and np.array_equal(np.asarray(o1), np.asarray(o2))
+    scene: CrowdState = s1.scene
+    speeds = np.asarray(scene.speed)
+    assert len(set(speeds.tolist())) == 6 and np.all((speeds >= 0.12 - 1e-6) & (speeds <= 0.22 + 1e-6))
+    centre = np.asarray(s1.com)[:, None, :]
+    gap = np.linalg.norm(np.asarray(s1.rods.position) - centre, axis=-1)
+    assert np.all(np.abs(gap - 0.36) <= 0.04 + 0.03)  # members on the ring around the start (CoM sway ~3 cm)
+    assert np.all(np.asarray(s1.rods.velocity) == 0.0)  # at rest at reset, as the reference's bodies
+    assert all(env.observation_space.contains(np.asarray(o)) for o in o1)
+
+
+def test_dense_cell_holds_its_members():
+    env = FootstepJaxEnv("crowd", **DENSE)
+    state, _ = env.reset(jax.random.key(1))
+    assert env.scene.size == 10 and bool(jnp.all(state.scene.active))
+
+
+def test_make_vec_gives_the_batched_crowd():
+    envs = gym.make_vec(CROWD, num_envs=3, vectorization_mode="vector_entry_point", tier="train")
+    try:
+        assert isinstance(envs, FootstepVectorEnv) and envs.jax_env.scenario == "crowd"
+        obs, _ = envs.reset(seed=3)
+        assert obs.shape == (3, 42) and obs in envs.observation_space
+        walk = np.tile(np.array([0.05, 0.08, 0.0, 0.6, 0.2], np.float32), (3, 1))
+        for _ in range(3):
+            obs, reward, terminated, truncated, info = envs.step(walk)
+        assert obs in envs.observation_space and np.all(np.isfinite(reward))
+    finally:
+        envs.close()
+
+
+@pytest.mark.parametrize("kwargs, named", [
+    ({"tier": "structure"}, "tier cell 'counter_flow': crowd_model='orca'"),
+    ({"tier": "structure", "tier_cell": "closing_in"}, "crowd_model='orca'"),
+    ({"crowd_model": "orca"}, "ORCA pedestrians have no JAX version"),
+    ({"tier": "noise", "tier_cell": "train"}, "sensing options"),
+    ({"randomize": {"member_radius": [0.06, 0.1]}}, "randomize of member_radius"),
+])
+def test_unsupported_crowd_cells_raise_one_line(kwargs, named):
+    with pytest.raises(ConfigError) as err:
+        FootstepJaxEnv("crowd", **kwargs)
+    assert named in str(err.value) and "\n" not in str(err.value)
+    with pytest.raises(ConfigError, match="vectorization_mode='sync'"):
+        gym.make_vec(CROWD, num_envs=2, vectorization_mode="vector_entry_point", **kwargs)

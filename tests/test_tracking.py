@@ -183,6 +183,65 @@ def test_a_shape_that_jumps_restarts_its_track_at_the_reading():
     assert next(v for v in out.obstacles if v.name == "car").position == moved.position
 
 
+def _flagged(tracker: Tracker | None, readings, robot, params, stds: float) -> list[set[str]]:
+    """Per footstep, the shapes the prediction finds unsteady (their estimated or sensed velocity changed)."""
+    from footstep_gym.planners.prediction import steady_motion_horizons
+
+    out, previous = [], None
+    for t, views in readings:
+        snapshot = _snapshot(robot, t, views)
+        if tracker is not None:
+            snapshot = tracker.update(snapshot)
+        noise = tracker.rate_change_stds() if tracker is not None else None
+        out.append(set(steady_motion_horizons(previous, snapshot, 2.0, params.unsteady_speed_mps,
+                                              params.unsteady_turn_rad_s, noise, stds)))
+        previous = snapshot
+    return out
+
+
+def _stream(seed: int, stds: tuple[float, float], turn_at: int, steps: int = 45):
+    """Eight cars of one lane at 0.25 m/s, 0.9 m apart, read with position and velocity stds ``stds``; car 0
+    reverses at footstep ``turn_at``."""
+    rng = np.random.default_rng(seed)
+    readings, t, t_turn = [], 0.0, None
+    for k in range(steps):
+        if k == turn_at:
+            t_turn = t
+        views = []
+        for i in range(8):
+            turned = i == 0 and t_turn is not None
+            y = -3.0 + 0.9 * i + (0.25 * (2 * t_turn - t) if turned else 0.25 * t)
+            z = rng.standard_normal(4)
+            views.append(ObstacleView(f"car_{i}", "segment", False, (0.9 + stds[0] * z[0], y + stds[0] * z[1]), 0.0,
+                                      (stds[1] * z[2], (-0.25 if turned else 0.25) + stds[1] * z[3]), 0.0, 0.12,
+                                      (0.0, -0.13), (0.0, 0.13)))
+        readings.append((t, tuple(views)))
+        t += float(rng.uniform(0.3, 0.6))
+    return readings
+
+
+def test_a_steady_stream_is_not_taken_for_unsteady_but_a_turn_is():
+    """Cars at one constant velocity, read with noise: while their filters settle the filtered velocities move by
+    more than the fixed tolerance (1 cm/s) each footstep, which would take them for a change of motion; measured
+    against the filter's own correction std they stay steady, while a car that turns is found at once."""
+    robot = _robot()
+    prediction = load_planner_config().prediction
+    turn_at = 30
+    readings = _stream(5, PROFILE[:2], turn_at)
+    plain = _flagged(Tracker(PARAMS), readings, robot, prediction, 0.0)
+    tested = _flagged(Tracker(PARAMS), readings, robot, prediction, PARAMS.steady_stds)
+    # The fixed tolerance flags cars that never changed while their filters settle (the footsteps that decide a crossing).
+    assert np.mean([len(plain[k]) for k in range(1, 8)]) > 2
+    false_alarms = sum(len(tested[k]) for k in range(1, turn_at))
+    assert false_alarms <= 0.02 * 8 * (turn_at - 1), false_alarms
+    assert "car_0" in tested[turn_at]  # the reversal, found at its first reading
+    # Exact readings: the noise std is zero and the test is the fixed tolerance's.
+    exact = _stream(5, (0.0, 0.0), turn_at)
+    flagged = _flagged(Tracker(PARAMS), exact, robot, prediction, PARAMS.steady_stds)
+    assert flagged == _flagged(None, exact, robot, prediction, 0.0)
+    assert flagged[turn_at] == {"car_0"}
+
+
 def test_exact_readings_pass_unchanged():
     robot = _robot()
     truths, _ = _synthetic(2, 10)

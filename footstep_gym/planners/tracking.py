@@ -202,6 +202,9 @@ class Track:
     still: np.ndarray = dataclasses.field(default_factory=lambda: np.full(2, np.nan))  # [m] its position
     still_var: np.ndarray = dataclasses.field(default_factory=lambda: np.full(2, np.nan))  # [m^2]
     evidence: float = 0.0  # log-likelihood of the readings under "still" minus under "moving", forgetting old steps
+    # Per channel, the variance of the last update's correction of the rate were the motion steady (the model's):
+    # ``(P_pred S^-1 P_pred)[1, 1]``; 0 where the readings are taken as exact.
+    rate_change_var: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
 
 
 def _reading(view: ObstacleView, time: float) -> _Reading:
@@ -315,6 +318,7 @@ class Tracker:
                 if levels[ANGULAR if ch == 2 else LINEAR] is None:  # exact readings: the reading itself
                     track.state[ch] = (reading.values[ch], reading.rates[ch])
                     track.cov[ch] = np.nan
+                    track.rate_change_var[ch] = 0.0
                 else:
                     rows.append((name, ch, dt))
             track.readings.append(reading)
@@ -342,6 +346,11 @@ class Tracker:
         x_post, P_post, nis = update(x_pred, P_pred, z, r, angular)
         # Gate: a channel beyond it restarts its whole track at the reading (a shape re-entering the scene).
         restart = {name for (name, _, _), bad in zip(rows, nis > self.params.gate) if bad}
+        # The correction K y of the rate has covariance K S K^T = P_pred S^-1 P_pred when the model holds.
+        S_full = P_pred.copy()
+        S_full[:, 0, 0] += r[:, 0]
+        S_full[:, 1, 1] += r[:, 1]
+        correction_var = (P_pred @ np.linalg.inv(S_full) @ P_pred)[:, 1, 1]
         self.restarts += len(restart)
         # Evidence for "still" over "moving" from the position channels: the still model's innovation of the
         # position and its reading of velocity (zero) against the moving model's innovation.
@@ -355,11 +364,13 @@ class Tracker:
             track = self.tracks[name]
             if name in restart:
                 track.state[ch], track.cov[ch] = z[i], np.diag(r[i])
+                track.rate_change_var[ch] = r[i, 1] + P_pred[i, 1, 1]  # the reading's rate against the old estimate
                 if ch < 2:
                     track.still[ch], track.still_var[ch] = z[i, 0], r[i, 0]
                     step_evidence[name] = -math.inf  # no evidence yet: start over
                 continue
             track.state[ch], track.cov[ch] = x_post[i], P_post[i]
+            track.rate_change_var[ch] = correction_var[i]
             if ch < 2:
                 if fresh[i]:
                     track.still[ch], track.still_var[ch] = x[i, 0], r[i, 0]
@@ -374,6 +385,16 @@ class Tracker:
             track = self.tracks[name]
             track.evidence = 0.0 if ev == -math.inf else memory * track.evidence + ev
 
+    def rate_change_stds(self) -> dict[str, tuple[float, float]]:
+        """``{name: (speed std [m/s], turn std [rad/s])}``: per track, the std of the change of its estimated
+        velocity (the norm over x and y) and of a rod's turn rate that the readings' noise alone makes at the last
+        update, were the motion steady. 0 where the readings were taken as exact."""
+        out = {}
+        for name, track in self.tracks.items():
+            v = track.rate_change_var
+            out[name] = (math.sqrt(float(v[0] + v[1])), math.sqrt(float(v[2])) if len(track.state) == 3 else 0.0)
+        return out
+
     def _estimate(self, view: ObstacleView) -> ObstacleView:
         track = self.tracks[view.name]
         s = track.state
@@ -387,3 +408,4 @@ class Tracker:
         else:
             position, velocity = (float(s[0, 0]), float(s[1, 0])), (float(s[0, 1]), float(s[1, 1]))
         return ObstacleView(view.name, view.kind, False, position, angle, velocity, omega, view.radius, view.a, view.b)
+

@@ -229,7 +229,7 @@ def test_a_steady_stream_is_not_taken_for_unsteady_but_a_turn_is():
     turn_at = 30
     readings = _stream(5, PROFILE[:2], turn_at)
     plain = _flagged(Tracker(PARAMS), readings, robot, prediction, 0.0)
-    tested = _flagged(Tracker(PARAMS), readings, robot, prediction, PARAMS.steady_stds)
+    tested = _flagged(Tracker(PARAMS), readings, robot, prediction, 3.0)
     # The fixed tolerance flags cars that never changed while their filters settle (the footsteps that decide a crossing).
     assert np.mean([len(plain[k]) for k in range(1, 8)]) > 2
     false_alarms = sum(len(tested[k]) for k in range(1, turn_at))
@@ -237,9 +237,42 @@ def test_a_steady_stream_is_not_taken_for_unsteady_but_a_turn_is():
     assert "car_0" in tested[turn_at]  # the reversal, found at its first reading
     # Exact readings: the noise std is zero and the test is the fixed tolerance's.
     exact = _stream(5, (0.0, 0.0), turn_at)
-    flagged = _flagged(Tracker(PARAMS), exact, robot, prediction, PARAMS.steady_stds)
+    flagged = _flagged(Tracker(PARAMS), exact, robot, prediction, 3.0)
     assert flagged == _flagged(None, exact, robot, prediction, 0.0)
     assert flagged[turn_at] == {"car_0"}
+
+
+def test_cars_of_a_lane_share_their_velocity_and_others_keep_theirs():
+    """A lane of eight cars at one velocity beside pedestrians walking their own ways: handed on conditioned on
+    their peers' mean velocity, the cars' velocity and position errors shrink well below their own filters' while
+    the pedestrians', whose velocities agree with no one's, stay their filters' own."""
+    robot = _robot()
+    shared_params = dataclasses.replace(PARAMS, shared_velocity_gate=6.0)
+    own_params = dataclasses.replace(PARAMS, shared_velocity_gate=0.0)
+    err = {"shared": [], "own": []}
+    for seed in range(3):
+        rng = np.random.default_rng(100 + seed)
+        cars, ped_v = _stream(seed, PROFILE[:2], turn_at=10 ** 6, steps=12), rng.uniform(-0.6, 0.6, (4, 2))
+        truth_cars = _stream(seed, (0.0, 0.0), turn_at=10 ** 6, steps=12)
+        trackers = {"shared": Tracker(shared_params), "own": Tracker(own_params)}
+        for (t, views), (_, truth) in zip(cars, truth_cars):
+            peds = [ObstacleView(f"member_{i}", "circle", False, tuple(ped_v[i] * t + (i - 2.0, 1.0)), 0.0,
+                                 tuple(ped_v[i]), 0.0, 0.1, (0.0, 0.0), (0.0, 0.0)) for i in range(4)]
+            noisy = [dataclasses.replace(p, position=tuple(np.add(p.position, PROFILE[0] * rng.standard_normal(2))),
+                                         velocity=tuple(np.add(p.velocity, PROFILE[1] * rng.standard_normal(2))))
+                     for p in peds]
+            snapshot = _snapshot(robot, t, views + tuple(noisy))
+            for kind, tracker in trackers.items():
+                out = {v.name: v for v in tracker.update(snapshot).obstacles}
+                err[kind].append([(math.dist(v.position, out[v.name].position),
+                                   math.dist(v.velocity, out[v.name].velocity)) for v in truth + tuple(peds)])
+    shared, own = np.array(err["shared"]), np.array(err["own"])  # (footsteps, 12 shapes, [position, velocity])
+    late = slice(2, None)
+    # The cars: their velocity error falls by more than half, their position error by a fifth at least.
+    assert shared[late, :8, 1].mean() < 0.5 * own[late, :8, 1].mean()
+    assert shared[late, :8, 0].mean() < 0.8 * own[late, :8, 0].mean()
+    # The pedestrians (0.6 m/s apart at least as often as not): no worse than their own filters'.
+    assert shared[late, 8:, 1].mean() < 1.1 * own[late, 8:, 1].mean()
 
 
 def test_exact_readings_pass_unchanged():

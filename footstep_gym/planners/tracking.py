@@ -30,6 +30,16 @@ unchanged (a noise-free env plans exactly as without it).
 (a door's pivot, a member waiting); the evidence of the readings for one over the other, with a prior for
 "still" and earlier footsteps discounted, picks the estimate handed on (shapes keep their sensed size).
 
+**A shared velocity.** Cars of a lane move at one velocity. With ``tracking.shared_velocity_gate`` above 0, the
+moving tracks whose estimated velocities agree (normalised squared difference below the gate) are each handed on
+conditioned on the precision-weighted mean velocity of the others, the filters' own states untouched (so no
+reading counts twice across footsteps): a lane's velocity from all its cars, each car's position corrected along.
+
+**Steady or not.** The prediction shortens the horizon of a shape whose velocity changed since the previous
+footstep (``prediction.unsteady_*``). A filtered velocity moves each footstep by the filter's correction even
+when the motion is steady; :meth:`Tracker.rate_change_stds` gives that correction's std (``P_pred S^-1 P_pred``),
+and ``tracking.steady_stds`` of it are added to the tolerance.
+
 The maths is vectorised over channels (:func:`predict`, :func:`update`); the tests hold it to a textbook
 matrix Kalman filter and to synthetic tracks with known truth (``tests/test_tracking.py``).
 """
@@ -301,8 +311,47 @@ class Tracker:
         self._filter(readings, levels)
         if all(v is None for v in levels.values()):
             return snapshot  # every reading taken as exact: nothing to change
-        views = tuple(self._estimate(v) if not v.static else v for v in snapshot.obstacles)
+        sensed = [v.name for v in snapshot.obstacles if not v.static]
+        shared = self._shared_velocity(sensed) if self.params.shared_velocity_gate > 0 else {}
+        views = tuple(self._estimate(v, shared.get(v.name)) if not v.static else v for v in snapshot.obstacles)
         return dataclasses.replace(snapshot, obstacles=views)
+
+    def _moving(self, name: str) -> bool:
+        """Whether ``name``'s position is filtered and handed on by the moving model."""
+        track = self.tracks[name]
+        filtered = not np.isnan(track.cov[:2]).any()
+        still = not np.isnan(track.still).any() and track.evidence + self.params.still_prior > 0.0
+        return filtered and not still
+
+    def _shared_velocity(self, names: list[str]) -> dict[str, np.ndarray]:
+        """Per moving track, its ``(x, y)`` channels ``(2, 2)`` conditioned on the velocity its peers share: the
+        tracks whose estimated velocity agrees with its own (normalised squared difference, 2 dof, below
+        ``shared_velocity_gate``), as the cars of a lane do. Their precision-weighted mean velocity, the track's own
+        left out, is a measurement of its velocity (each axis a Kalman update with ``H = [0, 1]``). The filters
+        keep their own states: only what is handed on this footstep is conditioned."""
+        moving = [n for n in names if self._moving(n)]
+        if len(moving) < 2:
+            return {}
+        x = np.stack([self.tracks[n].state[:2] for n in moving])  # (M, 2 axes, [value, rate])
+        P = np.stack([self.tracks[n].cov[:2] for n in moving])  # (M, 2 axes, 2, 2)
+        v, var = x[:, :, 1], P[:, :, 1, 1]  # (M, 2)
+        d2 = ((v[:, None] - v[None]) ** 2 / (var[:, None] + var[None])).sum(axis=-1)  # (M, M)
+        peers = d2 < self.params.shared_velocity_gate
+        np.fill_diagonal(peers, False)
+        out: dict[str, np.ndarray] = {}
+        for i, name in enumerate(moving):
+            if not peers[i].any():
+                continue
+            w = 1.0 / var[peers[i]]  # (J, 2)
+            mean, mean_var = (w * v[peers[i]]).sum(axis=0) / w.sum(axis=0), 1.0 / w.sum(axis=0)
+            state = x[i].copy()
+            for axis in range(2):
+                Pa = P[i, axis]
+                s = Pa[1, 1] + mean_var[axis]
+                innovation = mean[axis] - state[axis, 1]
+                state[axis] += Pa[:, 1] / s * innovation
+            out[name] = state
+        return out
 
     def _filter(self, readings: dict[str, _Reading], levels: dict[str, NoiseLevels | None]) -> None:
         rows: list[tuple[str, int, float]] = []  # (name, channel, dt) of the channels filtered this step
@@ -395,9 +444,9 @@ class Tracker:
             out[name] = (math.sqrt(float(v[0] + v[1])), math.sqrt(float(v[2])) if len(track.state) == 3 else 0.0)
         return out
 
-    def _estimate(self, view: ObstacleView) -> ObstacleView:
+    def _estimate(self, view: ObstacleView, shared: np.ndarray | None = None) -> ObstacleView:
         track = self.tracks[view.name]
-        s = track.state
+        s = track.state if shared is None else np.concatenate([shared, track.state[2:]])
         if view.kind == "segment":
             angle, omega = float(s[2, 0]), float(s[2, 1])
         else:

@@ -228,8 +228,12 @@ def test_a_steady_stream_is_not_taken_for_unsteady_but_a_turn_is():
     prediction = load_planner_config().prediction
     turn_at = 30
     readings = _stream(5, PROFILE[:2], turn_at)
-    plain = _flagged(Tracker(PARAMS), readings, robot, prediction, 0.0)
-    tested = _flagged(Tracker(PARAMS), readings, robot, prediction, 3.0)
+    own = dataclasses.replace(PARAMS, shared_velocity_gate=0.0)  # each car's own filter
+    plain = _flagged(Tracker(own), readings, robot, prediction, 0.0)
+    tested = _flagged(Tracker(own), readings, robot, prediction, 3.0)
+    # With the lane's velocity shared, the fixed tolerance alone leaves the steady cars steady.
+    shared = _flagged(Tracker(dataclasses.replace(PARAMS, shared_velocity_gate=6.0)), readings, robot, prediction, 0.0)
+    assert sum(len(shared[k]) for k in range(1, turn_at)) < 0.5 * sum(len(plain[k]) for k in range(1, turn_at))
     # The fixed tolerance flags cars that never changed while their filters settle (the footsteps that decide a crossing).
     assert np.mean([len(plain[k]) for k in range(1, 8)]) > 2
     false_alarms = sum(len(tested[k]) for k in range(1, turn_at))

@@ -395,17 +395,14 @@ class Tracker:
         x_post, P_post, nis = update(x_pred, P_pred, z, r, angular)
         # Gate: a channel beyond it restarts its whole track at the reading (a shape re-entering the scene).
         restart = {name for (name, _, _), bad in zip(rows, nis > self.params.gate) if bad}
+        S = P_pred.copy()  # the innovations' covariance
+        S[:, 0, 0] += r[:, 0]
+        S[:, 1, 1] += r[:, 1]
         # The correction K y of the rate has covariance K S K^T = P_pred S^-1 P_pred when the model holds.
-        S_full = P_pred.copy()
-        S_full[:, 0, 0] += r[:, 0]
-        S_full[:, 1, 1] += r[:, 1]
-        correction_var = (P_pred @ np.linalg.inv(S_full) @ P_pred)[:, 1, 1]
+        correction_var = (P_pred @ np.linalg.inv(S) @ P_pred)[:, 1, 1]
         self.restarts += len(restart)
         # Evidence for "still" over "moving" from the position channels: the still model's innovation of the
         # position and its reading of velocity (zero) against the moving model's innovation.
-        S = P_pred.copy()
-        S[:, 0, 0] += r[:, 0]
-        S[:, 1, 1] += r[:, 1]
         log_moving = -0.5 * (nis + np.log(np.linalg.det(S)))
         memory = self.params.model_memory
         step_evidence: dict[str, float] = {}
@@ -457,4 +454,3 @@ class Tracker:
         else:
             position, velocity = (float(s[0, 0]), float(s[1, 0])), (float(s[0, 1]), float(s[1, 1]))
         return ObstacleView(view.name, view.kind, False, position, angle, velocity, omega, view.radius, view.a, view.b)
-

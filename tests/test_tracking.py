@@ -183,6 +183,102 @@ def test_a_shape_that_jumps_restarts_its_track_at_the_reading():
     assert next(v for v in out.obstacles if v.name == "car").position == moved.position
 
 
+def _flagged(tracker: Tracker | None, readings, robot, params, stds: float) -> list[set[str]]:
+    """Per footstep, the shapes the prediction finds unsteady (their estimated or sensed velocity changed)."""
+    from footstep_gym.planners.prediction import steady_motion_horizons
+
+    out, previous = [], None
+    for t, views in readings:
+        snapshot = _snapshot(robot, t, views)
+        if tracker is not None:
+            snapshot = tracker.update(snapshot)
+        noise = tracker.rate_change_stds() if tracker is not None else None
+        out.append(set(steady_motion_horizons(previous, snapshot, 2.0, params.unsteady_speed_mps,
+                                              params.unsteady_turn_rad_s, noise, stds)))
+        previous = snapshot
+    return out
+
+
+def _stream(seed: int, stds: tuple[float, float], turn_at: int, steps: int = 45):
+    """Eight cars of one lane at 0.25 m/s, 0.9 m apart, read with position and velocity stds ``stds``; car 0
+    reverses at footstep ``turn_at``."""
+    rng = np.random.default_rng(seed)
+    readings, t, t_turn = [], 0.0, None
+    for k in range(steps):
+        if k == turn_at:
+            t_turn = t
+        views = []
+        for i in range(8):
+            turned = i == 0 and t_turn is not None
+            y = -3.0 + 0.9 * i + (0.25 * (2 * t_turn - t) if turned else 0.25 * t)
+            z = rng.standard_normal(4)
+            views.append(ObstacleView(f"car_{i}", "segment", False, (0.9 + stds[0] * z[0], y + stds[0] * z[1]), 0.0,
+                                      (stds[1] * z[2], (-0.25 if turned else 0.25) + stds[1] * z[3]), 0.0, 0.12,
+                                      (0.0, -0.13), (0.0, 0.13)))
+        readings.append((t, tuple(views)))
+        t += float(rng.uniform(0.3, 0.6))
+    return readings
+
+
+def test_a_steady_stream_is_not_taken_for_unsteady_but_a_turn_is():
+    """Cars at one constant velocity, read with noise: while their filters settle the filtered velocities move by
+    more than the fixed tolerance (1 cm/s) each footstep, which would take them for a change of motion; measured
+    against the filter's own correction std they stay steady, while a car that turns is found at once."""
+    robot = _robot()
+    prediction = load_planner_config().prediction
+    turn_at = 30
+    readings = _stream(5, PROFILE[:2], turn_at)
+    own = dataclasses.replace(PARAMS, shared_velocity_gate=0.0)  # each car's own filter
+    plain = _flagged(Tracker(own), readings, robot, prediction, 0.0)
+    tested = _flagged(Tracker(own), readings, robot, prediction, 3.0)
+    # With the lane's velocity shared, the fixed tolerance alone leaves the steady cars steady.
+    shared = _flagged(Tracker(dataclasses.replace(PARAMS, shared_velocity_gate=6.0)), readings, robot, prediction, 0.0)
+    assert sum(len(shared[k]) for k in range(1, turn_at)) < 0.5 * sum(len(plain[k]) for k in range(1, turn_at))
+    # The fixed tolerance flags cars that never changed while their filters settle (the footsteps that decide a crossing).
+    assert np.mean([len(plain[k]) for k in range(1, 8)]) > 2
+    false_alarms = sum(len(tested[k]) for k in range(1, turn_at))
+    assert false_alarms <= 0.02 * 8 * (turn_at - 1), false_alarms
+    assert "car_0" in tested[turn_at]  # the reversal, found at its first reading
+    # Exact readings: the noise std is zero and the test is the fixed tolerance's.
+    exact = _stream(5, (0.0, 0.0), turn_at)
+    flagged = _flagged(Tracker(PARAMS), exact, robot, prediction, 3.0)
+    assert flagged == _flagged(None, exact, robot, prediction, 0.0)
+    assert flagged[turn_at] == {"car_0"}
+
+
+def test_cars_of_a_lane_share_their_velocity_and_others_keep_theirs():
+    """A lane of eight cars at one velocity beside pedestrians walking their own ways: handed on conditioned on
+    their peers' mean velocity, the cars' velocity and position errors shrink well below their own filters' while
+    the pedestrians', whose velocities agree with no one's, stay their filters' own."""
+    robot = _robot()
+    shared_params = dataclasses.replace(PARAMS, shared_velocity_gate=6.0)
+    own_params = dataclasses.replace(PARAMS, shared_velocity_gate=0.0)
+    err = {"shared": [], "own": []}
+    for seed in range(3):
+        rng = np.random.default_rng(100 + seed)
+        cars, ped_v = _stream(seed, PROFILE[:2], turn_at=10 ** 6, steps=12), rng.uniform(-0.6, 0.6, (4, 2))
+        truth_cars = _stream(seed, (0.0, 0.0), turn_at=10 ** 6, steps=12)
+        trackers = {"shared": Tracker(shared_params), "own": Tracker(own_params)}
+        for (t, views), (_, truth) in zip(cars, truth_cars):
+            peds = [ObstacleView(f"member_{i}", "circle", False, tuple(ped_v[i] * t + (i - 2.0, 1.0)), 0.0,
+                                 tuple(ped_v[i]), 0.0, 0.1, (0.0, 0.0), (0.0, 0.0)) for i in range(4)]
+            noisy = [dataclasses.replace(p, position=tuple(np.add(p.position, PROFILE[0] * rng.standard_normal(2))),
+                                         velocity=tuple(np.add(p.velocity, PROFILE[1] * rng.standard_normal(2))))
+                     for p in peds]
+            snapshot = _snapshot(robot, t, views + tuple(noisy))
+            for kind, tracker in trackers.items():
+                out = {v.name: v for v in tracker.update(snapshot).obstacles}
+                err[kind].append([(math.dist(v.position, out[v.name].position),
+                                   math.dist(v.velocity, out[v.name].velocity)) for v in truth + tuple(peds)])
+    shared, own = np.array(err["shared"]), np.array(err["own"])  # (footsteps, 12 shapes, [position, velocity])
+    late = slice(2, None)
+    # The cars: their velocity error falls by more than half, their position error by a fifth at least.
+    assert shared[late, :8, 1].mean() < 0.5 * own[late, :8, 1].mean()
+    assert shared[late, :8, 0].mean() < 0.8 * own[late, :8, 0].mean()
+    # The pedestrians (0.6 m/s apart at least as often as not): no worse than their own filters'.
+    assert shared[late, 8:, 1].mean() < 1.1 * own[late, 8:, 1].mean()
+
+
 def test_exact_readings_pass_unchanged():
     robot = _robot()
     truths, _ = _synthetic(2, 10)

@@ -82,6 +82,8 @@ class TrackingParams:
     model_memory: float = nonnegative()  # per footstep, the weight of the earlier evidence for "still" over "moving"
     window: int = positive()  # residuals of each kind kept for the noise estimate (the latest)
     outlier: float = positive()  # a residual beyond this times its kind's median square is left out of the estimate
+    shared_velocity_gate: float = nonnegative()  # tracks whose velocities agree within this (chi-square, 2 dof) share them
+    steady_stds: float = nonnegative()  # a velocity's change counts as unsteady beyond this many stds of the noise's
 
     def validate(self) -> None:
         noise = self.measurement_noise

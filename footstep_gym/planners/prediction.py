@@ -38,7 +38,9 @@ def _moves(view: ObstacleView) -> bool:
 
 
 def steady_motion_horizons(previous: Snapshot | None, snapshot: Snapshot, short_horizon: float,
-                           speed_tolerance: float, turn_tolerance: float) -> dict[str, float]:
+                           speed_tolerance: float, turn_tolerance: float,
+                           noise: dict[str, tuple[float, float]] | None = None, noise_stds: float = 0.0
+                           ) -> dict[str, float]:
     """``{name: short_horizon}`` for the shapes whose sensed motion changed since ``previous``.
 
     A constant-velocity (or constant-turn) extrapolation is only as good as the motion is
@@ -46,6 +48,11 @@ def steady_motion_horizons(previous: Snapshot | None, snapshot: Snapshot, short_
     changed by more than ``speed_tolerance`` [m/s] (or angular velocity by more than
     ``turn_tolerance`` [rad/s]) is predicted only ``short_horizon`` [s] ahead. Without a
     previous snapshot, every shape keeps the long horizon.
+
+    ``noise``: ``{name: (speed std [m/s], turn std [rad/s])}``, the change that noise alone makes in
+    estimated velocities (a tracker's :meth:`~footstep_gym.planners.tracking.Tracker.rate_change_stds`):
+    a shape's tolerances grow by ``noise_stds`` times its stds, so that only a change beyond the noise
+    counts.
     """
     if previous is None:
         return {}
@@ -56,7 +63,9 @@ def steady_motion_horizons(previous: Snapshot | None, snapshot: Snapshot, short_
         if old is None or v.static:
             continue
         dv = float(np.hypot(v.velocity[0] - old.velocity[0], v.velocity[1] - old.velocity[1]))
-        if dv > speed_tolerance or abs(v.angular_velocity - old.angular_velocity) > turn_tolerance:
+        speed_std, turn_std = (noise or {}).get(v.name, (0.0, 0.0))
+        if (dv > speed_tolerance + noise_stds * speed_std
+                or abs(v.angular_velocity - old.angular_velocity) > turn_tolerance + noise_stds * turn_std):
             out[v.name] = short_horizon
     return out
 

@@ -188,7 +188,9 @@ class PeriodAwarePlanner(SnapshotPlanner):
             snapshot = self.tracker.update(snapshot)
             if self.tracker.revised:  # what was kept of earlier steps is the raw readings
                 self._history.clear()
-        unsteady = (steady_motion_horizons(self._previous_snapshot, snapshot, *self.unsteady)
+        noise = self.tracker.rate_change_stds() if self.tracker is not None else None
+        steady_stds = self.tracker.params.steady_stds if self.tracker is not None else 0.0
+        unsteady = (steady_motion_horizons(self._previous_snapshot, snapshot, *self.unsteady, noise, steady_stds)
                     if self.unsteady is not None else {})
         accelerations = (sensed_accelerations(self._history, snapshot, self.acceleration_pooled)
                          if self.acceleration_horizon > 0 else {})

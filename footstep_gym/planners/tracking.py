@@ -30,6 +30,16 @@ unchanged (a noise-free env plans exactly as without it).
 (a door's pivot, a member waiting); the evidence of the readings for one over the other, with a prior for
 "still" and earlier footsteps discounted, picks the estimate handed on (shapes keep their sensed size).
 
+**A shared velocity.** Cars of a lane move at one velocity. With ``tracking.shared_velocity_gate`` above 0, the
+moving tracks whose estimated velocities agree (normalised squared difference below the gate) are each handed on
+conditioned on the precision-weighted mean velocity of the others, the filters' own states untouched (so no
+reading counts twice across footsteps): a lane's velocity from all its cars, each car's position corrected along.
+
+**Steady or not.** The prediction shortens the horizon of a shape whose velocity changed since the previous
+footstep (``prediction.unsteady_*``). A filtered velocity moves each footstep by the filter's correction even
+when the motion is steady; :meth:`Tracker.rate_change_stds` gives that correction's std (``P_pred S^-1 P_pred``),
+and ``tracking.steady_stds`` of it are added to the tolerance.
+
 The maths is vectorised over channels (:func:`predict`, :func:`update`); the tests hold it to a textbook
 matrix Kalman filter and to synthetic tracks with known truth (``tests/test_tracking.py``).
 """
@@ -202,6 +212,9 @@ class Track:
     still: np.ndarray = dataclasses.field(default_factory=lambda: np.full(2, np.nan))  # [m] its position
     still_var: np.ndarray = dataclasses.field(default_factory=lambda: np.full(2, np.nan))  # [m^2]
     evidence: float = 0.0  # log-likelihood of the readings under "still" minus under "moving", forgetting old steps
+    # Per channel, the variance of the last update's correction of the rate were the motion steady (the model's):
+    # ``(P_pred S^-1 P_pred)[1, 1]``; 0 where the readings are taken as exact.
+    rate_change_var: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
 
 
 def _reading(view: ObstacleView, time: float) -> _Reading:
@@ -298,8 +311,47 @@ class Tracker:
         self._filter(readings, levels)
         if all(v is None for v in levels.values()):
             return snapshot  # every reading taken as exact: nothing to change
-        views = tuple(self._estimate(v) if not v.static else v for v in snapshot.obstacles)
+        sensed = [v.name for v in snapshot.obstacles if not v.static]
+        shared = self._shared_velocity(sensed) if self.params.shared_velocity_gate > 0 else {}
+        views = tuple(self._estimate(v, shared.get(v.name)) if not v.static else v for v in snapshot.obstacles)
         return dataclasses.replace(snapshot, obstacles=views)
+
+    def _moving(self, name: str) -> bool:
+        """Whether ``name``'s position is filtered and handed on by the moving model."""
+        track = self.tracks[name]
+        filtered = not np.isnan(track.cov[:2]).any()
+        still = not np.isnan(track.still).any() and track.evidence + self.params.still_prior > 0.0
+        return filtered and not still
+
+    def _shared_velocity(self, names: list[str]) -> dict[str, np.ndarray]:
+        """Per moving track, its ``(x, y)`` channels ``(2, 2)`` conditioned on the velocity its peers share: the
+        tracks whose estimated velocity agrees with its own (normalised squared difference, 2 dof, below
+        ``shared_velocity_gate``), as the cars of a lane do. Their precision-weighted mean velocity, the track's own
+        left out, is a measurement of its velocity (each axis a Kalman update with ``H = [0, 1]``). The filters
+        keep their own states: only what is handed on this footstep is conditioned."""
+        moving = [n for n in names if self._moving(n)]
+        if len(moving) < 2:
+            return {}
+        x = np.stack([self.tracks[n].state[:2] for n in moving])  # (M, 2 axes, [value, rate])
+        P = np.stack([self.tracks[n].cov[:2] for n in moving])  # (M, 2 axes, 2, 2)
+        v, var = x[:, :, 1], P[:, :, 1, 1]  # (M, 2)
+        d2 = ((v[:, None] - v[None]) ** 2 / (var[:, None] + var[None])).sum(axis=-1)  # (M, M)
+        peers = d2 < self.params.shared_velocity_gate
+        np.fill_diagonal(peers, False)
+        out: dict[str, np.ndarray] = {}
+        for i, name in enumerate(moving):
+            if not peers[i].any():
+                continue
+            w = 1.0 / var[peers[i]]  # (J, 2)
+            mean, mean_var = (w * v[peers[i]]).sum(axis=0) / w.sum(axis=0), 1.0 / w.sum(axis=0)
+            state = x[i].copy()
+            for axis in range(2):
+                Pa = P[i, axis]
+                s = Pa[1, 1] + mean_var[axis]
+                innovation = mean[axis] - state[axis, 1]
+                state[axis] += Pa[:, 1] / s * innovation
+            out[name] = state
+        return out
 
     def _filter(self, readings: dict[str, _Reading], levels: dict[str, NoiseLevels | None]) -> None:
         rows: list[tuple[str, int, float]] = []  # (name, channel, dt) of the channels filtered this step
@@ -315,6 +367,7 @@ class Tracker:
                 if levels[ANGULAR if ch == 2 else LINEAR] is None:  # exact readings: the reading itself
                     track.state[ch] = (reading.values[ch], reading.rates[ch])
                     track.cov[ch] = np.nan
+                    track.rate_change_var[ch] = 0.0
                 else:
                     rows.append((name, ch, dt))
             track.readings.append(reading)
@@ -342,12 +395,14 @@ class Tracker:
         x_post, P_post, nis = update(x_pred, P_pred, z, r, angular)
         # Gate: a channel beyond it restarts its whole track at the reading (a shape re-entering the scene).
         restart = {name for (name, _, _), bad in zip(rows, nis > self.params.gate) if bad}
+        S = P_pred.copy()  # the innovations' covariance
+        S[:, 0, 0] += r[:, 0]
+        S[:, 1, 1] += r[:, 1]
+        # The correction K y of the rate has covariance K S K^T = P_pred S^-1 P_pred when the model holds.
+        correction_var = (P_pred @ np.linalg.inv(S) @ P_pred)[:, 1, 1]
         self.restarts += len(restart)
         # Evidence for "still" over "moving" from the position channels: the still model's innovation of the
         # position and its reading of velocity (zero) against the moving model's innovation.
-        S = P_pred.copy()
-        S[:, 0, 0] += r[:, 0]
-        S[:, 1, 1] += r[:, 1]
         log_moving = -0.5 * (nis + np.log(np.linalg.det(S)))
         memory = self.params.model_memory
         step_evidence: dict[str, float] = {}
@@ -355,11 +410,13 @@ class Tracker:
             track = self.tracks[name]
             if name in restart:
                 track.state[ch], track.cov[ch] = z[i], np.diag(r[i])
+                track.rate_change_var[ch] = r[i, 1] + P_pred[i, 1, 1]  # the reading's rate against the old estimate
                 if ch < 2:
                     track.still[ch], track.still_var[ch] = z[i, 0], r[i, 0]
                     step_evidence[name] = -math.inf  # no evidence yet: start over
                 continue
             track.state[ch], track.cov[ch] = x_post[i], P_post[i]
+            track.rate_change_var[ch] = correction_var[i]
             if ch < 2:
                 if fresh[i]:
                     track.still[ch], track.still_var[ch] = x[i, 0], r[i, 0]
@@ -374,9 +431,19 @@ class Tracker:
             track = self.tracks[name]
             track.evidence = 0.0 if ev == -math.inf else memory * track.evidence + ev
 
-    def _estimate(self, view: ObstacleView) -> ObstacleView:
+    def rate_change_stds(self) -> dict[str, tuple[float, float]]:
+        """``{name: (speed std [m/s], turn std [rad/s])}``: per track, the std of the change of its estimated
+        velocity (the norm over x and y) and of a rod's turn rate that the readings' noise alone makes at the last
+        update, were the motion steady. 0 where the readings were taken as exact."""
+        out = {}
+        for name, track in self.tracks.items():
+            v = track.rate_change_var
+            out[name] = (math.sqrt(float(v[0] + v[1])), math.sqrt(float(v[2])) if len(track.state) == 3 else 0.0)
+        return out
+
+    def _estimate(self, view: ObstacleView, shared: np.ndarray | None = None) -> ObstacleView:
         track = self.tracks[view.name]
-        s = track.state
+        s = track.state if shared is None else np.concatenate([shared, track.state[2:]])
         if view.kind == "segment":
             angle, omega = float(s[2, 0]), float(s[2, 1])
         else:

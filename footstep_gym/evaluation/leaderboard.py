@@ -410,7 +410,7 @@ def in_distribution_markdown(board: Mapping[str, Any]) -> str:
                      _runs(p["runs"]), *row])
     table = pd.DataFrame(rows, columns=["policy", "trained on", "runs",
                                         *(f"{t} ({plural(len(cells[t]), 'cell')})" for t in tiers)])
-    return markdown_table(table).rstrip("\n")
+    return markdown_table(table, left=2).rstrip("\n")
 
 
 def in_distribution_notes(board: Mapping[str, Any]) -> list[str]:

@@ -49,6 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="where ppo_jax.json/.md/_curves.png are written (after --ship, or with --report)")
     p.add_argument("--reference", default="ppo", help="the shipped SB3 agent folder compared with (default ppo)")
     p.add_argument("--report", action="store_true", help="only write the figures from the shipped agents")
+    p.add_argument("--no-report", action="store_true",
+                   help="with --ship: do not write the figures (seeds trained in parallel processes; --report after)")
     return p
 
 
@@ -76,6 +78,9 @@ def ship_run(run: Path, result: Any, agents_dir: Path) -> Path:
         "torch_threads": None,
         "wall_time_includes": "start-up and JAX compilation; not the validation episodes in the reference env",
         "validation_time_s": round(result.validation_time_s, 1),
+        "load_average_start_end": [round(v, 2) for v in result.load_average],
+        "cpu_time_s": round(result.cpu_time_s, 1),
+        f"cpu_time_to_{TARGET}_s": None if result.cpu_time_to(TARGET) is None else round(result.cpu_time_to(TARGET), 1),
         f"time_to_{TARGET}_s": None if t is None else round(t, 1),
         "versions": versions(),
         "python": platform.python_version(),
@@ -116,6 +121,8 @@ def agent_rows(agents_dir: Path, folder: str, env_id: str) -> list[dict[str, Any
         wall = c.get("wall_time_s") or [t / m["timesteps"] * m["wall_time_s"] for t in c["timesteps"]]
         steps, secs = time_to(c["timesteps"], wall, c["success"])
         rows.append({"run": run.name, "seed": m["seed"], "timesteps": m["timesteps"], "wall_time_s": m["wall_time_s"],
+                     "cpu_time_s": m.get("cpu_time_s"), "cpu_time_to_target_s": m.get(f"cpu_time_to_{TARGET}_s"),
+                     "load_average_start_end": m.get("load_average_start_end"),
                      "env_steps_per_s": m["env_steps_per_s"], "final_success": m["final_eval_success"],
                      "final_episodes": m["final_eval_episodes"], "steps_to_target": steps,
                      "time_to_target_s": None if secs is None else round(secs, 1), "wall_estimated": estimated,
@@ -151,6 +158,8 @@ def write_report(agents_dir: Path, results: Path, env_id: str, reference: str) -
         summary[name] = {"seeds": len(rows), "median_time_to_target_s": median([r["time_to_target_s"] for r in rows]),
                          "median_steps_to_target": median([r["steps_to_target"] for r in rows]),
                          "median_wall_time_s": median([r["wall_time_s"] for r in rows]),
+                         "median_cpu_time_to_target_s": median([r["cpu_time_to_target_s"] for r in rows])
+                         if any(r["cpu_time_s"] is not None for r in rows) else None,
                          "median_env_steps_per_s": median([r["env_steps_per_s"] for r in rows])}
     results.mkdir(parents=True, exist_ok=True)
     data = {"env_id": env_id, "target_success": TARGET, "summary": summary, AGENT: ours, reference: ref}
@@ -185,20 +194,26 @@ def write_report(agents_dir: Path, results: Path, env_id: str, reference: str) -
              "first seeds in the reference env, deterministic policy. SB3 PPO's curves have no wall times (the zoo's "
              "evaluations): its time to the target is its step count at the run's mean rate.", "",
              f"| agent | seed | env steps | wall s | env steps/s | steps to {TARGET} | time to {TARGET} [s] | "
-             "final success (episodes) |", "|---|---:|---:|---:|---:|---:|---:|---|"]
+             f"CPU s to {TARGET} | load avg (start, end) | final success (episodes) |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for name, rows in ((AGENT, ours), (reference, ref)):
         for r in rows:
             lines.append(f"| {name} | {r['seed']} | {r['timesteps']:,} | {r['wall_time_s']:,.1f} | "
                          f"{r['env_steps_per_s']:,.0f} | {fmt(r['steps_to_target'])} | "
                          f"{fmt(r['time_to_target_s'], ',.1f')}{' (est.)' if r['wall_estimated'] else ''} | "
-                         f"{r['final_success']} ({r['final_episodes']}) |")
+                         f"{'-' if r['cpu_time_s'] is None else fmt(r['cpu_time_to_target_s'], ',.1f')} | "
+                         f"{r['load_average_start_end'] or '-'} | {r['final_success']} ({r['final_episodes']}) |")
     a, b = summary[AGENT], summary[reference]
     ratio = (b["median_time_to_target_s"] / a["median_time_to_target_s"]
              if a["median_time_to_target_s"] and b["median_time_to_target_s"] else None)
     lines += ["", f"Medians over seeds: {AGENT} reaches {TARGET} in {fmt(a['median_time_to_target_s'], ',.1f')} s "
               f"({fmt(a['median_steps_to_target'])} env steps, {a['seeds']} seeds); {reference} (SB3) in "
               f"{fmt(b['median_time_to_target_s'], ',.1f')} s ({fmt(b['median_steps_to_target'])} env steps, "
-              f"{b['seeds']} seeds)" + (f": {ratio:.1f}x faster." if ratio else "."),
+              f"{b['seeds']} seeds)" + (f": {ratio:.1f}x faster in wall time." if ratio else ".")
+              + (f" {AGENT}'s process CPU time to {TARGET} (all threads, validation left out; a bound that does not "
+                 f"move with the machine's load: on two free cores its wall time would be at least half of it): "
+                 f"median {fmt(a['median_cpu_time_to_target_s'], ',.1f')} s."
+                 if a.get("median_cpu_time_to_target_s") is not None else ""),
               "", f"![curves]({ppath.name})", ""]
     mpath = results / "ppo_jax.md"
     mpath.write_text("\n".join(lines), encoding="utf-8")
@@ -254,7 +269,7 @@ def main(argv: Sequence[str] | None = None) -> int:
               f"{TARGET}: {'never' if t is None else f'{t:.1f} s'}; run {run}", flush=True)
         if args.ship:
             print(f"  shipped: {ship_run(run, result, args.agents_dir)}", flush=True)
-    if args.ship:
+    if args.ship and not args.no_report:
         for path in write_report(args.agents_dir, args.results, cfg.env_id, args.reference):
             print(path)
     return 0

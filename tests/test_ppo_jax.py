@@ -166,10 +166,10 @@ def tiny_run(tmp_path_factory):
 def test_a_tiny_training_writes_a_run_that_loads_as_an_agent(tiny_run):
     result, run, seen = tiny_run
     assert [s for s, _, _ in seen] == [0, result.timesteps] and result.timesteps >= 512
-    assert all(0 <= rate <= 1 for _, _, rate in seen) and result.wall_time_s > 0
+    assert all(0 <= rate <= 1 for _, _, rate in seen) and result.wall_time_s > 0 and result.cpu_time_s > 0
     assert run.name == f"{ENV_ID}_7" and (run / f"{ENV_ID}.zip").is_file()
     rows = (run / "validation.csv").read_text().splitlines()
-    assert rows[0] == "timesteps,wall_time_s,success_rate,episodes" and len(rows) == 3
+    assert rows[0] == "timesteps,wall_time_s,success_rate,episodes,cpu_time_s" and len(rows) == 3
     model = ppo.BraxPPO.load(run / f"{ENV_ID}.zip")
     obs = np.random.default_rng(0).normal(size=(3, 42)).astype(np.float32)
     np.testing.assert_array_equal(model.predict(obs)[0], result.model.predict(obs)[0])  # saved as trained

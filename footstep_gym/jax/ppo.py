@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import time
 import zipfile
 from dataclasses import asdict, dataclass, fields
@@ -302,20 +303,27 @@ def _device_put_replicated() -> Iterator[None]:
 @dataclass
 class TrainResult:
     """A finished training run: the policy, its curve (env steps, training wall time [s] with jit and without the
-    validation episodes, validation success), the total training wall time [s], the env steps and the time spent
-    validating [s]."""
+    validation episodes, validation success, the process's CPU time [s] likewise), the total training wall time
+    [s], the env steps, the time spent validating [s], the machine's 1-minute load average at the start and the
+    end (a shared machine's), and the total CPU time [s] (all threads; validation left out)."""
 
     model: BraxPPO
-    curve: list[tuple[int, float, float]]
+    curve: list[tuple[int, float, float, float]]
     wall_time_s: float
     timesteps: int
     validation_time_s: float
     seed: int
     config: PPOJaxConfig
+    load_average: tuple[float, float] = (float("nan"), float("nan"))
+    cpu_time_s: float = float("nan")
 
     def time_to(self, success: float) -> float | None:
         """Training wall time [s] at the first validation with success >= ``success`` (None if never)."""
-        return next((w for _, w, s in self.curve if s >= success), None)
+        return next((w for _, w, s, _ in self.curve if s >= success), None)
+
+    def cpu_time_to(self, success: float) -> float | None:
+        """The process's CPU time [s] (all threads) at the first validation with success >= ``success``."""
+        return next((c for _, _, s, c in self.curve if s >= success), None)
 
 
 def make_env(cfg: PPOJaxConfig) -> Any:
@@ -352,16 +360,18 @@ def train(cfg: PPOJaxConfig, seed: int, *, validation_seeds: list[int] | None = 
     env = make_env(cfg)
     network = network_of(cfg, env.observation_size, env.action_size)
     ref_env = validation_env(cfg)
-    curve: list[tuple[int, float, float]] = []
-    clock = {"validating": 0.0}
-    start = time.perf_counter()
+    curve: list[tuple[int, float, float, float]] = []
+    clock = {"validating": 0.0, "validating_cpu": 0.0}
+    load_start = os.getloadavg()[0]
+    start, cpu_start = time.perf_counter(), time.process_time()
 
     def on_params(step: int, make_policy: Any, params: Any) -> None:
-        t0 = time.perf_counter()
-        wall = t0 - start - clock["validating"]
+        t0, c0 = time.perf_counter(), time.process_time()
+        wall, cpu = t0 - start - clock["validating"], c0 - cpu_start - clock["validating_cpu"]
         rate = validation_success(BraxPPO(params, network), ref_env, seeds)
-        curve.append((int(step), wall, rate))
+        curve.append((int(step), wall, rate, cpu))
         clock["validating"] += time.perf_counter() - t0
+        clock["validating_cpu"] += time.process_time() - c0
         if progress is not None:
             progress(int(step), wall, rate)
 
@@ -377,9 +387,11 @@ def train(cfg: PPOJaxConfig, seed: int, *, validation_seeds: list[int] | None = 
             network_factory=_network_factory(network), seed=seed, num_evals=cfg.num_evals, num_eval_envs=1,
             run_evals=False, policy_params_fn=on_params)
     wall = time.perf_counter() - start - clock["validating"]
+    cpu = time.process_time() - cpu_start - clock["validating_cpu"]
     ref_env.close()
     steps = curve[-1][0] if curve else cfg.num_timesteps
-    return TrainResult(BraxPPO(params, network), curve, wall, steps, clock["validating"], seed, cfg)
+    return TrainResult(BraxPPO(params, network), curve, wall, steps, clock["validating"], seed, cfg,
+                       (load_start, os.getloadavg()[0]), cpu)
 
 
 # ---------------------------------------------------------------- a run folder, as rl_zoo3 lays one out
@@ -401,8 +413,8 @@ def write_run(result: TrainResult, folder: str | Path, command: str) -> Path:
     (run / cfg.env_id / "args.yml").write_text(yaml.safe_dump(args, sort_keys=False), encoding="utf-8")
     (run / cfg.env_id / "command.txt").write_text(command + "\n", encoding="utf-8")
     out = io.StringIO()
-    out.write(",".join(CURVE_FIELDS) + "\n")
-    for steps, wall, rate in result.curve:
-        out.write(f"{steps},{wall:.1f},{rate:.4f},{cfg.validation_episodes}\n")
+    out.write(",".join(CURVE_FIELDS + ("cpu_time_s",)) + "\n")
+    for steps, wall, rate, cpu in result.curve:
+        out.write(f"{steps},{wall:.1f},{rate:.4f},{cfg.validation_episodes},{cpu:.1f}\n")
     (run / "validation.csv").write_text(out.getvalue(), encoding="utf-8")
     return run

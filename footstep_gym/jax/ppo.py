@@ -365,10 +365,15 @@ def train(cfg: PPOJaxConfig, seed: int, *, validation_seeds: list[int] | None = 
     load_start = os.getloadavg()[0]
     start, cpu_start = time.perf_counter(), time.process_time()
 
+    policy: list[BraxPPO] = []  # one compiled policy, its parameters replaced at each validation
+
     def on_params(step: int, make_policy: Any, params: Any) -> None:
         t0, c0 = time.perf_counter(), time.process_time()
         wall, cpu = t0 - start - clock["validating"], c0 - cpu_start - clock["validating_cpu"]
-        rate = validation_success(BraxPPO(params, network), ref_env, seeds)
+        if not policy:
+            policy.append(BraxPPO(params, network))
+        policy[0].params = params
+        rate = validation_success(policy[0], ref_env, seeds)
         curve.append((int(step), wall, rate, cpu))
         clock["validating"] += time.perf_counter() - t0
         clock["validating_cpu"] += time.process_time() - c0

@@ -26,7 +26,6 @@ from footstep_gym.rl import ZooAgent, agent_runs
 from footstep_gym.robot import load_robot
 
 REPO = Path(__file__).resolve().parent.parent
-SHIPPED = REPO / "baselines" / "agents"
 ENV_ID = "FootstepDoor-v0"
 
 
@@ -193,6 +192,12 @@ def test_shipping_copies_the_run_and_refuses_to_overwrite(tiny_run, tmp_path, ca
     assert m["algorithm"] == "ppo_jax" and m["agent"] == "ppo-jax" and m["seed"] == 7 and m["versions"]["brax"]
     assert m["final_eval_on"] == "validation split" and m["wall_time_s"] > 0
     assert agent_runs("ppo-jax", ENV_ID, tmp_path) == [dest]
+    paths = train_jax.write_report(tmp_path, tmp_path / "results", ENV_ID, "ppo")
+    assert [p.name for p in paths] == ["ppo_jax.json", "ppo_jax.md", "ppo_jax_curves.png"]
+    figures = json.loads(paths[0].read_text())
+    assert [r["seed"] for r in figures["ppo-jax"]] == [7] and figures["ppo"] == []
+    assert figures["ppo-jax"][0]["curve"]["success"] == [rate for _, _, rate, _ in result.curve]
+    assert "| ppo-jax | 7 | " in paths[1].read_text()
     before = {p: p.stat().st_mtime_ns for p in dest.rglob("*")}
     # A second training of a shipped seed is refused before it trains, nothing touched.
     code = train_jax.main(["--seeds", "3", "7", "--ship", "--agents-dir", str(tmp_path), "--runs-dir",
@@ -203,32 +208,20 @@ def test_shipping_copies_the_run_and_refuses_to_overwrite(tiny_run, tmp_path, ca
         train_jax.main(["--force"])
 
 
-# ---------------------------------------------------------------- the shipped agents, judged in the reference env
-def shipped() -> list[Path]:
-    return agent_runs("ppo-jax", ENV_ID, SHIPPED)
-
-
-def test_five_seeds_are_shipped_with_their_manifests():
-    runs = shipped()
-    assert len(runs) >= 5
-    for run in runs:
-        m = json.loads((run / "manifest.json").read_text())
-        assert m["algorithm"] == "ppo_jax" and m["env_kwargs"] == {"tier": "train"} and m["timesteps"] > 0
-        assert (run / "validation.csv").is_file() and m["final_eval_success"] is not None
-
-
-def test_a_shipped_agent_plays_the_reference_env_and_its_episode_replays_in_the_jax_env():
-    """The policy sees the reference env's observation; the JAX env it trained on, started where the reference
-    episode started and fed the same commands, ends the same way at the same step (the policy transfers)."""
+# ---------------------------------------------------------------- an agent judged in the reference env
+def test_an_agent_plays_the_reference_env_and_its_episode_replays_in_the_jax_env(tiny_run):
+    """The policy acts on the reference env's observation through the evaluation's factory; the JAX env it trained
+    on, started where the reference episode started and fed the same commands, ends the same way at the same step
+    with the same observations (the policy transfers)."""
+    from footstep_gym.evaluation.splits import split_seeds
     from footstep_gym.jax import replay
 
-    run = shipped()[0]
-    robot = load_robot()
-    agent = footstep_gym.make_policy("ppo-jax", robot, seed=0, run=run)
+    _, run, _ = tiny_run
+    agent = footstep_gym.make_policy("ppo-jax", load_robot(), seed=0, run=run)
     assert isinstance(agent, Policy) and agent.name == "ppo-jax"
     env = gym.make(ENV_ID, tier="train")
     u = env.unwrapped
-    seed = footstep_gym.evaluation.splits.split_seeds("validation", 1)[0]
+    seed = split_seeds("validation", 1)[0]
     obs, _ = env.reset(seed=seed)
     rod = next(o for o in u.world.obstacles if not o.static).body
     feet = np.array([u.feet[-1], u.feet[1]], dtype=np.float64)

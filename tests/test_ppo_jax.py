@@ -250,3 +250,31 @@ def test_an_agent_plays_the_reference_env_and_its_episode_replays_in_the_jax_env
     agreement = replay.compare([episode], replay.replay(FootstepJaxEnv("door", tier="train"), [episode]))[0]
     assert agreement.same, agreement
     assert agreement.obs_error < 1e-4 and agreement.reward_error < 1e-4
+
+
+# ---------------------------------------------------------------- the shipped agents
+SHIPPED = REPO / "baselines" / "agents"
+
+
+def test_five_seeds_are_shipped_and_one_reaches_the_goal_in_the_reference_env():
+    """Each shipped seed's manifest; seed 1 (final validation success 1.0 on the validation split's first 20 seeds)
+    plays the first of them in the reference env through the evaluation's factory and reaches the goal."""
+    from footstep_gym.evaluation.splits import split_seeds
+
+    runs = agent_runs("ppo-jax", ENV_ID, SHIPPED)
+    assert [r.name for r in runs] == [f"{ENV_ID}_{s}" for s in range(1, 6)]
+    for run in runs:
+        m = json.loads((run / "manifest.json").read_text())
+        assert m["algorithm"] == "ppo_jax" and m["env_kwargs"] == {"tier": "train"} and m["final_eval_success"] >= 0.95
+    assert json.loads((runs[0] / "manifest.json").read_text())["final_eval_success"] == 1.0
+    agent = footstep_gym.make_policy("ppo-jax", load_robot(), seed=0, run=runs[0])
+    assert isinstance(agent, Policy)
+    env = gym.make(ENV_ID, tier="train")
+    obs, _ = env.reset(seed=split_seeds("validation", 1)[0])
+    agent.reset(seed=0)
+    for _ in range(env.unwrapped.episode_config.max_steps):
+        obs, _, terminated, truncated, info = env.step(agent.act(obs, env.unwrapped.sensing()))
+        if terminated or truncated:
+            break
+    env.close()
+    assert info["is_success"] and info["termination"] == "goal"

@@ -215,7 +215,6 @@ class BraxPPO:
     @classmethod
     def template(cls, network: dict[str, Any]) -> Any:
         """Parameters of the right structure (freshly initialised): what a saved file is restored into."""
-        from brax.training import acting  # noqa: F401  (brax's training package imported whole, as train does)
         from brax.training.acme import running_statistics, specs
 
         nets = _network_factory(network)(int(network["observation_size"]), int(network["action_size"]))

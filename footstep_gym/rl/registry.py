@@ -92,6 +92,11 @@ AGENTS: dict[str, AgentEntry] = {
                             default_folder=False, config=None,
                             why_not_trainable="its hyperparameters are the tuner's top trial, kept in its shipped "
                                               "run's config.yml (configs/rl/td3_sbx.yml holds td3's)"),
+    "ppo-jax": AgentEntry("ppo_jax", "PPO in JAX (Brax's trainer) on the batched JAX door (footstep_gym/jax/), "
+                                     "configs/rl/ppo-jax.yml; plays through the reference env", folder="ppo-jax",
+                          config=None, eval_freq=-1,
+                          why_not_trainable="it trains in JAX, not through rl_zoo3: python baselines/train_jax.py "
+                                            "(hyperparameters in configs/rl/ppo-jax.yml)"),
     # The in-distribution track: trained on a tier's cells (train split seeds), tested on that tier only.
     "ppo-structure": AgentEntry("ppo", "PPO trained on each scene's structure tier (its cells drawn per episode), "
                                        "tested there only: the in-distribution track", folder="ppo-structure",

@@ -1,0 +1,279 @@
+"""Train ``ppo-jax`` (Brax's PPO on the batched JAX door, footstep_gym/jax/ppo.py), several seeds in a row; ship them.
+
+Usage::
+
+    python baselines/train_jax.py --seeds 1 --timesteps 200000          # a first, short try: runs/ppo-jax/
+    python baselines/train_jax.py --seeds 1 2 3 4 5 --ship              # train, ship, write the figures
+    python baselines/train_jax.py --report                              # the figures again, from the shipped agents
+
+Hyperparameters: ``configs/rl/ppo-jax.yml`` (``--config``). Each seed trains in this process (JAX on every core
+it is given) into ``--runs-dir/<EnvId>_<seed>/`` in rl_zoo3's layout (:func:`footstep_gym.jax.ppo.write_run`);
+between training chunks the deterministic policy plays the validation split's first seeds in the reference env
+(the learning curve: success against training wall time, jit included, validation left out). With ``--ship``
+each run is copied to ``--agents-dir/ppo-jax/<EnvId>_<seed>/`` with a ``manifest.json``
+(:func:`footstep_gym.rl.training.ship`, plus the time to 0.95 validation success and the JAX versions); an agent
+already shipped there is never replaced without ``--force`` (checked before any training). The figures
+(``--results``: ``ppo_jax.json``, ``ppo_jax.md`` and ``ppo_jax_curves.png``) put the shipped seeds beside SB3
+PPO's shipped door agents (``--reference``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import shlex
+import sys
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Sequence
+
+REPO = Path(__file__).resolve().parent.parent
+AGENT = "ppo-jax"
+#: The success the issue's goal is stated at.
+TARGET = 0.95
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="training seeds (default 1-5)")
+    p.add_argument("--env", default="FootstepDoor-v0", help="env id (its entry of the config; the door only)")
+    p.add_argument("--config", type=Path, default=None, help="hyperparameter file (default configs/rl/ppo-jax.yml)")
+    p.add_argument("--timesteps", type=int, default=None, help="env steps per seed (default: the config's)")
+    p.add_argument("--runs-dir", type=Path, default=REPO / "runs" / AGENT, help="where runs are written")
+    p.add_argument("--ship", action="store_true", help="ship each run to --agents-dir/ppo-jax/")
+    p.add_argument("--force", action="store_true", help="with --ship: replace agents already shipped")
+    p.add_argument("--agents-dir", type=Path, default=REPO / "baselines" / "agents", help="the agents folder")
+    p.add_argument("--results", type=Path, default=REPO / "baselines" / "results" / "jax",
+                   help="where ppo_jax.json/.md/_curves.png are written (after --ship, or with --report)")
+    p.add_argument("--reference", default="ppo", help="the shipped SB3 agent folder compared with (default ppo)")
+    p.add_argument("--report", action="store_true", help="only write the figures from the shipped agents")
+    p.add_argument("--no-report", action="store_true",
+                   help="with --ship: do not write the figures (seeds trained in parallel processes; --report after)")
+    return p
+
+
+def versions() -> dict[str, str | None]:
+    def version(dist: str) -> str | None:
+        try:
+            return metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            return None
+
+    return {d: version(d) for d in ("footstep_gym", "jax", "jaxlib", "brax", "flax", "optax", "gymnasium")}
+
+
+def ship_run(run: Path, result: Any, agents_dir: Path) -> Path:
+    """Ship ``run`` (the caller checked ``--force``) and add ppo-jax's figures to its manifest."""
+    from footstep_gym.rl import training
+
+    dest = training.ship(run, agents_dir, result.wall_time_s, seed=result.seed, force=True, agent=AGENT)
+    path = dest / "manifest.json"
+    manifest = json.loads(path.read_text(encoding="utf-8"))
+    t = result.time_to(TARGET)
+    manifest.update({
+        "library": "brax.training.agents.ppo (Brax's PPO trainer) on footstep_gym.jax (FootstepJaxEnv)",
+        "n_envs": result.config.num_envs,
+        "torch_threads": None,
+        "wall_time_includes": "start-up and JAX compilation; not the validation episodes in the reference env",
+        "validation_time_s": round(result.validation_time_s, 1),
+        "load_average_start_end": [round(v, 2) for v in result.load_average],
+        "cpu_time_s": round(result.cpu_time_s, 1),
+        f"cpu_time_to_{TARGET}_s": None if result.cpu_time_to(TARGET) is None else round(result.cpu_time_to(TARGET), 1),
+        f"time_to_{TARGET}_s": None if t is None else round(t, 1),
+        "versions": versions(),
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+    })
+    path.write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+    return dest
+
+
+# ---------------------------------------------------------------- the figures
+def _curve(run: Path) -> dict[str, list[float]]:
+    from footstep_gym.rl.training import success_curve
+
+    return success_curve(run)
+
+
+def time_to(steps: list[float], wall: list[float], success: list[float], target: float = TARGET) -> tuple:
+    """``(env steps, wall s)`` at the first evaluation with success >= ``target`` (None, None if never)."""
+    for s, w, r in zip(steps, wall, success):
+        if r >= target:
+            return s, w
+    return None, None
+
+
+def agent_rows(agents_dir: Path, folder: str, env_id: str) -> list[dict[str, Any]]:
+    """One row per shipped seed: steps, wall time, throughput, final success, time (and steps) to :data:`TARGET`.
+
+    An agent whose curve has no wall times (the zoo's evaluations of the SB3 PPO agents) gets them at its
+    training's mean rate (manifest's wall time x steps / timesteps), marked ``wall_estimated``."""
+    rows = []
+    for run in sorted((agents_dir / folder).glob(f"{env_id}_*"), key=lambda p: int(p.name.rsplit("_", 1)[-1])):
+        mpath = run / "manifest.json"
+        if not mpath.is_file():
+            continue
+        m = json.loads(mpath.read_text(encoding="utf-8"))
+        c = _curve(run)
+        estimated = not c.get("wall_time_s")
+        wall = c.get("wall_time_s") or [t / m["timesteps"] * m["wall_time_s"] for t in c["timesteps"]]
+        steps, secs = time_to(c["timesteps"], wall, c["success"])
+        rows.append({"run": run.name, "seed": m["seed"], "timesteps": m["timesteps"], "wall_time_s": m["wall_time_s"],
+                     "cpu_time_s": m.get("cpu_time_s"), "cpu_time_to_target_s": m.get(f"cpu_time_to_{TARGET}_s"),
+                     "load_average_start_end": m.get("load_average_start_end"),
+                     "env_steps_per_s": m["env_steps_per_s"], "final_success": m["final_eval_success"],
+                     "final_episodes": m["final_eval_episodes"], "steps_to_target": steps,
+                     "time_to_target_s": None if secs is None else round(secs, 1), "wall_estimated": estimated,
+                     "curve": {"timesteps": c["timesteps"], "wall_time_s": [round(w, 1) for w in wall],
+                               "success": c["success"]}})
+    return rows
+
+
+def median(values: list[float | None]) -> float | None:
+    """The median, a seed that never reached the target counted as infinitely slow (None if half or more did not)."""
+    import numpy as np
+
+    vals = sorted(np.inf if v is None else v for v in values)
+    if not vals:
+        return None
+    m = float(np.median(vals))
+    return None if not np.isfinite(m) else m
+
+
+def write_report(agents_dir: Path, results: Path, env_id: str, reference: str) -> list[Path]:
+    """``ppo_jax.json``, ``ppo_jax.md`` and ``ppo_jax_curves.png`` in ``results``; their paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ours = agent_rows(agents_dir, AGENT, env_id)
+    ref = agent_rows(agents_dir, reference, env_id)
+    if not ours:
+        raise SystemExit(f"train_jax.py: no shipped {AGENT} agent for {env_id} in {agents_dir / AGENT}")
+    summary = {}
+    for name, rows in ((AGENT, ours), (reference, ref)):
+        summary[name] = {"seeds": len(rows), "median_time_to_target_s": median([r["time_to_target_s"] for r in rows]),
+                         "median_steps_to_target": median([r["steps_to_target"] for r in rows]),
+                         "median_wall_time_s": median([r["wall_time_s"] for r in rows]),
+                         "median_cpu_time_to_target_s": median([r["cpu_time_to_target_s"] for r in rows])
+                         if any(r["cpu_time_s"] is not None for r in rows) else None,
+                         "median_env_steps_per_s": median([r["env_steps_per_s"] for r in rows])}
+    results.mkdir(parents=True, exist_ok=True)
+    data = {"env_id": env_id, "target_success": TARGET, "summary": summary, AGENT: ours, reference: ref}
+    jpath = results / "ppo_jax.json"
+    jpath.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+
+    fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
+    for rows, color, label in ((ours, "tab:blue", AGENT), (ref, "tab:orange", f"{reference} (SB3)")):
+        for i, r in enumerate(rows):
+            c = r["curve"]
+            ax.plot(c["wall_time_s"], c["success"], color=color, lw=1.0, alpha=0.8,
+                    ls="--" if r["wall_estimated"] else "-", label=label if i == 0 else None)
+    ax.axhline(TARGET, color="grey", lw=0.8, ls=":")
+    ax.set_xscale("log")
+    ax.set_xlabel("training wall time [s] (log scale; SB3's dashed: its mean rate)")
+    ax.set_ylabel("validation success (deterministic)")
+    ax.set_ylim(-0.03, 1.03)
+    ax.grid(alpha=0.3)
+    ax.set_title(f"{env_id}, train tier: validation success vs wall time (2 shared cores)", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    ppath = results / "ppo_jax_curves.png"
+    fig.savefig(ppath, dpi=110)
+    plt.close(fig)
+
+    def fmt(v: Any, spec: str = ",.0f") -> str:
+        return "never" if v is None else format(v, spec)
+
+    lines = [f"# ppo-jax on {env_id} (train tier): time to {TARGET} validation success",
+             "", "Written by `python baselines/train_jax.py --report` from the shipped agents' manifests and curves "
+             "(`baselines/agents/ppo-jax/`, SB3 PPO's in `baselines/agents/ppo/`). Wall time on the shared 2-core "
+             "machine, start-up and jit included, validation episodes left out; validation: the validation split's "
+             "first seeds in the reference env, deterministic policy. SB3 PPO's curves have no wall times (the zoo's "
+             "evaluations): its time to the target is its step count at the run's mean rate.", "",
+             f"| agent | seed | env steps | wall s | env steps/s | steps to {TARGET} | time to {TARGET} [s] | "
+             f"CPU s to {TARGET} | load avg (start, end) | final success (episodes) |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---|---|"]
+    for name, rows in ((AGENT, ours), (reference, ref)):
+        for r in rows:
+            lines.append(f"| {name} | {r['seed']} | {r['timesteps']:,} | {r['wall_time_s']:,.1f} | "
+                         f"{r['env_steps_per_s']:,.0f} | {fmt(r['steps_to_target'])} | "
+                         f"{fmt(r['time_to_target_s'], ',.1f')}{' (est.)' if r['wall_estimated'] else ''} | "
+                         f"{'-' if r['cpu_time_s'] is None else fmt(r['cpu_time_to_target_s'], ',.1f')} | "
+                         f"{r['load_average_start_end'] or '-'} | {r['final_success']} ({r['final_episodes']}) |")
+    a, b = summary[AGENT], summary[reference]
+    ratio = (b["median_time_to_target_s"] / a["median_time_to_target_s"]
+             if a["median_time_to_target_s"] and b["median_time_to_target_s"] else None)
+    lines += ["", f"Medians over seeds: {AGENT} reaches {TARGET} in {fmt(a['median_time_to_target_s'], ',.1f')} s "
+              f"({fmt(a['median_steps_to_target'])} env steps, {a['seeds']} seeds); {reference} (SB3) in "
+              f"{fmt(b['median_time_to_target_s'], ',.1f')} s ({fmt(b['median_steps_to_target'])} env steps, "
+              f"{b['seeds']} seeds)" + (f": {ratio:.1f}x faster in wall time." if ratio else ".")
+              + (f" {AGENT}'s process CPU time to {TARGET} (all threads, validation left out; a bound that does not "
+                 f"move with the machine's load: on two free cores its wall time would be at least half of it): "
+                 f"median {fmt(a['median_cpu_time_to_target_s'], ',.1f')} s."
+                 if a.get("median_cpu_time_to_target_s") is not None else ""),
+              "", f"![curves]({ppath.name})", ""]
+    mpath = results / "ppo_jax.md"
+    mpath.write_text("\n".join(lines), encoding="utf-8")
+    return [jpath, mpath, ppath]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.report:
+        for path in write_report(args.agents_dir, args.results, args.env, args.reference):
+            print(path)
+        return 0
+    if any(s < 0 for s in args.seeds):
+        parser.error(f"--seeds: a training seed is a whole number >= 0, got {min(args.seeds)}")
+    if len(set(args.seeds)) != len(args.seeds):
+        parser.error(f"--seeds: a seed given twice ({' '.join(map(str, args.seeds))})")
+    if args.force and not args.ship:
+        parser.error("--force applies with --ship only")
+    if args.timesteps is not None and args.timesteps < 1:
+        parser.error("--timesteps must be >= 1")
+    import dataclasses
+
+    from footstep_gym.errors import ConfigError
+    from footstep_gym.jax import ppo
+
+    try:
+        cfg = ppo.load_config(args.env, args.config)
+        if args.timesteps is not None:
+            raw = {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(cfg).items()
+                   if k != "env_id"}
+            cfg = ppo.parse_config(dict(raw, num_timesteps=args.timesteps), cfg.env_id, "--timesteps")
+    except ConfigError as exc:
+        print(f"train_jax.py: {exc}", file=sys.stderr)
+        return 2
+    if args.ship and not args.force:
+        taken = [str(d) for s in args.seeds if (d := args.agents_dir / AGENT / f"{cfg.env_id}_{s}").exists()]
+        if taken:
+            print(f"train_jax.py: already shipped, not replaced (--force replaces them): {', '.join(taken)}",
+                  file=sys.stderr)
+            return 2
+    command = "python baselines/train_jax.py " + shlex.join(argv if argv is not None else sys.argv[1:])
+    for seed in args.seeds:
+        print(f"{AGENT} {cfg.env_id} seed {seed}: {cfg.num_timesteps:,} env steps, {cfg.num_envs} envs", flush=True)
+
+        def progress(steps: int, wall: float, rate: float) -> None:
+            print(f"  {steps:>10,} env steps  {wall:7.1f} s  validation success {rate:.2f}", flush=True)
+
+        result = ppo.train(cfg, seed, progress=progress)
+        run = ppo.write_run(result, args.runs_dir, command)
+        t = result.time_to(TARGET)
+        print(f"  done: {result.wall_time_s:.1f} s ({result.timesteps / result.wall_time_s:,.0f} env steps/s), time to "
+              f"{TARGET}: {'never' if t is None else f'{t:.1f} s'}; run {run}", flush=True)
+        if args.ship:
+            print(f"  shipped: {ship_run(run, result, args.agents_dir)}", flush=True)
+    if args.ship and not args.no_report:
+        for path in write_report(args.agents_dir, args.results, cfg.env_id, args.reference):
+            print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -21,6 +21,7 @@ from footstep_gym.errors import ConfigError
 from footstep_gym.jax import ppo
 from footstep_gym.jax.brax_env import FootstepBraxEnv, action_to_command, rescaling, wrap_for_training
 from footstep_gym.jax.env import FootstepJaxEnv
+from footstep_gym.jax.scenes import SCENES
 from footstep_gym.policy import Policy
 from footstep_gym.rl import ZooAgent, agent_runs
 from footstep_gym.robot import load_robot
@@ -223,9 +224,8 @@ def test_an_agent_plays_the_reference_env_and_its_episode_replays_in_the_jax_env
     u = env.unwrapped
     seed = split_seeds("validation", 1)[0]
     obs, _ = env.reset(seed=seed)
-    rod = next(o for o in u.world.obstacles if not o.static).body
     feet = np.array([u.feet[-1], u.feet[1]], dtype=np.float64)
-    rod0 = (np.array(rod.position, dtype=np.float64), float(rod.angle), float(rod.angular_velocity))
+    rod0 = SCENES["door"].reference_start(u)  # the door rod at reset, as the replays record it
     actions, observations, rewards, margins = [], [obs], [], []
     agent.reset(seed=seed)
     for _ in range(u.episode_config.max_steps):

@@ -26,7 +26,7 @@ from brax.envs.base import Env, State, Wrapper
 from gymnasium import spaces
 from gymnasium.wrappers.utils import rescale_box
 
-from footstep_gym.jax.env import FootstepJaxEnv
+from footstep_gym.jax.env import FootstepJaxEnv, chunked_vmap
 
 #: The agent's action bounds (Gymnasium's ``RescaleAction(min_action, max_action)``, the SB3 agents' too).
 AGENT_BOUNDS = (-1.0, 1.0)
@@ -130,16 +130,7 @@ class BatchedAutoReset(Wrapper):
         return jax.vmap(self.env.reset)(rng)
 
     def step(self, state: State, action: jax.Array) -> State:
-        n, chunk = action.shape[0], self.chunk
-        step = jax.vmap(self.env.step_and_reset)
-        if n <= chunk or n % chunk:
-            return step(state, action)
-
-        def split(x: jax.Array) -> jax.Array:
-            return x.reshape((n // chunk, chunk) + x.shape[1:])
-
-        out = jax.lax.map(lambda sa: step(*sa), (jax.tree.map(split, state), split(action)))
-        return jax.tree.map(lambda x: x.reshape((n,) + x.shape[2:]), out)
+        return chunked_vmap(self.env.step_and_reset, state, action, self.chunk)
 
 
 def wrap_for_training(env: FootstepBraxEnv, episode_length: int | None = None, action_repeat: int = 1,

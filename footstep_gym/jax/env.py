@@ -301,16 +301,7 @@ class FootstepJaxEnv:
         layouts); the chunks are faster on a CPU: each chunk's sweep runs only as many iterations as its own
         slowest env needs, and its arrays stay in cache.
         """
-        n = actions.shape[0]
-        step = jax.vmap(self.step)
-        if n <= chunk or n % chunk:
-            return step(state, actions)
-
-        def split(x: jax.Array) -> jax.Array:
-            return x.reshape((n // chunk, chunk) + x.shape[1:])
-
-        out = jax.lax.map(lambda sa: step(*sa), (jax.tree.map(split, state), split(actions)))
-        return jax.tree.map(lambda x: x.reshape((n,) + x.shape[2:]), out)
+        return chunked_vmap(self.step, state, actions, chunk)
 
     # ------------------------------------------------------------------ observation
     def observation(self, state: State) -> jax.Array:
@@ -326,6 +317,21 @@ class FootstepJaxEnv:
         return observations(support[None], state.support.astype(dt)[None], state.com[None], state.com_vel[None],
                             state.goal[None], previous[None], point[None], pvel[None], mask[None],
                             ObservationScales.of(cfg), xp=jnp)[0]
+
+
+def chunked_vmap(fn: Any, state: Any, actions: jax.Array, chunk: int) -> Any:
+    """``jax.vmap(fn)(state, actions)`` over chunks of ``chunk`` envs run one after another (``lax.map``), the batch
+    in one ``vmap`` when it has at most ``chunk`` envs or does not split evenly."""
+    n = actions.shape[0]
+    step = jax.vmap(fn)
+    if n <= chunk or n % chunk:
+        return step(state, actions)
+
+    def split(x: jax.Array) -> jax.Array:
+        return x.reshape((n // chunk, chunk) + x.shape[1:])
+
+    out = jax.lax.map(lambda sa: step(*sa), (jax.tree.map(split, state), split(actions)))
+    return jax.tree.map(lambda x: x.reshape((n,) + x.shape[2:]), out)
 
 
 def termination_name(code: int) -> str | None:

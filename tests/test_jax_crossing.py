@@ -1,6 +1,6 @@
 """The JAX crossing (footstep_gym.jax.scenes.CrossingScene) against the reference env: replays of reference
 episodes (the paper's timed car, the train tier's car stream with its gap, the wide cars), the traffic's
-schedule against ``CrossingTraffic``'s through a car's re-entry, seeding, the vector env, unsupported settings.
+schedule against ``CrossingTraffic``'s through a car's re-entry, seeding, unsupported settings (make_vec: tests/test_jax_vector.py).
 
 JAX compiles each distinct function once per process: the episodes here are few and short.
 """
@@ -19,7 +19,6 @@ import footstep_gym  # noqa: F401
 from footstep_gym.errors import ConfigError
 from footstep_gym.jax import replay as R
 from footstep_gym.jax.env import FootstepJaxEnv
-from footstep_gym.jax.vector import FootstepVectorEnv
 
 CROSSING = "FootstepCrossing-v0"
 TRAIN = {"tier": "train"}
@@ -97,20 +96,6 @@ def test_reset_draws_the_tiers_cars():
     s, _ = paper.reset(jax.random.key(0))
     assert s.rods.position.shape == (1, 2) and not bool(s.scene.traffic)
     assert float(s.rods.velocity[0, 1]) == pytest.approx(0.25)
-
-
-def test_make_vec_gives_the_batched_crossing():
-    envs = gym.make_vec(CROSSING, num_envs=3, vectorization_mode="vector_entry_point", tier="train")
-    try:
-        assert isinstance(envs, FootstepVectorEnv) and envs.jax_env.scenario == "crossing"
-        obs, _ = envs.reset(seed=3)
-        assert obs.shape == (3, 42) and obs in envs.observation_space
-        walk = np.tile(np.array([0.05, 0.08, 0.0, 0.6, 0.2], np.float32), (3, 1))
-        for _ in range(3):
-            obs, reward, *_ = envs.step(walk)
-        assert obs in envs.observation_space and np.all(np.isfinite(reward))
-    finally:
-        envs.close()
 
 
 @pytest.mark.parametrize("kwargs, named", [

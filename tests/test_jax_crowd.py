@@ -1,6 +1,6 @@
 """The JAX scripted crowd (footstep_gym.jax.scenes.CrowdScene) against the reference env: replays of reference
 episodes (the tiers' crowd sizes and rings), the sweep's first check against pymunk's cached shapes, the
-schedule against ``Crowd.positions``, seeding, the vector env, unsupported cells.
+schedule against ``Crowd.positions``, seeding, unsupported cells (make_vec of the crowd: tests/test_jax_vector.py).
 
 JAX compiles each distinct function once per process: the episodes here are few and short.
 """
@@ -22,7 +22,6 @@ from footstep_gym.jax import replay as R
 from footstep_gym.jax import shapes, walker
 from footstep_gym.jax.env import FootstepJaxEnv
 from footstep_gym.jax.scenes import CrowdState
-from footstep_gym.jax.vector import FootstepVectorEnv
 from footstep_gym.robot import load_robot
 from footstep_gym.world import World
 
@@ -156,20 +155,6 @@ def test_dense_cell_holds_its_members():
     env = FootstepJaxEnv("crowd", **DENSE)
     state, _ = env.reset(jax.random.key(1))
     assert env.scene.size == 10 and bool(jnp.all(state.scene.active))
-
-
-def test_make_vec_gives_the_batched_crowd():
-    envs = gym.make_vec(CROWD, num_envs=3, vectorization_mode="vector_entry_point", tier="train")
-    try:
-        assert isinstance(envs, FootstepVectorEnv) and envs.jax_env.scenario == "crowd"
-        obs, _ = envs.reset(seed=3)
-        assert obs.shape == (3, 42) and obs in envs.observation_space
-        walk = np.tile(np.array([0.05, 0.08, 0.0, 0.6, 0.2], np.float32), (3, 1))
-        for _ in range(3):
-            obs, reward, terminated, truncated, info = envs.step(walk)
-        assert obs in envs.observation_space and np.all(np.isfinite(reward))
-    finally:
-        envs.close()
 
 
 @pytest.mark.parametrize("kwargs, named", [

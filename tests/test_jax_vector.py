@@ -118,3 +118,18 @@ def test_unsupported_settings_are_one_clear_line():
 
 def test_vector_entry_points_are_the_supported_scenes():
     assert {name for name, cls in SCENARIOS.items() if cls.vector_entry_point} == set(SUPPORTED_SCENES)
+
+
+@pytest.mark.parametrize("env_id, scenario", [("FootstepCrossing-v0", "crossing"), ("FootstepCrowd-v0", "crowd")])
+def test_make_vec_gives_the_batched_crossing_and_crowd(env_id, scenario):
+    envs = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", tier="train")
+    try:
+        assert isinstance(envs, FootstepVectorEnv) and envs.jax_env.scenario == scenario
+        obs, _ = envs.reset(seed=3)
+        assert obs.shape == (3, 42) and obs in envs.observation_space
+        walk = np.tile(np.array([0.05, 0.08, 0.0, 0.6, 0.2], np.float32), (3, 1))
+        for _ in range(3):
+            obs, reward, *_ = envs.step(walk)
+        assert obs in envs.observation_space and np.all(np.isfinite(reward))
+    finally:
+        envs.close()

@@ -1,6 +1,7 @@
 """The JAX crossing (footstep_gym.jax.scenes.CrossingScene) against the reference env: replays of reference
 episodes (the paper's timed car, the train tier's car stream with its gap, the wide cars), the traffic's
-schedule against ``CrossingTraffic``'s through a car's re-entry, seeding, unsupported settings (make_vec: tests/test_jax_vector.py).
+schedule against ``CrossingTraffic``'s through a car's re-entry, seeding, unsupported settings (make_vec:
+tests/test_jax_vector.py).
 
 JAX compiles each distinct function once per process: the episodes here are few and short.
 """

@@ -100,7 +100,6 @@ def test_reset_draws_the_tiers_cars():
 
 
 @pytest.mark.parametrize("kwargs, named", [
-    ({"tier": "noise", "tier_cell": "wide_cars"}, "sensing options"),
     ({"randomize": {"obstacle_length": [0.4, 0.6]}}, "randomize of obstacle_length"),
     ({"fixed_period": True}, "fixed_period"),
 ])

@@ -161,7 +161,6 @@ def test_dense_cell_holds_its_members():
     ({"tier": "structure"}, "tier cell 'counter_flow': crowd_model='orca'"),
     ({"tier": "structure", "tier_cell": "closing_in"}, "crowd_model='orca'"),
     ({"crowd_model": "orca"}, "ORCA pedestrians have no JAX version"),
-    ({"tier": "noise", "tier_cell": "train"}, "sensing options"),
     ({"randomize": {"member_radius": [0.06, 0.1]}}, "randomize of member_radius"),
 ])
 def test_unsupported_crowd_cells_raise_one_line(kwargs, named):

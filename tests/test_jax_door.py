@@ -166,7 +166,6 @@ def test_reset_is_seeded_jittable_and_vmappable():
 @pytest.mark.parametrize("kwargs, named", [
     ({"scenario": "mix"}, "scene 'mix'"),
     ({"tier": "structure", "tier_cell": "two_doors"}, "door_count=2"),
-    ({"tier": "noise", "tier_cell": "train"}, "sensing options"),
     ({"fixed_period": True}, "fixed_period"),
     ({"randomize": {"door_radius": [0.4, 0.5]}}, "randomize of door_radius"),
     ({"dtype": "float16"}, "dtype must be"),

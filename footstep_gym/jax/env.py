@@ -8,10 +8,12 @@ action box and float32 handling, the same observation layout, reward terms, term
 
 Supported (the scenes of :mod:`footstep_gym.jax.scenes`, each with the ``randomize`` keys it lists):
 ``FootstepDoor-v0`` with one door, ``FootstepCrossing-v0`` (the timed car and the traffic lanes) and
-``FootstepCrowd-v0``'s scripted ring (any size and ring), every other setting of their YAMLs but the sensing
-options, and the tiers whose cells are such (``paper``, ``train``, ``shifted``; the structure tier's cells
-``any_phase``, ``wide_cars``, ``dense`` and ``tight`` by ``tier_cell``). Anything else (the ORCA crowd, a
-second door, ``fixed_period``) raises :class:`~footstep_gym.errors.ConfigError` in one line naming it.
+``FootstepCrowd-v0``'s scripted ring (any size and ring), every other setting of their YAMLs including the
+sensing options (noise, range, field of view: :mod:`footstep_gym.jax.sensing`, the noise drawn from the state's
+key), and the tiers whose cells are such (``paper``, ``train``, ``shifted``, the crossing's and the crowd's
+``noise``; the structure tier's cells ``any_phase``, ``wide_cars``, ``dense`` and ``tight`` by ``tier_cell``).
+Anything else (the ORCA crowd, a second door, ``fixed_period``, a tier whose cells sense differently) raises
+:class:`~footstep_gym.errors.ConfigError` in one line naming it.
 
 Precision: float32 by default; ``dtype="float64"`` needs JAX's 64-bit mode (``JAX_ENABLE_X64=1`` or
 ``jax.config.update("jax_enable_x64", True)`` before any array is made).
@@ -31,7 +33,8 @@ from footstep_gym.env import FootstepEnv
 from footstep_gym.errors import ConfigError
 from footstep_gym.footstep import RIGHT
 from footstep_gym.jax import shapes, walker
-from footstep_gym.jax.scenes import SCENES, DoorParams, Scene, SceneParams  # noqa: F401  (DoorParams re-exported)
+from footstep_gym.jax.scenes import PARKED, SCENES, DoorParams, Scene, SceneParams  # noqa: F401  (DoorParams re-exported)
+from footstep_gym.jax.sensing import Sensing, sense
 from footstep_gym.observation import ObservationScales, command_to_unit, observations
 from footstep_gym.world import World
 
@@ -70,7 +73,7 @@ class State(NamedTuple):
 def _unsupported(what: str) -> ConfigError:
     scenes = "; ".join(f"{name} (randomize of {', '.join(cls.randomizable)})" for name, cls in SCENES.items())
     return ConfigError(f"FootstepJaxEnv: {what} is not supported by the batched JAX backend yet (supported: "
-                       f"{scenes}: one door, the scripted crowd, no sensing options); use the reference env")
+                       f"{scenes}: one door, the scripted crowd); use the reference env")
 
 
 def _dtype(dtype: Any) -> Any:
@@ -108,9 +111,12 @@ class FootstepJaxEnv:
         dt = self.dtype
         #: The scene's arrays and moves (:mod:`footstep_gym.jax.scenes`).
         self.scene: Scene = SCENES[scenario]([cfg for cfg, _ in ref._cell_configs], dt)
+        options = {Sensing.of(ecfg) if ecfg.sensing_limited else None for _, ecfg in ref._cell_configs}
+        if len(options) > 1:
+            raise _unsupported(f"tier {self.tier!r}: cells with different sensing options")
+        #: The sensing options (noise, range, field of view; :mod:`footstep_gym.jax.sensing`), ``None`` when off.
+        self.sensing: Sensing | None = options.pop()
         for cell, (cfg, ecfg) in zip(self.cells, ref._cell_configs):
-            if ecfg.sensing_limited:
-                raise _unsupported(f"tier cell {cell!r}: the sensing options (noise, range, field of view)")
             if ecfg.fixed_period:
                 raise _unsupported("fixed_period")
             what = self.scene.unsupported(cfg)
@@ -183,7 +189,16 @@ class FootstepJaxEnv:
                       jnp.stack([vel.real, vel.imag]).astype(dt), zero, jnp.zeros((), jnp.int32),
                       jnp.asarray(self.robot.nominal_command, dt), self._goal_distance(feet, p.goal), rods, scene,
                       p.goal, p.goal_tolerance, p.time_limit, p.max_steps, jnp.asarray(cell, jnp.int32))
-        return state, self.observation(state)
+        state, k_obs = self._noise_key(state)
+        return state, self.observation(state, k_obs)
+
+    def _noise_key(self, state: State) -> tuple[State, jax.Array | None]:
+        """The key of an observation's sensing noise, split off the state's (``None``, the state unchanged, when
+        there is no noise)."""
+        if self.sensing is None or not self.sensing.noisy:
+            return state, None
+        key, k_obs = jax.random.split(state.key)
+        return state._replace(key=key), k_obs
 
     @staticmethod
     def _goal_distance(feet: jax.Array, goal: jax.Array) -> jax.Array:
@@ -284,6 +299,7 @@ class FootstepJaxEnv:
                                    com=jnp.stack([com_out.real, com_out.imag]).astype(dt),
                                    com_vel=jnp.stack([vel_out.real, vel_out.imag]).astype(dt), time=time,
                                    steps=steps, previous=cmd, goal_dist=d_after, rods=rods)
+        new_state, k_obs = self._noise_key(new_state)
         info = {
             "termination": termination, "is_success": termination == 1, "feasible": feasible,
             "collision": collided, "clipped": clipped, "command": cmd, "time": time, "period": period,
@@ -291,7 +307,11 @@ class FootstepJaxEnv:
             "clearance": jnp.where(feasible, result.clearance, jnp.nan), "checks": result.checks,
             "obstacle": jnp.where(collided, result.obstacle, -1), "rewards": rewards,
         }
-        return new_state, self.observation(new_state), reward, terminated, truncated, info
+        if self.sensing is None:
+            return new_state, self.observation(new_state), reward, terminated, truncated, info
+        obs, n_sensed = self._observe(new_state, k_obs)
+        info["sensed_obstacles"] = n_sensed
+        return new_state, obs, reward, terminated, truncated, info
 
     def step_batch(self, state: State, actions: jax.Array, chunk: int = 64) -> tuple:
         """:meth:`step` over a batch (leaves lead with N), as ``vmap`` over chunks of ``chunk`` envs run one after
@@ -304,19 +324,31 @@ class FootstepJaxEnv:
         return chunked_vmap(self.step, state, actions, chunk)
 
     # ------------------------------------------------------------------ observation
-    def observation(self, state: State) -> jax.Array:
+    def observation(self, state: State, key: jax.Array | None = None) -> jax.Array:
         """The observation ``(12 + 5K,)`` float32 (``FootstepEnv``'s layout): :func:`footstep_gym.observation.observations`
-        on this env's state and its nearest shapes."""
+        on this env's state and its nearest shapes: those sensed (:attr:`sensing`; ``key`` draws the noise) when a
+        sensing option is on."""
+        return self._observe(state, key)[0]
+
+    def _observe(self, state: State, key: jax.Array | None) -> tuple[jax.Array, jax.Array | None]:
+        """The observation and, with a sensing option on, how many moving obstacles were sensed (``info``'s
+        ``sensed_obstacles``; a crowd's parked padding members are not obstacles)."""
         cfg, dt = self.config, self.dtype
         support = state.feet[(state.support + 1) // 2]
         low = jnp.asarray(self.low, dt)
         span = jnp.asarray(self.high - self.low, dt)
         previous = command_to_unit(state.previous, low, span)
-        point, pvel, mask = shapes.nearest_shapes(state.com[0], state.com[1], self.walls, state.rods,
-                                                  cfg.n_obstacles_observed, cfg.sensing_range)
+        rods, rods_sensed, n_sensed = state.rods, None, None
+        if self.sensing is not None:
+            if self.sensing.noisy and key is None:
+                raise ValueError("FootstepJaxEnv.observation: the sensing noise needs a key")
+            rods, rods_sensed = sense(rods, key, state.com[0], state.com[1], support[2], self.sensing)
+            n_sensed = jnp.sum(rods_sensed & (jnp.abs(state.rods.position[:, 0]) < 0.5 * PARKED)).astype(jnp.int32)
+        point, pvel, mask = shapes.nearest_shapes(state.com[0], state.com[1], self.walls, rods,
+                                                  cfg.n_obstacles_observed, cfg.sensing_range, rods_sensed)
         return observations(support[None], state.support.astype(dt)[None], state.com[None], state.com_vel[None],
                             state.goal[None], previous[None], point[None], pvel[None], mask[None],
-                            ObservationScales.of(cfg), xp=jnp)[0]
+                            ObservationScales.of(cfg), xp=jnp)[0], n_sensed
 
 
 def chunked_vmap(fn: Any, state: Any, actions: jax.Array, chunk: int) -> Any:

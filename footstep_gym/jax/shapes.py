@@ -207,11 +207,12 @@ def sweep(path: Any, duration: jax.Array, robot_speed_bound: jax.Array, table: j
     return SweepResult(collided, t, jnp.where(collided, shape, -1), checks, clearance, rods_end)
 
 
-def nearest_shapes(px: jax.Array, py: jax.Array, walls: Walls, rods: Rods, k: int, max_distance: float
-                   ) -> tuple[jax.Array, jax.Array, jax.Array]:
+def nearest_shapes(px: jax.Array, py: jax.Array, walls: Walls, rods: Rods, k: int, max_distance: float,
+                   rods_sensed: jax.Array | None = None) -> tuple[jax.Array, jax.Array, jax.Array]:
     """Up to ``k`` shapes nearest the point ``(px, py)`` within ``max_distance`` [m], nearest first, ties in the
     shapes' order (walls first): ``World.nearest``'s arithmetic. Returns their closest points ``(k, 2)`` [m],
-    those points' velocities ``(k, 2)`` [m/s] and a mask ``(k,)`` (False: padding, its rows zero)."""
+    those points' velocities ``(k, 2)`` [m/s] and a mask ``(k,)`` (False: padding, its rows zero).
+    ``rods_sensed`` ``(M,)``: only these rods count (``footstep_gym.sensing.nearest_views`` over what was sensed)."""
     ax_w, ay_w = walls.a[:, 0], walls.a[:, 1]
     dx_w, dy_w = walls.b[:, 0] - ax_w, walls.b[:, 1] - ay_w
     ax_r, ay_r, bx_r, by_r = rod_endpoints(rods, chipmunk=False)
@@ -230,6 +231,8 @@ def nearest_shapes(px: jax.Array, py: jax.Array, walls: Walls, rods: Rods, k: in
     d = jnp.hypot(nx, ny)
     gap = d - radius
     inside = ~(gap > max_distance)
+    if rods_sensed is not None:
+        inside = inside & jnp.concatenate([jnp.ones(walls.r.shape, bool), rods_sensed])
     n = gap.shape[0]
     # The k smallest by (gap, index), one argmin at a time (argmin takes the first of equal gaps): for a dozen
     # shapes this is cheaper than a batched sort on XLA's CPU backend.

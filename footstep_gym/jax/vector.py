@@ -51,7 +51,8 @@ class FootstepVectorEnv(VectorEnv):
     envs do; an env's later episodes draw from its own key. Actions: ``(num_envs, 5)`` floats; a wrong shape
     or a non-finite value raises :class:`~footstep_gym.errors.ActionError` naming the env and field, before
     any env changes. ``info`` holds :data:`INFO_KEYS` (``termination``: ``"goal"``, ``"collision"``,
-    ``"fall"`` or ``None``) and ``rewards`` (the terms), each with Gymnasium's ``_key`` mask.
+    ``"fall"`` or ``None``), ``sensed_obstacles`` with a sensing option on, and ``rewards`` (the terms), each
+    with Gymnasium's ``_key`` mask.
     """
 
     def __init__(self, num_envs: int = 1, scenario: str = "door", *,
@@ -181,7 +182,7 @@ class FootstepVectorEnv(VectorEnv):
 
     def _infos(self, info: dict[str, Any], where: np.ndarray) -> dict[str, Any]:
         out: dict[str, Any] = {}
-        for key in INFO_KEYS:
+        for key in INFO_KEYS + (("sensed_obstacles",) if "sensed_obstacles" in info else ()):
             value = np.asarray(info[key])
             if key == "termination":
                 value = np.array([termination_name(int(c)) for c in value], dtype=object)

@@ -1,7 +1,8 @@
 """Why the off-policy agents wait where a blind walker crosses: their critics against the returns they earn.
 
-On the paper's crossing (the timed car, where a blind constant walker succeeds) most shipped SAC and TD3
-crossing runs time out, stepping in place. This plays each run on validation seeds of that cell and, per
+On the paper's crossing (the timed car, where a blind constant walker succeeds) most SAC and TD3 crossing runs
+trained on that car timed out, stepping in place. This plays each shipped run on validation seeds of a crossing
+tier's cell (``--tier``: ``paper``, the timed car, or ``train``, the car stream the runs now train on) and, per
 footstep, reads the agent's own critic (sbx: the minimum over its Q-networks, ``qf.apply``) at the command it
 chose and at the nominal walking command, beside the discounted return the episode then earned. An episode
 that times out is *truncated* (Gymnasium: not a terminal state), so the learner bootstraps through it: the
@@ -10,6 +11,7 @@ run's own discount. The table shows whether the critic prices waiting above what
 walking below it.
 
     python baselines/offpolicy_waiting.py --episodes 20 --out baselines/results/offpolicy_waiting
+    python baselines/offpolicy_waiting.py --tier train --episodes 20 --out baselines/results/offpolicy_waiting/train
 """
 
 from __future__ import annotations
@@ -32,6 +34,8 @@ from footstep_gym.rl.registry import agent_runs
 from footstep_gym.robot import load_robot
 
 ENV_ID = "FootstepCrossing-v0"
+#: The crossing's cells this can play: the tier and how the table names it.
+TIERS = {"paper": "the paper's crossing (the timed car)", "train": "the crossing's train cell (the car stream)"}
 
 
 def critic(agent: ZooAgent, obs: np.ndarray, command: np.ndarray) -> float:
@@ -48,10 +52,10 @@ def critic(agent: ZooAgent, obs: np.ndarray, command: np.ndarray) -> float:
     return float(np.min(np.asarray(policy.qf.apply(policy.qf_state.params, x, a))))
 
 
-def play(agent: ZooAgent, seed: int, gamma: float) -> dict:
-    """One episode of the paper's crossing: its ending, its commands and, per footstep, Q at the chosen and at the
-    nominal command and the discounted return-to-go."""
-    env = gym.make(ENV_ID)
+def play(agent: ZooAgent, seed: int, gamma: float, tier: str = "paper") -> dict:
+    """One episode of the crossing's ``tier`` cell: its ending, its commands and, per footstep, Q at the chosen and at
+    the nominal command and the discounted return-to-go."""
+    env = gym.make(ENV_ID, tier=tier)
     obs, _ = env.reset(seed=seed)
     agent.reset(seed)
     nominal = load_robot(None).nominal_command
@@ -80,6 +84,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--episodes", type=int, default=20, help="validation seeds per run (default 20)")
     parser.add_argument("--out", type=Path, default=Path("runs/offpolicy_waiting"), help="folder for the tables")
+    parser.add_argument("--tier", choices=TIERS, default="paper",
+                        help="the crossing's cell: paper (the timed car, default) or train (the car stream)")
     args = parser.parse_args(argv)
     if args.episodes < 1:
         parser.error(f"--episodes must be >= 1, got {args.episodes}")
@@ -91,7 +97,8 @@ def main(argv: list[str] | None = None) -> int:
         agent = ZooAgent(run, load_robot(None))
         gamma = float(agent.model.gamma)
         for seed in split_seeds("validation", args.episodes):
-            rows.append({"agent": name, "run": run.name, "gamma": gamma, "seed": seed, **play(agent, seed, gamma)})
+            rows.append({"agent": name, "run": run.name, "gamma": gamma, "seed": seed,
+                         **play(agent, seed, gamma, args.tier)})
     df = pd.DataFrame(rows)
     summary = (df.groupby(["agent", "run", "ending"], sort=False)
                .agg(episodes=("seed", "size"), steps=("steps", "mean"), stride_m=("mean_stride_m", "mean"),
@@ -106,9 +113,10 @@ def main(argv: list[str] | None = None) -> int:
     shown = summary.copy()
     for col in ("steps", "stride_m", "reward_per_step", "q_chosen", "q_walk", "return_to_go", "waiting_forever"):
         shown[col] = shown[col].map(lambda v: "–" if pd.isna(v) else f"{v:.3f}" if abs(v) < 10 else f"{v:.1f}")
-    text = ("# Off-policy agents on the paper's crossing: critic against return\n\n"
-            f"`python baselines/offpolicy_waiting.py --episodes {args.episodes}`: each shipped sac and td3 crossing "
-            f"run on validation seeds {split_seeds('validation', 1)[0]}.. of the paper's crossing; per ending, means "
+    text = (f"# Off-policy agents on {TIERS[args.tier]}: critic against return\n\n"
+            f"`python baselines/offpolicy_waiting.py --tier {args.tier} --episodes {args.episodes}`: each shipped sac "
+            f"and td3 crossing run on validation seeds {split_seeds('validation', 1)[0]}.. of {TIERS[args.tier]}; "
+            "per ending, means "
             "over its episodes of: footsteps, stride S [m], reward per footstep, the run's critic (min over its "
             "Q-networks) at the chosen command and at the nominal walking command, the discounted return-to-go "
             "earned, and for the episodes that timed out what waiting for ever is worth at that reward per footstep "

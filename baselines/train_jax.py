@@ -1,4 +1,4 @@
-"""Train ``ppo-jax`` (Brax's PPO on the batched JAX door, footstep_gym/jax/ppo.py), several seeds in a row; ship them.
+"""Train ``ppo-jax`` (Brax's PPO on a batched JAX scene, footstep_gym/jax/ppo.py), several seeds in a row; ship them.
 
 Usage::
 
@@ -13,7 +13,7 @@ between training chunks the deterministic policy plays the validation split's fi
 each run is copied to ``--agents-dir/ppo-jax/<EnvId>_<seed>/`` with a ``manifest.json``
 (:func:`footstep_gym.rl.training.ship`, plus the time to 0.95 validation success and the JAX versions); an agent
 already shipped there is never replaced without ``--force`` (checked before any training). The figures
-(``--results``: ``ppo_jax.json``, ``ppo_jax.md`` and ``ppo_jax_curves.png``) put the shipped seeds beside SB3
+(``--results``: ``ppo_jax_<scene>.json``, ``.md`` and ``_curves.png``) put the shipped seeds beside SB3
 PPO's shipped door agents (``--reference``).
 """
 
@@ -38,7 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="training seeds (default 1-5)")
-    p.add_argument("--env", default="FootstepDoor-v0", help="env id (its entry of the config; the door only)")
+    p.add_argument("--env", default="FootstepDoor-v0", help="env id (its entry of the config: FootstepDoor-v0, FootstepCrowd-v0, FootstepCrossing-v0)")
     p.add_argument("--config", type=Path, default=None, help="hyperparameter file (default configs/rl/ppo-jax.yml)")
     p.add_argument("--timesteps", type=int, default=None, help="env steps per seed (default: the config's)")
     p.add_argument("--runs-dir", type=Path, default=REPO / "runs" / AGENT, help="where runs are written")
@@ -46,7 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="with --ship: replace agents already shipped")
     p.add_argument("--agents-dir", type=Path, default=REPO / "baselines" / "agents", help="the agents folder")
     p.add_argument("--results", type=Path, default=REPO / "baselines" / "results" / "jax",
-                   help="where ppo_jax.json/.md/_curves.png are written (after --ship, or with --report)")
+                   help="where ppo_jax_<scene>.json/.md/_curves.png are written (after --ship, or with --report)")
     p.add_argument("--reference", default="ppo", help="the shipped SB3 agent folder compared with (default ppo)")
     p.add_argument("--report", action="store_true", help="only write the figures from the shipped agents")
     p.add_argument("--no-report", action="store_true",
@@ -143,7 +143,9 @@ def median(values: list[float | None]) -> float | None:
 
 
 def write_report(agents_dir: Path, results: Path, env_id: str, reference: str) -> list[Path]:
-    """``ppo_jax.json``, ``ppo_jax.md`` and ``ppo_jax_curves.png`` in ``results``; their paths."""
+    """``ppo_jax_<scene>.json``, ``.md`` and ``_curves.png`` in ``results`` (``<scene>``: ``env_id``'s); their paths."""
+    import footstep_gym
+
     import matplotlib
 
     matplotlib.use("Agg")
@@ -163,7 +165,8 @@ def write_report(agents_dir: Path, results: Path, env_id: str, reference: str) -
                          "median_env_steps_per_s": median([r["env_steps_per_s"] for r in rows])}
     results.mkdir(parents=True, exist_ok=True)
     data = {"env_id": env_id, "target_success": TARGET, "summary": summary, AGENT: ours, reference: ref}
-    jpath = results / "ppo_jax.json"
+    stem = f"ppo_jax_{footstep_gym.scenarios.scene_of(env_id)}"
+    jpath = results / f"{stem}.json"
     jpath.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
 
     fig, ax = plt.subplots(figsize=(7, 4), layout="constrained")
@@ -180,7 +183,7 @@ def write_report(agents_dir: Path, results: Path, env_id: str, reference: str) -
     ax.grid(alpha=0.3)
     ax.set_title(f"{env_id}, train tier: validation success vs wall time (2 shared cores)", fontsize=10)
     ax.legend(fontsize=8, loc="lower right")
-    ppath = results / "ppo_jax_curves.png"
+    ppath = results / f"{stem}_curves.png"
     fig.savefig(ppath, dpi=110)
     plt.close(fig)
 
@@ -215,7 +218,7 @@ def write_report(agents_dir: Path, results: Path, env_id: str, reference: str) -
                  f"median {fmt(a['median_cpu_time_to_target_s'], ',.1f')} s."
                  if a.get("median_cpu_time_to_target_s") is not None else ""),
               "", f"![curves]({ppath.name})", ""]
-    mpath = results / "ppo_jax.md"
+    mpath = results / f"{stem}.md"
     mpath.write_text("\n".join(lines), encoding="utf-8")
     return [jpath, mpath, ppath]
 

@@ -142,8 +142,8 @@ def test_unknown_and_missing_keys_and_entries_are_named(tmp_path):
     del raw["chunk"]
     with pytest.raises(ConfigError, match="missing key\\(s\\) chunk"):
         ppo.parse_config(raw, ENV_ID)
-    with pytest.raises(ConfigError, match="no entry for 'FootstepCrowd-v0'"):
-        ppo.load_config("FootstepCrowd-v0")
+    with pytest.raises(ConfigError, match="no entry for 'FootstepMix-v0'"):
+        ppo.load_config("FootstepMix-v0")
     with pytest.raises(ConfigError, match="not found"):
         ppo.load_config(ENV_ID, tmp_path / "none.yml")
 
@@ -194,7 +194,7 @@ def test_shipping_copies_the_run_and_refuses_to_overwrite(tiny_run, tmp_path, ca
     assert m["final_eval_on"] == "validation split" and m["wall_time_s"] > 0
     assert agent_runs("ppo-jax", ENV_ID, tmp_path) == [dest]
     paths = train_jax.write_report(tmp_path, tmp_path / "results", ENV_ID, "ppo")
-    assert [p.name for p in paths] == ["ppo_jax.json", "ppo_jax.md", "ppo_jax_curves.png"]
+    assert [p.name for p in paths] == ["ppo_jax_door.json", "ppo_jax_door.md", "ppo_jax_door_curves.png"]
     figures = json.loads(paths[0].read_text())
     assert [r["seed"] for r in figures["ppo-jax"]] == [7] and figures["ppo"] == []
     assert figures["ppo-jax"][0]["curve"]["success"] == [rate for _, _, rate, _ in result.curve]

@@ -92,7 +92,7 @@ AGENTS: dict[str, AgentEntry] = {
                             default_folder=False, config=None,
                             why_not_trainable="its hyperparameters are the tuner's top trial, kept in its shipped "
                                               "run's config.yml (configs/rl/td3_sbx.yml holds td3's)"),
-    "ppo-jax": AgentEntry("ppo_jax", "PPO in JAX (Brax's trainer) on the batched JAX door (footstep_gym/jax/), "
+    "ppo-jax": AgentEntry("ppo_jax", "PPO in JAX (Brax's trainer) on the batched JAX scenes (footstep_gym/jax/), "
                                      "configs/rl/ppo-jax.yml; plays through the reference env", folder="ppo-jax",
                           config=None, eval_freq=-1,
                           why_not_trainable="it trains in JAX, not through rl_zoo3: python baselines/train_jax.py "

@@ -227,9 +227,9 @@ def _manifests() -> list[Path]:
 
 #: The crossing's train cell of protocol 1 (one timed car): protocol 2's crosses a stream with a moving gap instead (a
 #: blind walker solved the timed car), and the crossing's agents were retrained there (docs/benchmark.md, "History"),
-#: but for the agents and the mix listed in PROTOCOL_1_CROSSING_AGENTS, still protocol 1's (their rows say so).
+#: but for the mix (ppo-all, listed in PROTOCOL_1_CROSSING_AGENTS), still protocol 1's (its row says so).
 PROTOCOL_1_CROSSING = {"randomize": {"obstacle_speed": [0.15, 0.35], "arrival_speed": [0.09, 0.16]}}
-PROTOCOL_1_CROSSING_AGENTS: frozenset[str] = frozenset({"ppo-fixed-period", "sac", "td3", "ppo-all"})
+PROTOCOL_1_CROSSING_AGENTS: frozenset[str] = frozenset({"ppo-all"})
 
 
 def _train_kwargs(scene: str, fixed_period: bool = False, protocol_1: bool = False) -> dict:

@@ -38,7 +38,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="training seeds (default 1-5)")
-    p.add_argument("--env", default="FootstepDoor-v0", help="env id (its entry of the config: FootstepDoor-v0, FootstepCrowd-v0, FootstepCrossing-v0)")
+    p.add_argument("--env", default="FootstepDoor-v0",
+                   help="env id, its entry of the config (FootstepDoor-v0, FootstepCrowd-v0, FootstepCrossing-v0)")
     p.add_argument("--config", type=Path, default=None, help="hyperparameter file (default configs/rl/ppo-jax.yml)")
     p.add_argument("--timesteps", type=int, default=None, help="env steps per seed (default: the config's)")
     p.add_argument("--runs-dir", type=Path, default=REPO / "runs" / AGENT, help="where runs are written")

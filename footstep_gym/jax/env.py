@@ -33,7 +33,8 @@ from footstep_gym.env import FootstepEnv
 from footstep_gym.errors import ConfigError
 from footstep_gym.footstep import RIGHT
 from footstep_gym.jax import shapes, walker
-from footstep_gym.jax.scenes import PARKED, SCENES, DoorParams, Scene, SceneParams  # noqa: F401  (DoorParams re-exported)
+from footstep_gym.jax.scenes import (PARKED, SCENES, DoorParams, Scene,  # noqa: F401  (DoorParams re-exported)
+                                     SceneParams)
 from footstep_gym.jax.sensing import Sensing, sense
 from footstep_gym.observation import ObservationScales, command_to_unit, observations
 from footstep_gym.world import World

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from footstep_gym.jax.shapes import Rods, rod_endpoints
+from footstep_gym.jax.shapes import Rods, centre_line, rod_endpoints, surface_point
 
 
 class Sensing(NamedTuple):
@@ -56,23 +56,12 @@ def sensed(rods: Rods, px: jax.Array, py: jax.Array, heading: jax.Array, max_ran
     closest surface point is within ``max_range`` [m] and within ``fov`` [deg] (inclusive) of it, and any it is
     inside or touching (gap <= 0)."""
     ax, ay, bx, by = rod_endpoints(rods, chipmunk=False)
-    dx, dy = bx - ax, by - ay
-    l2 = dx * dx + dy * dy
-    u = ((px - ax) * dx + (py - ay) * dy) / jnp.where(l2 == 0.0, 1.0, l2)
-    u = jnp.where(l2 == 0.0, 0.0, u)
-    u = jnp.where(0.0 > u, 0.0, u)
-    u = jnp.where(1.0 < u, 1.0, u)
-    qx, qy = ax + u * dx, ay + u * dy
-    nx, ny = px - qx, py - qy
-    d = jnp.hypot(nx, ny)
+    qx, qy, nx, ny, d = centre_line(px, py, ax, ay, bx - ax, by - ay)
     gap = d - rods.r
     keep = ~(gap > max_range)
     half = 0.5 * math.radians(fov)
     if half < math.pi:
-        pos_d = d > 0.0
-        safe_d = jnp.where(pos_d, d, 1.0)
-        cx = jnp.where(pos_d, qx + rods.r * nx / safe_d, qx)
-        cy = jnp.where(pos_d, qy + rods.r * ny / safe_d, qy + rods.r)
+        cx, cy = surface_point(qx, qy, nx, ny, d, rods.r)
         tx, ty = cx - px, cy - py
         c, s = jnp.cos(heading), jnp.sin(heading)
         keep = keep & (jnp.abs(jnp.arctan2(-s * tx + c * ty, c * tx + s * ty)) <= half)

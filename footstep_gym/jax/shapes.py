@@ -207,6 +207,29 @@ def sweep(path: Any, duration: jax.Array, robot_speed_bound: jax.Array, table: j
     return SweepResult(collided, t, jnp.where(collided, shape, -1), checks, clearance, rods_end)
 
 
+def centre_line(px: jax.Array, py: jax.Array, ax: jax.Array, ay: jax.Array, dx: jax.Array, dy: jax.Array
+                ) -> tuple[jax.Array, ...]:
+    """``(qx, qy, nx, ny, d)``: the point of each centre line from ``(ax, ay)`` along ``(dx, dy)`` nearest ``(px, py)``
+    [m], the offset from it to the point and its length (``World.nearest``'s arithmetic; broadcasts)."""
+    l2 = dx * dx + dy * dy
+    u = ((px - ax) * dx + (py - ay) * dy) / jnp.where(l2 == 0.0, 1.0, l2)
+    u = jnp.where(l2 == 0.0, 0.0, u)
+    u = jnp.where(0.0 > u, 0.0, u)
+    u = jnp.where(1.0 < u, 1.0, u)
+    qx, qy = ax + u * dx, ay + u * dy
+    nx, ny = px - qx, py - qy
+    return qx, qy, nx, ny, jnp.hypot(nx, ny)
+
+
+def surface_point(qx: jax.Array, qy: jax.Array, nx: jax.Array, ny: jax.Array, d: jax.Array, r: jax.Array
+                  ) -> tuple[jax.Array, jax.Array]:
+    """The closest surface point [m] of a thick segment (half thickness ``r``) from :func:`centre_line`'s answer (a
+    point on the centre line itself: the one ``r`` above it, as ``World.nearest``)."""
+    pos_d = d > 0.0
+    safe_d = jnp.where(pos_d, d, 1.0)
+    return jnp.where(pos_d, qx + r * nx / safe_d, qx), jnp.where(pos_d, qy + r * ny / safe_d, qy + r)
+
+
 def nearest_shapes(px: jax.Array, py: jax.Array, walls: Walls, rods: Rods, k: int, max_distance: float,
                    rods_sensed: jax.Array | None = None) -> tuple[jax.Array, jax.Array, jax.Array]:
     """Up to ``k`` shapes nearest the point ``(px, py)`` within ``max_distance`` [m], nearest first, ties in the
@@ -221,14 +244,7 @@ def nearest_shapes(px: jax.Array, py: jax.Array, walls: Walls, rods: Rods, k: in
     dx = jnp.concatenate([dx_w, bx_r - ax_r])
     dy = jnp.concatenate([dy_w, by_r - ay_r])
     radius = jnp.concatenate([walls.r, rods.r])
-    l2 = dx * dx + dy * dy
-    u = ((px - ax) * dx + (py - ay) * dy) / jnp.where(l2 == 0.0, 1.0, l2)
-    u = jnp.where(l2 == 0.0, 0.0, u)
-    u = jnp.where(0.0 > u, 0.0, u)
-    u = jnp.where(1.0 < u, 1.0, u)
-    qx, qy = ax + u * dx, ay + u * dy
-    nx, ny = px - qx, py - qy
-    d = jnp.hypot(nx, ny)
+    qx, qy, nx, ny, d = centre_line(px, py, ax, ay, dx, dy)
     gap = d - radius
     inside = ~(gap > max_distance)
     if rods_sensed is not None:
@@ -249,11 +265,7 @@ def nearest_shapes(px: jax.Array, py: jax.Array, walls: Walls, rods: Rods, k: in
     if pad:
         order = jnp.concatenate([order, jnp.zeros((pad,), order.dtype)])
         mask = jnp.concatenate([mask, jnp.zeros((pad,), bool)])
-    qx, qy, nx, ny, d, r = qx[order], qy[order], nx[order], ny[order], d[order], radius[order]
-    pos_d = d > 0.0
-    safe_d = jnp.where(pos_d, d, 1.0)
-    cx = jnp.where(pos_d, qx + r * nx / safe_d, qx)
-    cy = jnp.where(pos_d, qy + r * ny / safe_d, qy + r)
+    cx, cy = surface_point(qx[order], qy[order], nx[order], ny[order], d[order], radius[order])
     n_walls = walls.r.shape[0]
     mover = jnp.clip(order - n_walls, 0, max(rods.r.shape[0] - 1, 0))
     moving = order >= n_walls

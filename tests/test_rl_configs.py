@@ -49,7 +49,8 @@ def test_ppo_wide_is_ppo_on_wider_ranges():
 
 def test_ppo_noisy_and_ppo_lstm_are_ppo_on_the_noisy_scenes():
     """ppo-noisy: ppo's hyperparameters on each scene's train range sensed with the noise tier's profile (its
-    "train" cell's); ppo-lstm: the same with an LSTM policy (and nothing else changed)."""
+    "train" cell's); ppo-lstm: the same with an LSTM policy and, where ppo-noisy's budget is larger (the crossing's
+    stream), at most as many steps (an LSTM step costs about 3x an MLP's); nothing else changed."""
     from footstep_gym import tiers
 
     scenes = {"FootstepDoor-v0": "door", "FootstepCrossing-v0": "crossing", "FootstepCrowd-v0": "crowd"}
@@ -68,6 +69,7 @@ def test_ppo_noisy_and_ppo_lstm_are_ppo_on_the_noisy_scenes():
         assert lstm.pop("policy") == "MlpLstmPolicy" and noisy.pop("policy") == "MlpPolicy"
         assert lstm.pop("policy_kwargs").replace(", lstm_hidden_size=64, enable_critic_lstm=True", "") == \
             noisy.pop("policy_kwargs")
+        assert float(lstm.pop("n_timesteps")) <= float(noisy.pop("n_timesteps")), env_id
         assert lstm == noisy, env_id
 
 

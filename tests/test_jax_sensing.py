@@ -8,6 +8,7 @@ episodes end alike with the same rewards, and the observation's noise has the co
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import gymnasium as gym
@@ -181,3 +182,20 @@ def test_noise_tier_cells_in_make_vec():
     assert FootstepJaxEnv("door", tier="noise", tier_cell="train").sensing == Sensing(
         (0.02, 0.05, 0.01, 0.01), math.inf, 360.0)
 
+
+
+def test_cells_with_different_sensing_are_one_line(monkeypatch):
+    """The sensing options are static in the compiled step: a tier whose cells sense differently (no shipped tier
+    does; here the crossing's noise tier with its last cell's field of view narrowed) is one line naming it."""
+    import footstep_gym.jax.env as jax_env
+
+    class NarrowLastCell(jax_env.FootstepEnv):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            cfg, ecfg = self._cell_configs[-1]
+            self._cell_configs[-1] = (cfg, dataclasses.replace(ecfg, sensing_fov=90.0))
+
+    monkeypatch.setattr(jax_env, "FootstepEnv", NarrowLastCell)
+    with pytest.raises(ConfigError) as err:
+        FootstepJaxEnv("crossing", tier="noise")
+    assert "tier 'noise': cells with different sensing options" in str(err.value) and "\n" not in str(err.value)

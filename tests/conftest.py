@@ -1,5 +1,6 @@
 """Shared pytest setup: pygame must be able to open a (dummy) display on a headless machine; the fixtures
-several test files share (``robot``). Shared plain helpers live in env_helpers.py and planner_helpers.py."""
+several test files share (``robot``, ``x64``). Shared plain helpers live in env_helpers.py, planner_helpers.py and
+jax_helpers.py."""
 
 import os
 
@@ -16,3 +17,12 @@ def robot():
     from footstep_gym.robot import load_robot
 
     return load_robot()
+
+
+@pytest.fixture(scope="module")
+def x64():
+    """JAX's 64-bit mode for the module's tests (the JAX backend's float64 replays)."""
+    import jax
+
+    with jax.enable_x64(True):
+        yield

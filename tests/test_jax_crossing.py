@@ -8,7 +8,6 @@ JAX compiles each distinct function once per process: the episodes here are few 
 
 from __future__ import annotations
 
-import dataclasses
 
 import gymnasium as gym
 import jax
@@ -17,6 +16,7 @@ import numpy as np
 import pytest
 
 import footstep_gym  # noqa: F401
+from jax_helpers import check_replays
 from footstep_gym.errors import ConfigError
 from footstep_gym.jax import replay as R
 from footstep_gym.jax.env import FootstepJaxEnv
@@ -25,21 +25,6 @@ CROSSING = "FootstepCrossing-v0"
 TRAIN = {"tier": "train"}
 PAPER = {"tier": "paper"}
 WIDE = {"tier": "structure", "tier_cell": "wide_cars"}
-OBS_TOL_64, REWARD_TOL_64, CLEARANCE_TOL_64 = 1e-6, 1e-9, 1e-12  # as tests/test_jax_crowd.py's
-
-
-@pytest.fixture(scope="module")
-def x64():
-    with jax.enable_x64(True):
-        yield
-
-
-def _check(agreements, outcomes):
-    for a in agreements:
-        assert a.same or a.near_tie, a
-        assert a.obs_error <= OBS_TOL_64 and a.reward_error <= REWARD_TOL_64, a
-        assert a.clearance_error <= CLEARANCE_TOL_64, a
-        outcomes.add(a.reference[0])
 
 
 @pytest.mark.parametrize("kwargs", [TRAIN, PAPER, WIDE], ids=["train", "paper", "wide_cars"])
@@ -51,11 +36,11 @@ def test_replayed_episodes_end_alike(x64, kwargs):
     outcomes: set[str] = set()
     walks = R.record_many(CROSSING, range(300, 304), "walk", kwargs, max_steps=30)
     fuzz = R.record_many(CROSSING, range(300, 302), "fuzz", kwargs, max_steps=30)
-    _check(R.compare(walks + fuzz, R.replay(jenv, walks + fuzz, pad_to=30)), outcomes)
+    check_replays(R.compare(walks + fuzz, R.replay(jenv, walks + fuzz, pad_to=30)), outcomes)
     assert {"collision", "fall"} & outcomes
     if kwargs is TRAIN:
         planned = R.record_many(CROSSING, [300], "planner", kwargs, max_steps=30)
-        _check(R.compare(planned, R.replay(jenv, planned, pad_to=30)), outcomes)
+        check_replays(R.compare(planned, R.replay(jenv, planned, pad_to=30)), outcomes)
 
 
 def test_traffic_schedule_is_the_references(x64):
@@ -65,8 +50,7 @@ def test_traffic_schedule_is_the_references(x64):
     env.reset(seed=11)
     u = env.unwrapped
     jenv = FootstepJaxEnv("crossing", dtype="float64", **TRAIN)
-    params = jenv.cell_params(dataclasses.replace(u.episode_config, randomize={}))
-    rods, scene = jenv.scene.start_from(jenv.scene.reference_start(u), params)
+    params, rods, scene = R.episode_start(jenv, u.episode_config, jenv.scene.reference_start(u))
     loop_time = float(scene.loop) / float(scene.speed)
     for t in (0.0, 1.3, 0.5 * loop_time, loop_time + 0.7, 2.3 * loop_time):
         got = np.asarray(jenv.scene.positions(scene, jnp.asarray(t)))

@@ -7,7 +7,6 @@ JAX compiles each distinct function once per process: the episodes here are few 
 
 from __future__ import annotations
 
-import dataclasses
 
 import gymnasium as gym
 import jax
@@ -16,6 +15,7 @@ import numpy as np
 import pytest
 
 import footstep_gym  # noqa: F401
+from jax_helpers import check_replays
 from footstep_gym import lipm
 from footstep_gym.errors import ConfigError
 from footstep_gym.jax import replay as R
@@ -28,30 +28,12 @@ from footstep_gym.world import World
 CROWD = "FootstepCrowd-v0"
 TRAIN = {"tier": "train"}
 DENSE = {"tier": "structure", "tier_cell": "dense"}
-#: Float64 replay tolerances (as the door's, tests/test_jax_door.py): the observation is float32.
-OBS_TOL_64, REWARD_TOL_64 = 1e-6, 1e-9
-#: [m] the clearance at the sweep's checks: the same instants and distances up to float64 rounding.
-CLEARANCE_TOL_64 = 1e-12
-
-
-@pytest.fixture(scope="module")
-def x64():
-    with jax.enable_x64(True):
-        yield
 
 
 @pytest.fixture(scope="module")
 def dense64(x64):
     """A float64 env of the structure tier's dense cell: 10 members, so 8-member episodes run with 2 padded."""
     return FootstepJaxEnv("crowd", dtype="float64", **DENSE)
-
-
-def _check(agreements, outcomes):
-    for a in agreements:
-        assert a.same or a.near_tie, a
-        assert a.obs_error <= OBS_TOL_64 and a.reward_error <= REWARD_TOL_64, a
-        assert a.clearance_error <= CLEARANCE_TOL_64, a
-        outcomes.add(a.reference[0])
 
 
 def test_replayed_episodes_end_alike(dense64):
@@ -62,9 +44,9 @@ def test_replayed_episodes_end_alike(dense64):
     walks = R.record_many(CROWD, range(200, 204), "walk", TRAIN, max_steps=30)
     fuzz = R.record_many(CROWD, range(200, 203), "fuzz", TRAIN, max_steps=30)
     dense = R.record_many(CROWD, range(210, 213), "walk", DENSE, max_steps=30)
-    _check(R.compare(walks + fuzz + dense, R.replay(dense64, walks + fuzz + dense, pad_to=30)), outcomes)
+    check_replays(R.compare(walks + fuzz + dense, R.replay(dense64, walks + fuzz + dense, pad_to=30)), outcomes)
     planned = R.record_many(CROWD, [200], "planner", TRAIN, max_steps=30)
-    _check(R.compare(planned, R.replay(dense64, planned, pad_to=30)), outcomes)
+    check_replays(R.compare(planned, R.replay(dense64, planned, pad_to=30)), outcomes)
     assert {"collision", "fall"} <= outcomes and outcomes & {"goal", "cut"}
 
 
@@ -75,8 +57,7 @@ def test_schedule_is_the_reference_crowds(x64):
     env.reset(seed=7)
     u = env.unwrapped
     jenv = FootstepJaxEnv("crowd", dtype="float64", **TRAIN)
-    params = jenv.cell_params(dataclasses.replace(u.episode_config, randomize={}))
-    rods, scene = jenv.scene.start_from(jenv.scene.reference_start(u), params)
+    params, rods, scene = R.episode_start(jenv, u.episode_config, jenv.scene.reference_start(u))
     for t in (0.0, 0.37, 3.9, 4.0, 11.3):
         got = np.asarray(jenv.scene.positions(scene, jnp.asarray(t)))
         assert np.allclose(got, u.scenario.positions(t), rtol=0, atol=1e-14)

@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from jax_helpers import OBS_TOL_64, REWARD_TOL_64
 from footstep_gym import lipm
 from footstep_gym.errors import ConfigError
 from footstep_gym.jax import replay as R
@@ -23,16 +24,6 @@ from footstep_gym.robot import load_robot
 from footstep_gym.world import World
 
 TRAIN = {"tier": "train"}
-#: Observation tolerance of a float64 replay: the observation is float32, so one float32 ulp of the largest
-#: slot (|x| < 4) plus what a few float64 ulps can turn into.
-OBS_TOL_64 = 1e-6
-REWARD_TOL_64 = 1e-9
-
-
-@pytest.fixture(scope="module")
-def x64():
-    with jax.enable_x64(True):
-        yield
 
 
 @pytest.fixture(scope="module")

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import footstep_gym  # noqa: F401
+from jax_helpers import OBS_TOL_64, REWARD_TOL_64
 from footstep_gym.errors import ConfigError
 from footstep_gym.jax import replay as R
 from footstep_gym.jax.env import FootstepJaxEnv
@@ -31,14 +32,6 @@ NOISE = dict(sensing_noise_position=0.05, sensing_noise_velocity=0.1, sensing_no
              sensing_noise_angular_velocity=0.04)
 LIMITED = dict(sensing_max_range=1.2, sensing_fov=120.0)
 SIGMA = (0.05, 0.1, 0.03, 0.04)
-#: Float64 replay tolerances (the door's, tests/test_jax_door.py): the observation is float32.
-OBS_TOL_64, REWARD_TOL_64 = 1e-6, 1e-9
-
-
-@pytest.fixture(scope="module")
-def x64():
-    with jax.enable_x64(True):
-        yield
 
 
 def _random_scene(rng: np.random.Generator, m: int) -> tuple[Rods, list[ObstacleView]]:
@@ -106,12 +99,10 @@ def test_sensed_count_is_the_references(x64):
     """``info["sensed_obstacles"]`` step by step beside the reference env's, on a crowd episode with a range and a
     field of view (the robot walks into the ring, so the count changes)."""
     env = gym.make("FootstepCrowd-v0", tier="train", **LIMITED)
-    u = env.unwrapped
-    obs, info = env.reset(seed=301)
+    env.reset(seed=301)
     jenv = FootstepJaxEnv("crowd", dtype="float64", tier="train", **LIMITED)
     episode = R.record("FootstepCrowd-v0", 301, "walk", dict(tier="train", **LIMITED), max_steps=25)
-    params = jenv.cell_params(u.episode_config.__class__(**{**u.episode_config.__dict__, "randomize": {}}))
-    rods, scene = jenv.scene.start_from(episode.start, params)
+    params, rods, scene = R.episode_start(jenv, episode.config, episode.start)
     state, _ = jenv.start_state(jax.random.key(0), jnp.asarray(episode.feet), rods, scene, params,
                                 jnp.zeros((), jnp.int32))
     step = jax.jit(jenv.step)

@@ -134,6 +134,15 @@ def max_steps(episodes: list[Episode]) -> int:
     return max(e.config.max_steps for e in episodes)
 
 
+def episode_start(jenv: FootstepJaxEnv, config: Any, start: dict) -> tuple[Any, Any, Any]:
+    """``(params, rods, scene)``: the JAX scene's params of a reference episode's scenario ``config`` (its
+    ``randomize`` keys as drawn) and its obstacles and scene state from the episode's ``start``
+    (``Scene.reference_start``)."""
+    params = jenv.cell_params(dataclasses.replace(config, randomize={}))
+    rods, scene = jenv.scene.start_from(start, params)
+    return params, rods, scene
+
+
 def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Replayed:
     """Run ``episodes``' actions in ``jenv`` from their starts, all at once (their actions share a dtype);
     ``pad_to``: run at least this many steps (one compiled function serves batches of any episode length)."""
@@ -144,11 +153,9 @@ def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Re
     nominal = np.asarray(jenv.robot.nominal_command, episodes[0].actions.dtype)
     actions = np.stack([np.concatenate([e.actions, np.tile(nominal, (n_steps - len(e.actions), 1))])
                         for e in episodes])
-    params = [jenv.cell_params(dataclasses.replace(e.config, randomize={})) for e in episodes]  # as drawn
-    starts = [jenv.scene.start_from(e.start, q) for e, q in zip(episodes, params)]
+    params, rods, scene = zip(*(episode_start(jenv, e.config, e.start) for e in episodes))
     stack = lambda *x: jnp.stack(x)  # noqa: E731
-    p = jax.tree.map(stack, *params)
-    rods, scene = jax.tree.map(stack, *starts)
+    p, rods, scene = (jax.tree.map(stack, *x) for x in (params, rods, scene))
     feet = jnp.asarray(np.stack([e.feet for e in episodes]), dt)
     keys = jax.random.split(jax.random.key(0), len(episodes))
     state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, scene, p, jnp.zeros(len(episodes), jnp.int32))

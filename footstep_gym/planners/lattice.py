@@ -65,19 +65,22 @@ def centre_speed_bound(robot: Robot, commands: np.ndarray) -> float:
     return 0.5 * math.hypot(2.0 * s_max, lateral) / t_min
 
 
-@dataclass
-class _Node:
-    """One stance of the search: the support foot, the LIPM state relative to it, when it is reached."""
+@dataclass(frozen=True)
+class _Nodes:
+    """Stances of the search as arrays over ``n``: the root, or the children of one expansion (one support side and
+    depth). A frontier entry is one of them, ``(nodes, j)``."""
 
-    support: tuple[float, float, float]  # support foot pose (x, y, yaw) [m, m, rad], world
+    support: np.ndarray  # (n, 3) support foot pose (x, y, yaw) [m, m, rad], world
     side: int  # +1 left, -1 right
-    centre: np.ndarray  # (2,) robot centre [m], world
-    com: np.ndarray  # (2,) CoM relative to the support foot, its frame [m]
-    vel: np.ndarray  # (2,) CoM velocity, same frame [m/s]
-    time: float  # [s] from now
+    centre: np.ndarray  # (n, 2) robot centre [m], world
+    com: np.ndarray  # (n, 2) CoM relative to the support foot, its frame [m]
+    vel: np.ndarray  # (n, 2) CoM velocity, same frame [m/s]
+    time: np.ndarray  # (n,) [s] from now
     depth: int  # footsteps from the start
-    first: int  # index of the first command of the path that reached this node (-1 at the root)
-    h: float  # heuristic time to goal [s]
+    first: np.ndarray  # (n,) index of the first command of the path that reached each node (-1 at the root)
+    h: np.ndarray  # (n,) heuristic time to goal [s]
+    at_goal: np.ndarray  # (n,) bool: the centre is within the goal tolerance
+    key: np.ndarray  # (n, 5) int: the duplicate grid's cell (x, y, yaw, side, time)
 
 
 @dataclass(frozen=True)
@@ -112,40 +115,42 @@ class LatticeSearch:
         self.needed = safe_distance + np.array([max(sway_band(robot, round(float(t), 4)))
                                                 for t in self.commands[:, 3] + self.commands[:, 4]])
 
-    def _key(self, node: _Node) -> tuple[int, ...]:
+    def _nodes(self, support: np.ndarray, side: int, centre: np.ndarray, com: np.ndarray, vel: np.ndarray,
+               time: np.ndarray, depth: int, first: np.ndarray, goal: np.ndarray, tolerance: float) -> _Nodes:
         p = self.params
-        x, y, yaw = node.support
-        return (round(x / p.xy_resolution_m), round(y / p.xy_resolution_m),
-                round(footstep.wrap_angle(yaw) / p.yaw_resolution_rad), node.side,
-                round(node.time / p.time_resolution_s))
+        dist = np.hypot(centre[:, 0] - goal[0], centre[:, 1] - goal[1])
+        key = np.stack([np.round(support[:, 0] / p.xy_resolution_m), np.round(support[:, 1] / p.xy_resolution_m),
+                        np.round(footstep.wrap_angle(support[:, 2]) / p.yaw_resolution_rad),
+                        np.full(len(time), float(side)), np.round(time / p.time_resolution_s)], axis=1)
+        return _Nodes(support, side, centre, com, vel, time, depth, first,
+                      np.maximum(dist - tolerance, 0.0) / self.speed, (dist <= tolerance) & (depth > 0),
+                      key.astype(np.int64))
 
-    def _heuristic(self, centre: np.ndarray, goal: np.ndarray, tolerance: float) -> float:
-        return max(float(np.hypot(*(centre - goal))) - tolerance, 0.0) / self.speed
-
-    def children(self, node: _Node, predictor: ObstaclePredictor, goal: np.ndarray, tolerance: float
-                 ) -> list[_Node]:
-        """The nodes one command of the set away from ``node`` that the LIPM accepts and the prediction keeps clear."""
-        idx = self.by_side[node.side]
+    def children(self, nodes: _Nodes, j: int, predictor: ObstaclePredictor, goal: np.ndarray, tolerance: float
+                 ) -> _Nodes | None:
+        """The nodes one command of the set away from node ``j`` of ``nodes`` that the LIPM accepts and the
+        prediction keeps clear (``None``: no such node)."""
+        side, support, time = nodes.side, tuple(float(v) for v in nodes.support[j]), float(nodes.time[j])
+        idx = self.by_side[side]
         cmds = self.commands[idx]
-        res = lipm.check_steps(self.robot, node.com, node.vel, cmds, node.side)
+        res = lipm.check_steps(self.robot, nodes.com[j], nodes.vel[j], cmds, side)
         ok = res.feasible
         if not ok.any():
-            return []
+            return None
         idx, cmds = idx[ok], cmds[ok]
         end_com, end_vel = res.end_com[ok], res.end_vel[ok]
-        fx, fy, fyaw = footstep.place_foot(node.support, node.side, cmds[:, 0], cmds[:, 1], cmds[:, 2])
-        centre = 0.5 * (np.asarray(node.support[:2])[None] + np.stack([fx, fy], axis=1))
+        fx, fy, fyaw = footstep.place_foot(support, side, cmds[:, 0], cmds[:, 1], cmds[:, 2])
+        feet = np.stack([fx, fy], axis=1)
         period = cmds[:, 3] + cmds[:, 4]
-        start = footstep.local_to_world(node.support, node.com)[None]
+        start = footstep.local_to_world(support, nodes.com[j])[None]
         end = footstep.local_to_world((fx, fy, fyaw), end_com)
-        clear = self.body_clearance(predictor, start, end, node.time, period) >= self.needed[idx]
-        out = []
-        for j in np.flatnonzero(clear):
-            first = int(idx[j]) if node.first < 0 else node.first
-            out.append(_Node((float(fx[j]), float(fy[j]), float(fyaw[j])), -node.side, centre[j], end_com[j],
-                             end_vel[j], node.time + float(period[j]), node.depth + 1, first,
-                             self._heuristic(centre[j], goal, tolerance)))
-        return out
+        clear = self.body_clearance(predictor, start, end, time, period) >= self.needed[idx]
+        if not clear.any():
+            return None
+        first = idx[clear] if nodes.first[j] < 0 else np.full(int(clear.sum()), nodes.first[j])
+        return self._nodes(np.stack([fx, fy, fyaw], axis=1)[clear], -side,
+                           0.5 * (np.asarray(support[:2])[None] + feet[clear]), end_com[clear], end_vel[clear],
+                           time + period[clear], nodes.depth + 1, first, goal, tolerance)
 
     def body_clearance(self, predictor: ObstaclePredictor, com_start: np.ndarray, com_end: np.ndarray,
                        t_start: float, period: np.ndarray) -> np.ndarray:
@@ -162,33 +167,38 @@ class LatticeSearch:
         p = self.params
         goal = np.asarray(snapshot.goal, dtype=float)
         tol = float(snapshot.goal_tolerance)
-        centre = np.asarray(snapshot.centre, dtype=float)
-        root = _Node(tuple(float(v) for v in snapshot.support_foot), int(snapshot.support_side), centre,
-                     np.asarray(snapshot.com_local, dtype=float), np.asarray(snapshot.vel_local, dtype=float),
-                     0.0, 0, -1, self._heuristic(centre, goal, tol))
+        root = self._nodes(np.asarray(snapshot.support_foot, dtype=float).reshape(1, 3), int(snapshot.support_side),
+                           np.asarray(snapshot.centre, dtype=float).reshape(1, 2),
+                           np.asarray(snapshot.com_local, dtype=float).reshape(1, 2),
+                           np.asarray(snapshot.vel_local, dtype=float).reshape(1, 2), np.zeros(1), 0,
+                           np.full(1, -1), goal, tol)
         tie = itertools.count()
-        frontier: list[tuple[float, int, _Node]] = [(p.heuristic_weight * root.h, next(tie), root)]
+        frontier: list[tuple[float, int, _Nodes, int]] = [(p.heuristic_weight * float(root.h[0]), next(tie), root, 0)]
         closed: set[tuple[int, ...]] = set()
-        best = root  # the deepest node in time, then nearest the goal
+        best, best_j = root, 0  # the deepest node in time, then nearest the goal
         expanded = generated = 0
         while frontier and expanded < p.max_expansions:
-            _, _, node = heapq.heappop(frontier)
-            key = self._key(node)
+            _, _, nodes, j = heapq.heappop(frontier)
+            key = tuple(nodes.key[j].tolist())
             if key in closed:
                 continue
             closed.add(key)
-            if node.depth > 0 and np.hypot(*(node.centre - goal)) <= tol:
-                return LatticeResult(node.first, True, expanded, generated, node.depth, node.time)
-            if (node.depth, -node.h) > (best.depth, -best.h):
-                best = node
-            if node.depth >= p.max_depth:
+            if nodes.at_goal[j]:
+                return LatticeResult(int(nodes.first[j]), True, expanded, generated, nodes.depth,
+                                     float(nodes.time[j]))
+            if (nodes.depth, -nodes.h[j]) > (best.depth, -best.h[best_j]):
+                best, best_j = nodes, j
+            if nodes.depth >= p.max_depth:
                 continue
             expanded += 1
-            for child in self.children(node, predictor, goal, tol):
-                generated += 1
-                if self._key(child) not in closed:
-                    heapq.heappush(frontier, (child.time + p.heuristic_weight * child.h, next(tie), child))
-        return LatticeResult(best.first, False, expanded, generated, best.depth, best.time)
+            kids = self.children(nodes, j, predictor, goal, tol)
+            if kids is None:
+                continue
+            generated += len(kids.time)
+            for k, f in enumerate((kids.time + p.heuristic_weight * kids.h).tolist()):
+                heapq.heappush(frontier, (f, next(tie), kids, k))
+        return LatticeResult(int(best.first[best_j]), False, expanded, generated, best.depth,
+                             float(best.time[best_j]))
 
 
 class LatticePlanner(SnapshotPlanner):

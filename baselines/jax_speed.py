@@ -4,6 +4,7 @@
     python baselines/jax_speed.py --scene crowd                    # the scripted crowd
     python baselines/jax_speed.py --sizes 4096 --workloads walk --repeats 5
     python baselines/jax_speed.py --dtype float64                  # (sets JAX's 64-bit mode)
+    python baselines/jax_speed.py --devices 1                      # the batch on one core (default: split over all)
 
 Prints one table per workload (engine and workloads: ``footstep_gym/jax/speed.py``): per N, the median
 steps/s over the repeats, the slowest and fastest repeat, the ratio to one reference env measured in the same
@@ -32,6 +33,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--dtype", default="float32", choices=("float32", "float64"))
     p.add_argument("--block", type=int, default=8, help="collision checks per sweep iteration")
     p.add_argument("--chunk", type=int, default=64, help="envs per vmap chunk (FootstepJaxEnv.step_batch)")
+    p.add_argument("--devices", type=int, default=0,
+                   help="JAX devices the batch is split over (default: on a CPU, one per core; on a GPU, 1); a size "
+                        "N that does not split evenly runs on one device")
     args = p.parse_args(argv)
     try:
         args.sizes = [int(s) for s in args.sizes.split(",")]
@@ -43,8 +47,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     bad = [w for w in args.workloads if w not in ("random", "walk")]
     if bad:
         p.error(f"unknown workload(s) {bad}; choose from random, walk")
-    if args.repeats < 1 or args.steps < 0 or args.reference_steps < 1 or args.chunk < 1:
-        p.error("--repeats and --reference-steps must be >= 1, --steps >= 0")
+    if args.repeats < 1 or args.steps < 0 or args.reference_steps < 1 or args.chunk < 1 or args.devices < 0:
+        p.error("--repeats, --reference-steps and --chunk must be >= 1, --steps and --devices >= 0")
     return args
 
 
@@ -55,6 +59,9 @@ def main(argv: list[str] | None = None) -> int:
     import jax
 
     from footstep_gym.jax import speed
+
+    speed.use_cpu_devices(args.devices or None)  # on a GPU, its devices are JAX's and this splits only the host
+    devices = len(jax.devices())
     from footstep_gym.jax.env import FootstepJaxEnv
     from footstep_gym.scenarios import SCENARIOS
 
@@ -64,17 +71,19 @@ def main(argv: list[str] | None = None) -> int:
     env_id = SCENARIOS[args.scene].env_id
     env = FootstepJaxEnv(args.scene, dtype=args.dtype, tier=args.tier, block=args.block)
     print(f"{env_id} tier={args.tier} dtype={args.dtype} block={args.block} chunk={args.chunk}; jax {jax.__version__} on "
-          f"{jax.devices()[0].platform} ({os.cpu_count()} CPUs), {platform.processor() or platform.machine()}; "
+          f"{jax.devices()[0].platform} x {devices} device(s) ({os.cpu_count()} CPUs), "
+          f"{platform.processor() or platform.machine()}; "
           f"load average {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
     for workload in args.workloads:
         ref = speed.reference_rate(args.reference_steps, workload, {"tier": args.tier}, env_id=env_id)
         print(f"\n{workload}: reference env (one FootstepEnv) {ref:,.0f} steps/s")
-        print(f"{'N':>7} {'steps/run':>9} {'steps/s':>12} {'min':>12} {'max':>12} {'x ref':>8} "
+        print(f"{'N':>7} {'devices':>7} {'steps/run':>9} {'steps/s':>12} {'min':>12} {'max':>12} {'x ref':>8} "
               f"{'compile s':>9} {'state B/env':>11}")
         for n in args.sizes:
             steps = args.steps or max(32, (1 << 18) // n)
-            r = speed.measure(env, n, steps, args.repeats, workload, chunk=args.chunk)
-            print(f"{n:>7} {steps:>9} {r.steps_per_s:>12,.0f} {min(r.repeats):>12,.0f} {max(r.repeats):>12,.0f} "
+            d = devices if n % devices == 0 else 1
+            r = speed.measure(env, n, steps, args.repeats, workload, chunk=args.chunk, devices=d)
+            print(f"{n:>7} {d:>7} {steps:>9} {r.steps_per_s:>12,.0f} {min(r.repeats):>12,.0f} {max(r.repeats):>12,.0f} "
                   f"{r.steps_per_s / ref:>8.0f} {r.compile_s:>9.1f} {r.state_bytes:>11}", flush=True)
     print(f"\nload average after: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
     return 0

@@ -43,6 +43,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--config", type=Path, default=None, help="hyperparameter file (default configs/rl/ppo-jax.yml)")
     p.add_argument("--timesteps", type=int, default=None, help="env steps per seed (default: the config's)")
     p.add_argument("--runs-dir", type=Path, default=REPO / "runs" / AGENT, help="where runs are written")
+    p.add_argument("--devices", type=int, default=1,
+                   help="CPU cores as JAX devices, over which Brax's trainer splits the envs and each update "
+                        "(default 1: the shipped runs' setting; num_envs and batch_size must divide by it)")
     p.add_argument("--ship", action="store_true", help="ship each run to --agents-dir/ppo-jax/")
     p.add_argument("--force", action="store_true", help="with --ship: replace agents already shipped")
     p.add_argument("--agents-dir", type=Path, default=REPO / "baselines" / "agents", help="the agents folder")
@@ -65,6 +68,13 @@ def versions() -> dict[str, str | None]:
     return {d: version(d) for d in ("footstep_gym", "jax", "jaxlib", "brax", "flax", "optax", "gymnasium")}
 
 
+def jax_devices() -> str:
+    """The devices JAX trained on, e.g. ``"2 x cpu"``."""
+    import jax
+
+    return f"{len(jax.devices())} x {jax.devices()[0].platform}"
+
+
 def ship_run(run: Path, result: Any, agents_dir: Path) -> Path:
     """Ship ``run`` (the caller checked ``--force``) and add ppo-jax's figures to its manifest."""
     from footstep_gym.rl import training
@@ -76,6 +86,7 @@ def ship_run(run: Path, result: Any, agents_dir: Path) -> Path:
     manifest.update({
         "library": "brax.training.agents.ppo (Brax's PPO trainer) on footstep_gym.jax (FootstepJaxEnv)",
         "n_envs": result.config.num_envs,
+        "jax_devices": jax_devices(),
         "torch_threads": None,
         "wall_time_includes": "start-up and JAX compilation; not the validation episodes in the reference env",
         "validation_time_s": round(result.validation_time_s, 1),
@@ -239,9 +250,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--force applies with --ship only")
     if args.timesteps is not None and args.timesteps < 1:
         parser.error("--timesteps must be >= 1")
+    if args.devices < 1:
+        parser.error("--devices must be >= 1")
     import dataclasses
 
     from footstep_gym.errors import ConfigError
+    from footstep_gym.jax import speed
+
+    if speed.use_cpu_devices(args.devices) < args.devices:
+        parser.error(f"--devices {args.devices}: JAX has fewer devices here")
     from footstep_gym.jax import ppo
 
     try:
@@ -253,6 +270,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"train_jax.py: {exc}", file=sys.stderr)
         return 2
+    if cfg.num_envs % args.devices or cfg.batch_size % args.devices:
+        parser.error(f"--devices {args.devices}: num_envs ({cfg.num_envs}) and batch_size ({cfg.batch_size}) of "
+                     f"{cfg.env_id} must divide by it")
     if args.ship and not args.force:
         taken = [str(d) for s in args.seeds if (d := args.agents_dir / AGENT / f"{cfg.env_id}_{s}").exists()]
         if taken:
@@ -261,7 +281,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
     command = "python baselines/train_jax.py " + shlex.join(argv if argv is not None else sys.argv[1:])
     for seed in args.seeds:
-        print(f"{AGENT} {cfg.env_id} seed {seed}: {cfg.num_timesteps:,} env steps, {cfg.num_envs} envs", flush=True)
+        print(f"{AGENT} {cfg.env_id} seed {seed}: {cfg.num_timesteps:,} env steps, {cfg.num_envs} envs on "
+              f"{jax_devices()}", flush=True)
 
         def progress(steps: int, wall: float, rate: float) -> None:
             print(f"  {steps:>10,} env steps  {wall:7.1f} s  validation success {rate:.2f}", flush=True)

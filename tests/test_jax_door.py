@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import gymnasium as gym
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -130,6 +131,68 @@ def test_replayed_episodes_end_alike(env64):
     assert {"fall", "goal"} <= outcomes and outcomes & {"collision", "cut"}
 
 
+STRUCTURE = {"tier": "structure"}
+
+
+@pytest.fixture(scope="module")
+def structure64(x64):
+    return FootstepJaxEnv("door", dtype="float64", **STRUCTURE)
+
+
+def _reference_hit(episode):
+    """The shape the reference env's episode ended on (``info["obstacle"]``), its actions sent again."""
+    env = gym.make(episode.env_id, **episode.env_kwargs)
+    env.reset(seed=episode.seed)
+    for action in episode.actions:
+        *_, info = env.step(action)
+    env.close()
+    return info["obstacle"]
+
+
+def test_one_door_and_two_replay_in_one_env_each_cell_with_its_walls(structure64):
+    """The structure tier's cells (two doors, 20 walls; one door from any phase, 11) in one float64 env, each with
+    its own walls: reference episodes of both cells (walks, fuzzed actions, the planner through both doors) end
+    alike, within the tolerances, and a collision names the reference's shape (wall, door or door_2)."""
+    env = structure64
+    assert env.per_cell_walls and [len(w) for w in env.wall_names] == [20, 11] and env.scene.size == 2
+    seeds = range(100, 110)
+    episodes = [R.record_many("FootstepDoor-v0", seeds, kind, STRUCTURE, max_steps=60) for kind in ("walk", "fuzz")]
+    episodes.append(R.record_many("FootstepDoor-v0", [100, 101], "planner", dict(STRUCTURE, tier_cell="two_doors")))
+    cells, outcomes, hits = set(), set(), set()
+    for batch in episodes:
+        replayed = R.replay(env, batch)
+        for i, a in enumerate(R.compare(batch, replayed)):
+            assert a.same or a.near_tie, a
+            assert a.obs_error <= OBS_TOL_64 and a.reward_error <= REWARD_TOL_64, a
+            cell = batch[i].tier_cell
+            cells.add(cell)
+            outcomes.add((cell, a.reference[0]))
+            if a.same and a.reference[0] == "collision":
+                names = env.wall_names[R.cell_index(env, cell)] + ["door", "door_2"]
+                got = names[int(replayed.obstacle[i, a.reference[1] - 1])]
+                assert got == _reference_hit(batch[i]), (a, got)
+                hits.add(got)
+    assert cells == {"two_doors", "any_phase"}
+    assert ("two_doors", "goal") in outcomes and hits & {"door", "door_2"}
+
+
+def test_a_one_door_cell_parks_the_second_rod_and_two_doors_draw_theirs(x64):
+    """Resets of the structure tier: both cells drawn; the second door at its centre, its speed and phase in the
+    cell's ranges; a one-door cell's second rod parked and still."""
+    env = FootstepJaxEnv("door", dtype="float64", **STRUCTURE)
+    state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(4), 200))
+    cell = np.asarray(state.cell)
+    two = cell == env.cells.index("two_doors")
+    assert 0 < two.sum() < 200
+    pos, w = np.asarray(state.rods.position), np.asarray(state.rods.angular_velocity)
+    angle = np.degrees(np.asarray(state.rods.angle))
+    assert np.allclose(pos[two, 1], (3.5, 0.0)) and np.all(pos[~two, 1] == 1.0e6) and np.all(w[~two, 1] == 0.0)
+    speed2 = -np.degrees(w[two, 1])
+    assert np.all((speed2 >= 5.0 - 1e-9) & (speed2 <= 20.0 + 1e-9)) and np.ptp(speed2) > 10.0
+    assert np.all((angle[two, 1] >= -10.0 - 1e-9) & (angle[two, 1] <= 190.0 + 1e-9)) and np.ptp(angle[two, 1]) > 150
+    assert np.all(np.abs(angle[~two, 0] - 90.0) <= 90.0 + 1e-9)  # any_phase: 90 +- 90
+
+
 def test_float32_action_at_a_rounded_limit_is_the_limit(env64):
     state, _ = env64.reset(jax.random.key(0))
     action = np.array([0.0, 0.08, -0.2, 0.6, 0.2], dtype=np.float32)  # theta and T_SS at float32-rounded limits
@@ -156,7 +219,8 @@ def test_reset_is_seeded_jittable_and_vmappable():
 
 @pytest.mark.parametrize("kwargs, named", [
     ({"scenario": "mix"}, "scene 'mix'"),
-    ({"tier": "structure", "tier_cell": "two_doors"}, "door_count=2"),
+    ({"scenario": "crowd", "tier": "structure", "tier_cell": "crossing_flows"}, "crowd_model='orca'"),
+    ({"scenario": "crowd", "tier": "structure"}, "crowd_model='orca'"),
     ({"fixed_period": True}, "fixed_period"),
     ({"randomize": {"door_radius": [0.4, 0.5]}}, "randomize of door_radius"),
     ({"dtype": "float16"}, "dtype must be"),

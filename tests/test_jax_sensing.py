@@ -158,8 +158,7 @@ def test_noise_has_the_configured_spread(x64):
 
 def test_noise_tier_cells_in_make_vec():
     """The crossing's noise tier (its two cells) runs batched in float32, ``sensed_obstacles`` in ``info``; the
-    crowd's is built with the profile's options; the door's noise tier has two doors, which the backend refuses in
-    one line naming them."""
+    crowd's is built with the profile's options; the door's (one door and two: each cell its own walls) steps too."""
     envs = gym.make_vec("FootstepCrossing-v0", num_envs=4, vectorization_mode="vector_entry_point", tier="noise")
     obs, _ = envs.reset(seed=5)
     obs, _, _, _, info = envs.step(np.tile(np.asarray(load_robot().nominal_command, np.float32), (4, 1)))
@@ -167,9 +166,13 @@ def test_noise_tier_cells_in_make_vec():
     assert info["sensed_obstacles"].shape == (4,) and np.all(info["sensed_obstacles"] >= 1)
     envs.close()
     assert FootstepJaxEnv("crowd", tier="noise").sensing.sigma == (0.02, 0.05, 0.01, 0.01)
-    with pytest.raises(ConfigError) as err:
-        FootstepJaxEnv("door", tier="noise")
-    assert "door_count=2" in str(err.value) and "\n" not in str(err.value)
+    door = FootstepJaxEnv("door", tier="noise")
+    assert door.cells == ["train", "two_doors"] and door.per_cell_walls and door.scene.size == 2
+    envs = gym.make_vec("FootstepDoor-v0", num_envs=4, vectorization_mode="vector_entry_point", tier="noise")
+    envs.reset(seed=5)
+    obs, _, _, _, info = envs.step(np.tile(np.asarray(load_robot().nominal_command, np.float32), (4, 1)))
+    assert np.all(np.isfinite(obs)) and set(info["tier_cell"]) <= {"train", "two_doors"}
+    envs.close()
     assert FootstepJaxEnv("door", tier="noise", tier_cell="train").sensing == Sensing(
         (0.02, 0.05, 0.01, 0.01), math.inf, 360.0)
 

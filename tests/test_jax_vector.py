@@ -108,10 +108,10 @@ def test_nan_in_one_env_names_it(next_step):
 
 def test_unsupported_settings_are_one_clear_line():
     with pytest.raises(ConfigError) as err:
-        gym.make_vec("FootstepDoor-v0", num_envs=2, vectorization_mode="vector_entry_point", tier="structure",
-                     tier_cell="two_doors")
+        gym.make_vec("FootstepCrowd-v0", num_envs=2, vectorization_mode="vector_entry_point", tier="structure",
+                     tier_cell="counter_flow")
     text = str(err.value)
-    assert "door_count=2" in text and "vectorization_mode='sync'" in text and "\n" not in text
+    assert "crowd_model='orca'" in text and "vectorization_mode='sync'" in text and "\n" not in text
     with pytest.raises(gym.error.Error, match="FootstepMix-v0"):
         gym.make_vec("FootstepMix-v0", num_envs=2, vectorization_mode="vector_entry_point")
 

@@ -7,12 +7,13 @@ action box and float32 handling, the same observation layout, reward terms, term
 (docs/model.md), shown by replaying its episodes (:mod:`footstep_gym.jax.replay`).
 
 Supported (the scenes of :mod:`footstep_gym.jax.scenes`, each with the ``randomize`` keys it lists):
-``FootstepDoor-v0`` with one door, ``FootstepCrossing-v0`` (the timed car and the traffic lanes) and
+``FootstepDoor-v0`` with one door or two, ``FootstepCrossing-v0`` (the timed car and the traffic lanes) and
 ``FootstepCrowd-v0``'s scripted ring (any size and ring), every other setting of their YAMLs including the
 sensing options (noise, range, field of view: :mod:`footstep_gym.jax.sensing`, the noise drawn from the state's
-key), and the tiers whose cells are such (``paper``, ``train``, ``shifted``, the crossing's and the crowd's
-``noise``; the structure tier's cells ``any_phase``, ``wide_cars``, ``dense`` and ``tight`` by ``tier_cell``).
-Anything else (the ORCA crowd, a second door, ``fixed_period``, a tier whose cells sense differently) raises
+key), and the tiers whose cells are such: every tier of the door, ``paper``, ``train``, ``shifted`` and ``noise``
+of the crossing and the crowd, and the structure tier's cells but the ORCA crowd's by ``tier_cell``. Cells with
+different walls (one door and two) each have their own (:meth:`FootstepJaxEnv.walls_of`). Anything else (the
+ORCA crowd, ``fixed_period``, a tier whose cells sense differently) raises
 :class:`~footstep_gym.errors.ConfigError` in one line naming it.
 
 Precision: float32 by default; ``dtype="float64"`` needs JAX's 64-bit mode (``JAX_ENABLE_X64=1`` or
@@ -74,7 +75,7 @@ class State(NamedTuple):
 def _unsupported(what: str) -> ConfigError:
     scenes = "; ".join(f"{name} (randomize of {', '.join(cls.randomizable)})" for name, cls in SCENES.items())
     return ConfigError(f"FootstepJaxEnv: {what} is not supported by the batched JAX backend yet (supported: "
-                       f"{scenes}: one door, the scripted crowd); use the reference env")
+                       f"{scenes}; the scripted crowd); use the reference env")
 
 
 def _dtype(dtype: Any) -> Any:
@@ -123,16 +124,7 @@ class FootstepJaxEnv:
             what = self.scene.unsupported(cfg)
             if what:
                 raise _unsupported(f"tier cell {cell!r}: {what}")
-        cls = ref._scenario_cls
-        keys = {cls.static_key(cfg) for cfg, _ in ref._cell_configs}
-        if len(keys) > 1:
-            raise _unsupported(f"tier {self.tier!r}: cells with different walls")
-        world = World(robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
-                      env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks, compiled=False)
-        cls(ref._cell_configs[0][0], np.random.default_rng(0)).build_static(world)
-        self.walls = shapes.walls_of(world, dt)
-        self.wall_table = shapes.wall_table(self.walls)
-        self.wall_names = [o.name for o in world.obstacles if o.static]
+        self._build_walls(ref, env_cfg, robot)
         cells = [self.cell_params(cfg) for cfg, _ in ref._cell_configs]
         self.params: SceneParams = jax.tree.map(lambda *x: jnp.stack(x), *cells)
         # The action box, its float32-rounded limits, and the nominal command (the previous one after reset).
@@ -143,6 +135,49 @@ class FootstepJaxEnv:
         self._start_com = (com_local, vel_local)
         self.obs_size = int(self.observation_space.shape[0])
         ref.close()
+
+    def _build_walls(self, ref: FootstepEnv, env_cfg: Any, robot: Any) -> None:
+        """The static walls of each cell (the reference scenario's ``build_static``). Cells that share their walls
+        (one ``static_key``) share one table; otherwise each cell has its own, padded to the most walls of any
+        cell with walls of zero length :data:`PARKED` away (beyond the sweep's horizon and the sensing range)."""
+        cls, dt = ref._scenario_cls, self.dtype
+        by_key: dict[Any, tuple[shapes.Walls, list[str]]] = {}
+        cell_keys = []
+        for cfg, _ in ref._cell_configs:
+            key = cls.static_key(cfg)
+            if key not in by_key:
+                world = World(robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
+                              env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks, compiled=False)
+                cls(cfg, np.random.default_rng(0)).build_static(world)
+                by_key[key] = (shapes.walls_of(world, dt), [o.name for o in world.obstacles if o.static])
+            cell_keys.append(key)
+        #: The names of each cell's walls, in the order of ``info["obstacle"]``'s indices (walls first, then rods).
+        self.wall_names = [by_key[k][1] for k in cell_keys]
+        #: Each cell's wall count.
+        self.wall_counts = jnp.asarray([len(names) for names in self.wall_names], jnp.int32)
+        if len(by_key) == 1:
+            self.walls = by_key[cell_keys[0]][0]
+            self.wall_table = shapes.wall_table(self.walls)
+            self.per_cell_walls = False
+            return
+        width = max(len(names) for names in self.wall_names)
+
+        def pad(walls: shapes.Walls) -> shapes.Walls:
+            extra = width - walls.r.shape[0]
+            far = jnp.full((extra, 2), PARKED, dt)
+            return shapes.Walls(jnp.concatenate([walls.a, far]), jnp.concatenate([walls.b, far]),
+                                jnp.concatenate([walls.r, jnp.zeros((extra,), dt)]))
+
+        #: The walls ``(W, ...)``; with per-cell walls (:attr:`per_cell_walls`), each cell's ``(C, W, ...)``.
+        self.walls = jax.tree.map(lambda *x: jnp.stack(x), *(pad(by_key[k][0]) for k in cell_keys))
+        self.wall_table = jax.vmap(shapes.wall_table)(self.walls)
+        self.per_cell_walls = True
+
+    def walls_of(self, cell: jax.Array) -> tuple[shapes.Walls, jax.Array]:
+        """The walls and the sweep's wall table of tier cell ``cell`` (an index)."""
+        if not self.per_cell_walls:
+            return self.walls, self.wall_table
+        return jax.tree.map(lambda x: x[cell], self.walls), self.wall_table[cell]
 
     # ------------------------------------------------------------------ settings
     def cell_params(self, cfg: Any) -> SceneParams:
@@ -235,7 +270,8 @@ class FootstepJaxEnv:
         ``info``: ``termination`` (0 none, 1 goal, 2 collision, 3 fall), ``is_success``, ``feasible``,
         ``collision``, ``clipped``, ``command``, ``time`` [s], ``period`` [s], ``steps``, ``zmp_offset``
         [m], ``zmp_margin`` [m], ``clearance`` [m] (NaN on a fall), ``checks``, ``obstacle`` (index of the
-        shape hit, walls first, -1 if none), ``rewards`` (the terms of :data:`REWARD_TERMS`).
+        shape hit: its index among the cell's walls, then the rods; -1 if none), ``rewards`` (the terms of
+        :data:`REWARD_TERMS`), ``cell`` (the episode's tier cell, an index into :attr:`cells`).
         """
         del params  # the episode's settings are in the state
         robot, cfg, dt = self.robot, self.config, self.dtype
@@ -256,7 +292,8 @@ class FootstepJaxEnv:
         period = cmd[3] + cmd[4]
         path, bound = walker.path_of(robot, v, cmd, side, origin, rot)
         rods = self.scene.before_step(state.scene, state.rods, state.time, period)
-        result = shapes.sweep(path, period, bound, self.wall_table, rods, robot.body_radius,
+        walls, table = self.walls_of(state.cell)
+        result = shapes.sweep(path, period, bound, table, rods, robot.body_radius,
                               cfg.max_check_interval, cfg.collision_motion_fraction, cfg.max_sweep_checks,
                               self.block, active=feasible, cached=state.rods.position if self.scene.moves else None)
         collided = feasible & result.collided
@@ -306,7 +343,8 @@ class FootstepJaxEnv:
             "collision": collided, "clipped": clipped, "command": cmd, "time": time, "period": period,
             "steps": steps, "zmp_offset": jnp.stack([v.p.real, v.p.imag]), "zmp_margin": zmp_margin,
             "clearance": jnp.where(feasible, result.clearance, jnp.nan), "checks": result.checks,
-            "obstacle": jnp.where(collided, result.obstacle, -1), "rewards": rewards,
+            "obstacle": jnp.where(collided, self._cell_index(result.obstacle, state.cell, walls), -1), "rewards": rewards,
+            "cell": state.cell,
         }
         if self.sensing is None:
             return new_state, self.observation(new_state), reward, terminated, truncated, info
@@ -323,6 +361,12 @@ class FootstepJaxEnv:
         slowest env needs, and its arrays stay in cache.
         """
         return chunked_vmap(self.step, state, actions, chunk)
+
+    def _cell_index(self, shape: jax.Array, cell: jax.Array, walls: shapes.Walls) -> jax.Array:
+        """A sweep's shape index (walls first, padding included) as the index among the cell's own walls and then
+        the rods, the order of the reference world's obstacles."""
+        n_walls = walls.r.shape[0]
+        return jnp.where(shape >= n_walls, shape - (n_walls - self.wall_counts[cell]), shape)
 
     # ------------------------------------------------------------------ observation
     def observation(self, state: State, key: jax.Array | None = None) -> jax.Array:
@@ -345,7 +389,7 @@ class FootstepJaxEnv:
                 raise ValueError("FootstepJaxEnv.observation: the sensing noise needs a key")
             rods, rods_sensed = sense(rods, key, state.com[0], state.com[1], support[2], self.sensing)
             n_sensed = jnp.sum(rods_sensed & (jnp.abs(state.rods.position[:, 0]) < 0.5 * PARKED)).astype(jnp.int32)
-        point, pvel, mask = shapes.nearest_shapes(state.com[0], state.com[1], self.walls, rods,
+        point, pvel, mask = shapes.nearest_shapes(state.com[0], state.com[1], self.walls_of(state.cell)[0], rods,
                                                   cfg.n_obstacles_observed, cfg.sensing_range, rods_sensed)
         return observations(support[None], state.support.astype(dt)[None], state.com[None], state.com_vel[None],
                             state.goal[None], previous[None], point[None], pvel[None], mask[None],

@@ -56,6 +56,7 @@ class Episode:
     rewards: np.ndarray  # (T,)
     outcome: str  # one of OUTCOMES
     margins: list = field(default_factory=list)  # per step: (clearance, zmp_margin, goal distance - tolerance)
+    tier_cell: str | None = None  # the tier cell the reference drew (None: the JAX env's first)
 
 
 def _walk_actions(rng: np.random.Generator, low: np.ndarray, high: np.ndarray, n: int) -> np.ndarray:
@@ -114,7 +115,8 @@ def record(env_id: str, seed: int, kind: str, env_kwargs: dict | None = None, ma
         outcome = "cut"  # max_steps given shorter than the episode: it goes on
     env.close()
     return Episode(env_id, kwargs, seed, kind, start[0], start[1], u.episode_config, np.asarray(actions),
-                   np.asarray(observations, dtype=np.float32), np.asarray(rewards, dtype=np.float64), outcome, margins)
+                   np.asarray(observations, dtype=np.float32), np.asarray(rewards, dtype=np.float64), outcome, margins,
+                   u.tier_cell)
 
 
 @dataclass
@@ -127,6 +129,7 @@ class Replayed:
     termination: np.ndarray
     truncated: np.ndarray
     clearance: np.ndarray
+    obstacle: np.ndarray  # (N, T): the shape hit (its index among the cell's walls, then the rods; -1 none)
 
 
 def max_steps(episodes: list[Episode]) -> int:
@@ -141,6 +144,17 @@ def episode_start(jenv: FootstepJaxEnv, config: Any, start: dict) -> tuple[Any, 
     params = jenv.cell_params(dataclasses.replace(config, randomize={}))
     rods, scene = jenv.scene.start_from(start, params)
     return params, rods, scene
+
+
+def cell_index(jenv: FootstepJaxEnv, tier_cell: str | None) -> int:
+    """The index of the reference's tier cell ``tier_cell`` among ``jenv``'s cells; 0 where it is not one of them
+    (``None`` included) and the cells share their walls (an episode's settings come from its own config)."""
+    if tier_cell in jenv.cells:
+        return jenv.cells.index(tier_cell)
+    if jenv.per_cell_walls:
+        raise ValueError(f"replay: the episode's tier cell {tier_cell!r} is not one of the JAX env's {jenv.cells}, "
+                         f"whose cells have walls of their own")
+    return 0
 
 
 def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Replayed:
@@ -158,13 +172,14 @@ def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Re
     p, rods, scene = (jax.tree.map(stack, *x) for x in (params, rods, scene))
     feet = jnp.asarray(np.stack([e.feet for e in episodes]), dt)
     keys = jax.random.split(jax.random.key(0), len(episodes))
-    state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, scene, p, jnp.zeros(len(episodes), jnp.int32))
+    cells = jnp.asarray([cell_index(jenv, e.tier_cell) for e in episodes], jnp.int32)
+    state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, scene, p, cells)
     out = _run(jenv, state, jnp.asarray(actions))
-    obs, rew, term, trunc, clear = (np.asarray(x) for x in out)
+    obs, rew, term, trunc, clear, hit = (np.asarray(x) for x in out)
     obs = np.concatenate([np.asarray(obs0)[:, None], np.swapaxes(obs, 0, 1)], axis=1)
     clear = np.where(np.isnan(clear), np.inf, clear)
     return Replayed(obs, np.swapaxes(rew, 0, 1), np.swapaxes(term, 0, 1), np.swapaxes(trunc, 0, 1),
-                    np.swapaxes(clear, 0, 1))
+                    np.swapaxes(clear, 0, 1), np.swapaxes(hit, 0, 1))
 
 
 def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
@@ -175,7 +190,7 @@ def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
         def run(state, actions):
             def body(s, a):
                 s, obs, reward, _, truncated, info = step(s, a)
-                return s, (obs, reward, info["termination"], truncated, info["clearance"])
+                return s, (obs, reward, info["termination"], truncated, info["clearance"], info["obstacle"])
 
             return jax.lax.scan(body, state, jnp.swapaxes(actions, 0, 1))[1]
 

@@ -95,13 +95,18 @@ class Scene:
 class DoorParams(NamedTuple):
     """One tier cell's per-episode settings (leaves lead with the cell axis in ``FootstepJaxEnv.params``).
 
-    Units are the YAML's: ``door_speed_*`` [deg/s], angles [deg], lengths [m], times [s]."""
+    ``(lo, hi)`` pairs for the keys an episode may draw. Units are the YAML's: speeds [deg/s], angles [deg],
+    lengths [m], times [s]. ``door_count``: 1 or 2 (the second door's keys are read only with 2)."""
 
-    door_speed_low: jax.Array
-    door_speed_high: jax.Array
+    door_count: jax.Array
+    door_speed: jax.Array
     door_start_angle: jax.Array
     door_angle_jitter: jax.Array
     door_centre: jax.Array
+    second_door_speed: jax.Array
+    second_door_start_angle: jax.Array
+    second_door_angle_jitter: jax.Array
+    second_door_centre: jax.Array
     rod_a: jax.Array
     rod_b: jax.Array
     rod_r: jax.Array
@@ -115,47 +120,65 @@ class DoorParams(NamedTuple):
 
 
 class DoorScene(Scene):
-    """``FootstepDoor-v0`` with one door (:class:`footstep_gym.scenarios.door.Door`): the rod turns at its
-    speed, nothing sets it before a step."""
+    """``FootstepDoor-v0`` (:class:`footstep_gym.scenarios.door.Door`), with one door or two: each rod turns at its
+    speed, nothing sets it before a step. An env holds as many rods as its tier's cells have doors at most; a
+    cell with one door parks the second rod (:data:`PARKED`, still)."""
 
     name = "door"
-    randomizable = ("door_speed",)
+    randomizable = ("door_speed", "second_door_speed", "second_door_start_angle")
 
-    def unsupported(self, cfg: Any) -> str | None:
-        if cfg.door_count != 1:
-            return f"door_count={cfg.door_count}"
-        return super().unsupported(cfg)
+    def __init__(self, cfgs: list[Any], dtype: Any) -> None:
+        super().__init__(cfgs, dtype)
+        #: Rods held per env: the most doors of the tier's cells.
+        self.size = max(c.door_count for c in cfgs)
 
     def cell_params(self, cfg: Any) -> DoorParams:
         dt = self.dtype
-        lo, hi = _range(cfg, "door_speed")
         r = cfg.door_radius
-        return DoorParams(_arr(lo, dt), _arr(hi, dt), _arr(cfg.door_start_angle, dt), _arr(cfg.door_angle_jitter, dt),
-                          _arr(cfg.door_centre, dt), _arr((-r, 0.0), dt), _arr((r, 0.0), dt),
-                          _arr(0.5 * cfg.door_thickness, dt), **self.common(cfg))
+        second = (cfg.door_centre[0] + cfg.second_door_offset, cfg.door_centre[1])
+        return DoorParams(jnp.asarray(cfg.door_count, jnp.int32), _arr(_range(cfg, "door_speed"), dt),
+                          _arr(cfg.door_start_angle, dt), _arr(cfg.door_angle_jitter, dt), _arr(cfg.door_centre, dt),
+                          _arr(_range(cfg, "second_door_speed"), dt), _arr(_range(cfg, "second_door_start_angle"), dt),
+                          _arr(cfg.second_door_angle_jitter, dt), _arr(second, dt), _arr((-r, 0.0), dt),
+                          _arr((r, 0.0), dt), _arr(0.5 * cfg.door_thickness, dt), **self.common(cfg))
 
     def draw(self, key: jax.Array, p: DoorParams) -> tuple[Rods, Any]:
         dt = self.dtype
-        k_speed, k_angle = jax.random.split(key)
-        u = jax.random.uniform(k_speed, (), dt)
-        speed = p.door_speed_low + (p.door_speed_high - p.door_speed_low) * u
+        k_speed, k_angle = jax.random.split(key)  # the first door's draws are the same with a second
+        speed = _draw(k_speed, p.door_speed, dt)
         angle = jnp.deg2rad(p.door_start_angle + jax.random.uniform(k_angle, (), dt, -1.0, 1.0) * p.door_angle_jitter)
-        rods = Rods(p.door_centre[None], angle[None], jnp.zeros((1, 2), dt), -jnp.deg2rad(speed)[None],
-                    p.rod_a[None], p.rod_b[None], p.rod_r[None])
-        return rods, ()
+        if self.size == 1:
+            return self._rods(p, p.door_centre[None], angle[None], -jnp.deg2rad(speed)[None]), ()
+        k_speed2, k_start2, k_angle2 = jax.random.split(jax.random.fold_in(key, 2), 3)
+        speed2 = _draw(k_speed2, p.second_door_speed, dt)
+        angle2 = jnp.deg2rad(_draw(k_start2, p.second_door_start_angle, dt)
+                             + jax.random.uniform(k_angle2, (), dt, -1.0, 1.0) * p.second_door_angle_jitter)
+        two = p.door_count == 2
+        centres = jnp.stack([p.door_centre, jnp.where(two, p.second_door_centre, PARKED)])
+        return self._rods(p, centres, jnp.stack([angle, jnp.where(two, angle2, 0.0)]),
+                          -jnp.deg2rad(jnp.stack([speed, jnp.where(two, speed2, 0.0)]))), ()
+
+    def _rods(self, p: DoorParams, centres: jax.Array, angles: jax.Array, angular_velocity: jax.Array) -> Rods:
+        m, dt = self.size, self.dtype
+        return Rods(centres, angles, jnp.zeros((m, 2), dt), angular_velocity, jnp.broadcast_to(p.rod_a, (m, 2)),
+                    jnp.broadcast_to(p.rod_b, (m, 2)), jnp.broadcast_to(p.rod_r, (m,)))
 
     @staticmethod
     def reference_start(env: Any) -> dict[str, np.ndarray]:
-        body = next(o for o in env.world.obstacles if not o.static).body
-        return {"position": np.array(body.position, dtype=np.float64), "angle": np.float64(body.angle),
-                "angular_velocity": np.float64(body.angular_velocity)}
+        bodies = [o.body for o in env.world.obstacles if not o.static]
+        return {"position": np.array([tuple(b.position) for b in bodies], dtype=np.float64).reshape(-1, 2),
+                "angle": np.array([b.angle for b in bodies], dtype=np.float64),
+                "angular_velocity": np.array([b.angular_velocity for b in bodies], dtype=np.float64)}
 
     def start_from(self, start: dict[str, Any], p: DoorParams) -> tuple[Rods, Any]:
-        dt = self.dtype
-        rods = Rods(jnp.asarray(start["position"], dt)[None], jnp.asarray(start["angle"], dt)[None],
-                    jnp.zeros((1, 2), dt), jnp.asarray(start["angular_velocity"], dt)[None],
-                    p.rod_a[None], p.rod_b[None], p.rod_r[None])
-        return rods, ()
+        dt, m = self.dtype, self.size
+        k = len(start["angle"])
+
+        def pad(x: Any, value: float = 0.0) -> jax.Array:
+            x = jnp.asarray(x, dt)
+            return jnp.concatenate([x, jnp.full((m - k,) + x.shape[1:], value, dt)]) if m > k else x
+
+        return self._rods(p, pad(start["position"], PARKED), pad(start["angle"]), pad(start["angular_velocity"])), ()
 
 
 # ---------------------------------------------------------------------------------------------------- the crowd

@@ -8,10 +8,15 @@ measured apart, on the first call. Two workloads:
   as in the reference env's speed tiers);
 * ``walk``: every env walks 5 cm strides at the nominal period towards the goal (the sweep's checks weigh
   heavily: envs walk the door's corridor, reach the door and hit it or pass; in the crowd the ring closes in).
+
+``devices``: the batch split evenly over that many JAX devices (``jax.shard_map``), each running its share as one
+program. On a CPU, XLA runs one program on one core; :func:`use_cpu_devices` splits the CPU into as many devices
+as it has cores (before JAX starts), so a batch uses them all.
 """
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
 from dataclasses import dataclass
@@ -40,10 +45,25 @@ class Rate:
     state_bytes: int
 
 
-def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: int = 64) -> Any:
-    """``(state, key) -> (state, key, rewards sum)``: ``steps`` batched footsteps with same-step resets."""
+def use_cpu_devices(count: int | None = None) -> int:
+    """Split the CPU into ``count`` JAX devices (default: one per core), before JAX has started its backends;
+    returns the number of devices JAX then has. Raises ``RuntimeError`` once JAX has started."""
+    if count is None:
+        count = os.cpu_count() or 1
+    if count < 1:
+        raise ValueError(f"use_cpu_devices: count must be >= 1, got {count}")
+    jax.config.update("jax_num_cpu_devices", int(count))
+    return len(jax.devices())
+
+
+def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: int = 64, devices: int = 1) -> Any:
+    """``(state, keys) -> (state, keys, rewards sum per device)``: ``steps`` batched footsteps with same-step resets,
+    the batch split over the first ``devices`` devices (``keys``: one per device)."""
     if workload not in WORKLOADS:
         raise ValueError(f"workload must be one of {WORKLOADS}, got {workload!r}")
+    if devices < 1 or n % devices or devices > len(jax.devices()):
+        raise ValueError(f"rollout_fn: {n} envs do not split over {devices} device(s) ({len(jax.devices())} exist)")
+    local = n // devices  # envs per device
     low = jnp.asarray(env.action_space.low)
     high = jnp.asarray(env.action_space.high)
     walk = jnp.asarray(WALK, jnp.float32)
@@ -53,29 +73,45 @@ def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: in
         state, key, total = carry
         key, k_act, k_reset = jax.random.split(key, 3)
         if workload == "random":
-            actions = jax.random.uniform(k_act, (n, 5), jnp.float32, low, high)
+            actions = jax.random.uniform(k_act, (local, 5), jnp.float32, low, high)
         else:
-            actions = jnp.broadcast_to(walk, (n, 5))
+            actions = jnp.broadcast_to(walk, (local, 5))
         state, _, reward, terminated, truncated, _ = env.step_batch(state, actions, chunk)
-        fresh, _ = reset(jax.random.split(k_reset, n))
+        fresh, _ = reset(jax.random.split(k_reset, local))
         done = terminated | truncated
         state = jax.tree.map(lambda a, b: jnp.where(done.reshape((-1,) + (1,) * (a.ndim - 1)), a, b), fresh, state)
         return (state, key, total + jnp.sum(reward)), None
 
-    def run(state, key):
-        (state, key, total), _ = jax.lax.scan(body, (state, key, jnp.zeros((), env.dtype)), None, length=steps)
-        return state, key, total
+    def run(state, keys):
+        (state, key, total), _ = jax.lax.scan(body, (state, keys[0], jnp.zeros((), env.dtype)), None, length=steps)
+        return state, key[None], total[None]
 
-    return jax.jit(run)
+    if devices == 1:
+        return jax.jit(run)
+    spec = jax.sharding.PartitionSpec("env")
+    return jax.jit(jax.shard_map(run, mesh=_mesh(devices), in_specs=(spec, spec), out_specs=(spec, spec, spec),
+                                 check_vma=False))  # each device runs its own envs: nothing is shared
 
 
-def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str, seed: int = 0, chunk: int = 64
-            ) -> Rate:
+def _mesh(devices: int) -> jax.sharding.Mesh:
+    return jax.make_mesh((devices,), ("env",), devices=jax.devices()[:devices])
+
+
+def split_over(tree: Any, devices: int) -> Any:
+    """``tree``'s leaves (leading with the batch) laid out evenly over the first ``devices`` devices."""
+    if devices == 1:
+        return tree
+    return jax.device_put(tree, jax.sharding.NamedSharding(_mesh(devices), jax.sharding.PartitionSpec("env")))
+
+
+def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str, seed: int = 0, chunk: int = 64,
+            devices: int = 1) -> Rate:
     """Steps/s of ``n`` envs over ``repeats`` runs of ``steps`` batched footsteps (median), compile apart
-    (``chunk``: :meth:`FootstepJaxEnv.step_batch`'s)."""
-    fn = rollout_fn(env, n, steps, workload, chunk)
-    key = jax.random.key(seed)
-    state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(key, n))
+    (``chunk``: :meth:`FootstepJaxEnv.step_batch`'s; ``devices``: :func:`rollout_fn`'s)."""
+    fn = rollout_fn(env, n, steps, workload, chunk, devices)
+    key = split_over(jax.random.split(jax.random.key(seed), devices), devices)
+    state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(seed + 1), n))
+    state = split_over(state, devices)
     t0 = time.perf_counter()
     state, key, total = fn(state, key)
     total.block_until_ready()
@@ -87,8 +123,7 @@ def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str
         total.block_until_ready()
         times.append(time.perf_counter() - t0)
     rates = [n * steps / t for t in times]
-    state_bytes = sum(x.nbytes for x in jax.tree.leaves(jax.tree.map(lambda x: x[0], state))
-                      if hasattr(x, "nbytes"))
+    state_bytes = sum(x.nbytes // n for x in jax.tree.leaves(state) if hasattr(x, "nbytes"))
     return Rate(n, statistics.median(rates), compile_s, rates, int(state_bytes))
 
 

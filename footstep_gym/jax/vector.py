@@ -51,8 +51,8 @@ class FootstepVectorEnv(VectorEnv):
     envs do; an env's later episodes draw from its own key. Actions: ``(num_envs, 5)`` floats; a wrong shape
     or a non-finite value raises :class:`~footstep_gym.errors.ActionError` naming the env and field, before
     any env changes. ``info`` holds :data:`INFO_KEYS` (``termination``: ``"goal"``, ``"collision"``,
-    ``"fall"`` or ``None``), ``sensed_obstacles`` with a sensing option on, and ``rewards`` (the terms), each
-    with Gymnasium's ``_key`` mask.
+    ``"fall"`` or ``None``), ``sensed_obstacles`` with a sensing option on, ``tier_cell`` (the episode's cell)
+    and ``rewards`` (the terms), each with Gymnasium's ``_key`` mask.
     """
 
     def __init__(self, num_envs: int = 1, scenario: str = "door", *,
@@ -187,6 +187,8 @@ class FootstepVectorEnv(VectorEnv):
             if key == "termination":
                 value = np.array([termination_name(int(c)) for c in value], dtype=object)
             out[key], out[f"_{key}"] = value, where.copy()
+        out["tier_cell"] = np.array([self.jax_env.cells[c] for c in np.asarray(info["cell"])], dtype=object)
+        out["_tier_cell"] = where.copy()
         out["rewards"] = {k: np.asarray(info["rewards"][k], dtype=np.float64) for k in REWARD_TERMS}
         out["_rewards"] = where.copy()
         return out

@@ -6,10 +6,11 @@
     python baselines/jax_speed.py --dtype float64                  # (sets JAX's 64-bit mode)
     python baselines/jax_speed.py --devices 1                      # the batch on one core (default: split over all)
 
-Prints one table per workload (engine and workloads: ``footstep_gym/jax/speed.py``): per N, the median
-steps/s over the repeats, the slowest and fastest repeat, the ratio to one reference env measured in the same
-run on the same workload, the first call's compile time and the state's size per env. On a shared machine the
-figures move with the load: quote them as measured, with the load average this prints.
+Prints one table per workload (engine and workloads: ``footstep_gym/jax/speed.py``), after the reference env's
+and a Gymnasium ``SyncVectorEnv``'s rates on the same workload: per N, the median steps/s over the repeats, the
+slowest and fastest repeat, the ratio to one reference env measured in the same run on the same workload, the
+first call's compile time and the state's size per env. On a shared machine the figures move with the load: quote
+them as measured, with the load average this prints.
 """
 
 from __future__ import annotations
@@ -28,10 +29,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="footsteps per timed run (default: about 2^18 env steps per run, at least 32)")
     p.add_argument("--repeats", type=int, default=3, help="timed runs per size (median reported)")
     p.add_argument("--reference-steps", type=int, default=3000, help="reference env steps timed per workload")
+    p.add_argument("--sync-envs", type=int, default=8,
+                   help="reference envs in the SyncVectorEnv timed beside (0: none)")
     p.add_argument("--scene", default="door", help="door, crossing or crowd (footstep_gym.jax.scenes.SCENES)")
     p.add_argument("--tier", default="train", help="benchmark tier of the scene (default train)")
     p.add_argument("--dtype", default="float32", choices=("float32", "float64"))
-    p.add_argument("--block", type=int, default=8, help="collision checks per sweep iteration")
+    p.add_argument("--block", type=int, default=None,
+                   help="collision checks per sweep iteration (default: footstep_gym.jax.shapes.DEFAULT_BLOCK)")
     p.add_argument("--chunk", type=int, default=64, help="envs per vmap chunk (FootstepJaxEnv.step_batch)")
     p.add_argument("--devices", type=int, default=0,
                    help="JAX devices the batch is split over (default: on a CPU, one per core; on a GPU, 1); a size "
@@ -47,8 +51,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     bad = [w for w in args.workloads if w not in ("random", "walk")]
     if bad:
         p.error(f"unknown workload(s) {bad}; choose from random, walk")
-    if args.repeats < 1 or args.steps < 0 or args.reference_steps < 1 or args.chunk < 1 or args.devices < 0:
-        p.error("--repeats, --reference-steps and --chunk must be >= 1, --steps and --devices >= 0")
+    if (args.repeats < 1 or args.steps < 0 or args.reference_steps < 1 or args.chunk < 1 or args.devices < 0
+            or args.sync_envs < 0):
+        p.error("--repeats, --reference-steps and --chunk must be >= 1, --steps, --devices and --sync-envs >= 0")
     return args
 
 
@@ -69,6 +74,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"jax_speed.py: unknown scene {args.scene!r}; choose from {sorted(SCENARIOS)}")
         return 2
     env_id = SCENARIOS[args.scene].env_id
+    from footstep_gym.jax.shapes import DEFAULT_BLOCK
+
+    args.block = args.block or DEFAULT_BLOCK
     env = FootstepJaxEnv(args.scene, dtype=args.dtype, tier=args.tier, block=args.block)
     print(f"{env_id} tier={args.tier} dtype={args.dtype} block={args.block} chunk={args.chunk}; jax {jax.__version__} on "
           f"{jax.devices()[0].platform} x {devices} device(s) ({os.cpu_count()} CPUs), "
@@ -77,6 +85,10 @@ def main(argv: list[str] | None = None) -> int:
     for workload in args.workloads:
         ref = speed.reference_rate(args.reference_steps, workload, {"tier": args.tier}, env_id=env_id)
         print(f"\n{workload}: reference env (one FootstepEnv) {ref:,.0f} steps/s")
+        if args.sync_envs:
+            sync = speed.sync_vector_rate(max(1, args.reference_steps // args.sync_envs), workload,
+                                          {"tier": args.tier}, args.sync_envs, env_id=env_id)
+            print(f"{workload}: Gymnasium SyncVectorEnv of {args.sync_envs} reference envs {sync:,.0f} env steps/s")
         print(f"{'N':>7} {'devices':>7} {'steps/run':>9} {'steps/s':>12} {'min':>12} {'max':>12} {'x ref':>8} "
               f"{'compile s':>9} {'state B/env':>11}")
         for n in args.sizes:

@@ -257,8 +257,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     from footstep_gym.errors import ConfigError
     from footstep_gym.jax import speed
 
-    if speed.use_cpu_devices(args.devices) < args.devices:
-        parser.error(f"--devices {args.devices}: JAX has fewer devices here")
+    if args.devices > 1:
+        try:
+            if speed.use_cpu_devices(args.devices) < args.devices:
+                parser.error(f"--devices {args.devices}: JAX has fewer devices here")
+        except RuntimeError as exc:  # JAX started before (train_jax.main called in a process that used JAX)
+            parser.error(f"--devices {args.devices}: {exc}")
     from footstep_gym.jax import ppo
 
     try:

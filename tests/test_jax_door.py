@@ -77,7 +77,7 @@ def _door_world(angle, speed_deg, robot):
     return world
 
 
-@pytest.mark.parametrize("block", [1, 8])
+@pytest.mark.parametrize("block", [1, 2, 8])
 def test_sweep_matches_pymunk(x64, block):
     """The sweep's contact, its instant, the number of checks and the door's angle at the end equal pymunk's
     (``World.sweep_pymunk``, which asks pymunk at every check), for robots walking at the door."""

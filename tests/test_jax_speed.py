@@ -59,3 +59,12 @@ def test_bad_splits_and_late_device_changes_are_refused():
         speed.use_cpu_devices(2)
     with pytest.raises(ValueError, match="count must be >= 1"):
         speed.use_cpu_devices(0)
+
+
+def test_the_sync_vector_env_beside_it_runs_both_workloads():
+    """The SyncVectorEnv figure printed beside the batched one: reference envs stepped through Gymnasium's own
+    vector env on the same workloads."""
+    for workload in ("walk", "random"):
+        assert speed.sync_vector_rate(3, workload, {"tier": "train"}, 2) > 0.0
+    with pytest.raises(ValueError, match="workload must be one of"):
+        speed.sync_vector_rate(3, "jog", {"tier": "train"}, 2)

@@ -96,7 +96,7 @@ class FootstepJaxEnv:
     """
 
     def __init__(self, scenario: str = "door", *, dtype: Any = "float32", tier: str | None = tiers.DEFAULT_TIER,
-                 tier_cell: str | None = None, block: int = 8, **env_kwargs: Any) -> None:
+                 tier_cell: str | None = None, block: int = shapes.DEFAULT_BLOCK, **env_kwargs: Any) -> None:
         if scenario not in SCENES:
             raise _unsupported(f"scene {scenario!r}")
         if "render_mode" in env_kwargs:
@@ -343,8 +343,8 @@ class FootstepJaxEnv:
             "collision": collided, "clipped": clipped, "command": cmd, "time": time, "period": period,
             "steps": steps, "zmp_offset": jnp.stack([v.p.real, v.p.imag]), "zmp_margin": zmp_margin,
             "clearance": jnp.where(feasible, result.clearance, jnp.nan), "checks": result.checks,
-            "obstacle": jnp.where(collided, self._cell_index(result.obstacle, state.cell, walls), -1), "rewards": rewards,
-            "cell": state.cell,
+            "obstacle": jnp.where(collided, self._cell_index(result.obstacle, state.cell, walls), -1),
+            "rewards": rewards, "cell": state.cell,
         }
         if self.sensing is None:
             return new_state, self.observation(new_state), reward, terminated, truncated, info

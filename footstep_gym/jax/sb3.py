@@ -26,6 +26,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
+from footstep_gym.jax import shapes
 from footstep_gym.jax.vector import FootstepVectorEnv
 
 
@@ -39,8 +40,8 @@ class FootstepSB3VecEnv(VecEnv):
             scenario keys, env.yaml keys).
     """
 
-    def __init__(self, num_envs: int, scenario: str = "door", *, dtype: Any = "float32", block: int = 8,
-                 chunk: int = 64, **env_kwargs: Any) -> None:
+    def __init__(self, num_envs: int, scenario: str = "door", *, dtype: Any = "float32",
+                 block: int = shapes.DEFAULT_BLOCK, chunk: int = 64, **env_kwargs: Any) -> None:
         self.venv = FootstepVectorEnv(num_envs, scenario, autoreset_mode=AutoresetMode.SAME_STEP, dtype=dtype,
                                       block=block, chunk=chunk, **env_kwargs)
         self.render_mode = None

@@ -9,13 +9,12 @@ operations of Chipmunk's point queries (the compiled sweep's), the observation's
 §4.1): the same instants, the same first contact, the same bodies' poses, up to the last bits of libm's
 ``exp``/``sin``/``cos`` (XLA's differ from the C library's by an ulp here and there).
 
-**How the sweep runs.** The reference takes one check at a time. Here each iteration of a ``lax.while_loop``
-evaluates a block of ``block`` checks: the next one, whose instant is exact, and the ones that follow it if
-every check in between is in the fine regime (the next check ``fine`` seconds later). Which of them the
-reference would really have made is decided afterwards from their distances (the first check whose rule gives
-another interval, a contact or the step's end closes the block), so the block's answer is the one-check loop's
-answer exactly (``tests/test_jax_door.py`` checks ``block=1`` against wider blocks); a wider block only takes
-fewer iterations, which under ``vmap`` (every env waits for the slowest) is what costs.
+**How the sweep runs.** The reference takes one check at a time, each check's distance setting the interval to
+the next. Here a ``lax.while_loop`` runs until the sweep ends, each of its iterations taking ``block`` checks one
+after another (the loop unrolled ``block`` times; the checks after a contact or the step's end change nothing), so
+the answers are the one-check loop's whatever ``block`` is (``tests/test_jax_door.py`` checks ``block=1`` against
+wider blocks). Under ``vmap`` every env of a batch waits for the slowest; a wider block takes fewer iterations of
+the loop, each costing more where most envs have ended.
 """
 
 from __future__ import annotations
@@ -25,6 +24,9 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+#: Collision checks per iteration of the sweep's loop (:func:`sweep`'s ``block``): speed only, never the answers.
+DEFAULT_BLOCK = 2
 
 #: [m] added to the sweep's horizon (the reference's ``radius + speed * (duration - t) + 1e-9``).
 HORIZON_SLACK = 1e-9
@@ -125,8 +127,8 @@ class SweepResult(NamedTuple):
 
 
 def sweep(path: Any, duration: jax.Array, robot_speed_bound: jax.Array, table: jax.Array, rods: Rods,
-          radius: float, max_check_interval: float, motion_fraction: float, max_checks: int, block: int = 8,
-          active: Any = True, cached: jax.Array | None = None) -> SweepResult:
+          radius: float, max_check_interval: float, motion_fraction: float, max_checks: int,
+          block: int = DEFAULT_BLOCK, active: Any = True, cached: jax.Array | None = None) -> SweepResult:
     """The reference's collision sweep (``World.sweep``) over one footstep of ``duration`` [s].
 
     ``path(t) -> (x, y)`` is the CoM (body centre) at ``t`` (``(B,)`` times at once); ``robot_speed_bound``
@@ -159,45 +161,29 @@ def sweep(path: Any, duration: jax.Array, robot_speed_bound: jax.Array, table: j
         return jnp.where(dt >= duration - t, duration, t + dt)
 
     def body(carry):
-        t0, rods0, checks, nearest, _, _, _ = carry
-        # The block's instants and rods, assuming fine intervals after the first (exact) check.
-        ts, rs = [t0], [rods0]
-        for _ in range(block - 1):
-            t_prev, r_prev = ts[-1], rs[-1]
-            remaining = duration - t_prev
-            dt = jnp.where(speed <= 0, remaining, jnp.where(fine < remaining, fine, remaining))
-            ts.append(advance(t_prev, dt))
-            rs.append(r_prev.moved(dt))
-        tb = jnp.stack(ts)
-        rb = jax.tree.map(lambda *x: jnp.stack(x), *rs)
-        qx, qy = path(tb)
-        seen = rb
-        if cached is not None:  # the sweep's first check sees the shapes where pymunk cached them
-            seen = rb._replace(position=rb.position.at[0].set(jnp.where(checks == 0, cached, rb.position[0])))
-        d = distances(qx, qy, table, seen)  # (block, shapes)
-        horizon = radius + speed * (duration - tb) + HORIZON_SLACK
-        dmin = jnp.min(d, axis=-1)
-        hit = dmin < horizon
-        dist = jnp.where(hit, dmin, horizon)
-        shape = jnp.where(hit, jnp.argmin(d, axis=-1), -1)
-        collide = hit & (dist < radius)
-        ended = tb >= duration
-        dt_real = next_dt(dist, tb)
-        remaining = duration - tb
-        spec = jnp.where(speed <= 0, remaining, jnp.where(fine < remaining, fine, remaining))
-        mismatch = dt_real != spec
-        stop = collide | ended | mismatch
-        stop = stop.at[-1].set(True)
-        j = jnp.argmax(stop)
-        upto = jnp.arange(block) <= j
-        nearest = jnp.minimum(nearest, jnp.min(jnp.where(upto & hit, dist, inf)))
-        rods_j = jax.tree.map(lambda x: x[j], rb)
-        t_j, dt_j = tb[j], dt_real[j]
-        status = jnp.where(collide[j], 2, jnp.where(ended[j], 1, 0))
-        t_next = jnp.where(status == 0, advance(t_j, dt_j), t_j)
-        rods_next = jax.tree.map(lambda a, b: jnp.where(status == 0, a, b), rods_j.moved(dt_j), rods_j)
-        return (t_next, rods_next, (checks + j + 1).astype(jnp.int32), nearest, status.astype(jnp.int32),
-                shape[j].astype(jnp.int32), dist[j])
+        t, rods_now, checks, nearest, status, shape, dist = carry
+        for _ in range(block):  # the reference's one-check loop, `block` checks per iteration; none after the last
+            running = status == 0
+            qx, qy = path(t[None])
+            seen = rods_now
+            if cached is not None:  # the sweep's first check sees the shapes where pymunk cached them
+                seen = rods_now._replace(position=jnp.where(checks == 0, cached, rods_now.position))
+            d = distances(qx, qy, table, jax.tree.map(lambda x: x[None], seen))[0]
+            horizon = radius + speed * (duration - t) + HORIZON_SLACK
+            dmin = jnp.min(d)
+            hit = dmin < horizon
+            dist_now = jnp.where(hit, dmin, horizon)
+            verdict = jnp.where(hit & (dist_now < radius), 2, jnp.where(t >= duration, 1, 0))
+            go = running & (verdict == 0)
+            dt = next_dt(dist_now, t)
+            nearest = jnp.where(running & hit, jnp.minimum(nearest, dist_now), nearest)
+            shape = jnp.where(running, jnp.where(hit, jnp.argmin(d), -1), shape).astype(jnp.int32)
+            dist = jnp.where(running, dist_now, dist)
+            checks = (checks + running).astype(jnp.int32)
+            status = jnp.where(running, verdict, status).astype(jnp.int32)
+            rods_now = jax.tree.map(lambda a, b: jnp.where(go, a, b), rods_now.moved(dt), rods_now)
+            t = jnp.where(go, advance(t, dt), t)
+        return t, rods_now, checks, nearest, status, shape, dist
 
     carry0 = (jnp.zeros((), dtype), rods, jnp.zeros((), jnp.int32), inf, jnp.where(active, 0, 1).astype(jnp.int32),
               jnp.full((), -1, jnp.int32), inf)

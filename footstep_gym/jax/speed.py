@@ -127,6 +127,30 @@ def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str
     return Rate(n, statistics.median(rates), compile_s, rates, int(state_bytes))
 
 
+def sync_vector_rate(steps: int, workload: str, env_kwargs: dict, num_envs: int, seed: int = 0,
+                     env_id: str = "FootstepDoor-v0") -> float:
+    """Env steps/s of Gymnasium's ``SyncVectorEnv`` of ``num_envs`` reference envs on the same workload (its own
+    autoreset), ``steps`` batched steps after 20 of warm-up."""
+    if workload not in WORKLOADS:
+        raise ValueError(f"workload must be one of {WORKLOADS}, got {workload!r}")
+    envs = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="sync", **env_kwargs)
+    envs.action_space.seed(seed)
+    envs.reset(seed=seed)
+    walk = np.tile(np.asarray(WALK, np.float32), (num_envs, 1))
+
+    def act() -> np.ndarray:
+        return envs.action_space.sample() if workload == "random" else walk
+
+    for _ in range(20):
+        envs.step(act())
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        envs.step(act())
+    rate = steps * num_envs / (time.perf_counter() - t0)
+    envs.close()
+    return rate
+
+
 def reference_rate(steps: int, workload: str, env_kwargs: dict, seed: int = 0, env_id: str = "FootstepDoor-v0"
                    ) -> float:
     """Steps/s of one reference env (``gymnasium.make(env_id)``) on the same workload, reset at episode end."""

@@ -18,6 +18,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from footstep_gym.errors import ActionError, ConfigError
+from footstep_gym.jax import shapes
 from footstep_gym.jax.env import REWARD_TERMS, FootstepJaxEnv, termination_name
 
 #: ``info`` keys returned per step (arrays of ``num_envs``), each with Gymnasium's ``_key`` mask.
@@ -57,7 +58,7 @@ class FootstepVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int = 1, scenario: str = "door", *,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, dtype: Any = "float32",
-                 block: int = 8, chunk: int = 64, **env_kwargs: Any) -> None:
+                 block: int = shapes.DEFAULT_BLOCK, chunk: int = 64, **env_kwargs: Any) -> None:
         if not (isinstance(num_envs, (int, np.integer)) and num_envs >= 1):
             raise ConfigError(f"FootstepVectorEnv: num_envs must be an integer >= 1, got {num_envs!r}")
         try:

@@ -89,11 +89,12 @@ def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: in
     if devices == 1:
         return jax.jit(run)
     spec = jax.sharding.PartitionSpec("env")
-    return jax.jit(jax.shard_map(run, mesh=_mesh(devices), in_specs=(spec, spec), out_specs=(spec, spec, spec),
+    return jax.jit(jax.shard_map(run, mesh=batch_mesh(devices), in_specs=(spec, spec), out_specs=(spec, spec, spec),
                                  check_vma=False))  # each device runs its own envs: nothing is shared
 
 
-def _mesh(devices: int) -> jax.sharding.Mesh:
+def batch_mesh(devices: int) -> jax.sharding.Mesh:
+    """The first ``devices`` JAX devices along one axis, ``"env"``: the batch's."""
     return jax.make_mesh((devices,), ("env",), devices=jax.devices()[:devices])
 
 
@@ -101,7 +102,7 @@ def split_over(tree: Any, devices: int) -> Any:
     """``tree``'s leaves (leading with the batch) laid out evenly over the first ``devices`` devices."""
     if devices == 1:
         return tree
-    return jax.device_put(tree, jax.sharding.NamedSharding(_mesh(devices), jax.sharding.PartitionSpec("env")))
+    return jax.device_put(tree, jax.sharding.NamedSharding(batch_mesh(devices), jax.sharding.PartitionSpec("env")))
 
 
 def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str, seed: int = 0, chunk: int = 64,

@@ -8,6 +8,7 @@ settings, the observation, rewards and endings) is :class:`footstep_gym.jax.env.
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import gymnasium as gym
@@ -18,7 +19,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from footstep_gym.errors import ActionError, ConfigError
-from footstep_gym.jax import shapes
+from footstep_gym.jax import shapes, speed
 from footstep_gym.jax.env import REWARD_TERMS, FootstepJaxEnv, termination_name
 
 #: ``info`` keys returned per step (arrays of ``num_envs``), each with Gymnasium's ``_key`` mask.
@@ -46,6 +47,9 @@ class FootstepVectorEnv(VectorEnv):
         dtype: ``"float32"`` (default) or ``"float64"`` (JAX's 64-bit mode on).
         block, chunk: collision checks per sweep iteration and envs per ``vmap`` chunk (speed only; the answers
             do not depend on them).
+        devices: JAX devices the batch is split over, evenly (``num_envs`` must divide by it); on a CPU, split it
+            into one device per core first (:func:`footstep_gym.jax.speed.use_cpu_devices`, before JAX starts).
+            Speed only: each env's episode is the same on any number of devices.
         env_kwargs: ``gymnasium.make``'s keywords (scenario keys, ``tier``, ``tier_cell``, env.yaml keys).
 
     Seeding: ``reset(seed=s)`` seeds env ``i`` with ``s + i`` (a list: one seed each), as Gymnasium's vector
@@ -58,9 +62,13 @@ class FootstepVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int = 1, scenario: str = "door", *,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP, dtype: Any = "float32",
-                 block: int = shapes.DEFAULT_BLOCK, chunk: int = 64, **env_kwargs: Any) -> None:
+                 block: int = shapes.DEFAULT_BLOCK, chunk: int = 64, devices: int = 1, **env_kwargs: Any) -> None:
         if not (isinstance(num_envs, (int, np.integer)) and num_envs >= 1):
             raise ConfigError(f"FootstepVectorEnv: num_envs must be an integer >= 1, got {num_envs!r}")
+        if not (isinstance(devices, (int, np.integer)) and 1 <= devices <= len(jax.devices())
+                and num_envs % devices == 0):
+            raise ConfigError(f"FootstepVectorEnv: devices must be a whole number from 1 to {len(jax.devices())} (the "
+                              f"JAX devices here) that divides num_envs={num_envs}, got {devices!r}")
         try:
             mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -84,8 +92,25 @@ class FootstepVectorEnv(VectorEnv):
         self.observation_space = batch_space(env.observation_space, self.num_envs)
         self._state = None
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
-        self._reset_fn = jax.jit(self._reset_batch)
-        self._step_fn = jax.jit(self._step_batch, static_argnames=("same_step",))
+        self.devices = int(devices)
+        self._reset_fn = jax.jit(self._on_devices(self._reset_batch))
+        self._step_fn = jax.jit(self._on_devices(self._step_batch), static_argnames=("same_step",))
+
+    def _on_devices(self, fn: Any) -> Any:
+        """``fn`` (every argument and result leading with the batch) run by each device on its share."""
+        if self.devices == 1:
+            return fn
+        mesh, spec = speed.batch_mesh(self.devices), jax.sharding.PartitionSpec("env")
+
+        def run(*args: Any, **static: Any) -> Any:
+            return jax.shard_map(functools.partial(fn, **static), mesh=mesh, in_specs=spec, out_specs=spec,
+                                 check_vma=False)(*args)  # each device steps its own envs: nothing is shared
+
+        return run
+
+    def _put(self, x: Any) -> Any:
+        """``x`` (leading with the batch) laid out over the devices."""
+        return speed.split_over(x, self.devices)
 
     # ------------------------------------------------------------------ jitted batch functions
     def _reset_batch(self, keys: jax.Array, state: Any, mask: jax.Array) -> tuple[Any, jax.Array]:
@@ -134,7 +159,7 @@ class FootstepVectorEnv(VectorEnv):
             if self._state is None and not mask.all():
                 raise gym.error.ResetNeeded("FootstepVectorEnv: the first reset must reset every env")
         state = None if mask.all() else self._state
-        self._state, obs = self._reset_fn(_keys_of(seeds), state, jnp.asarray(mask))
+        self._state, obs = self._reset_fn(self._put(_keys_of(seeds)), state, self._put(jnp.asarray(mask)))
         self._autoreset = np.where(mask, False, self._autoreset)
         return np.asarray(obs), {}
 
@@ -164,7 +189,7 @@ class FootstepVectorEnv(VectorEnv):
         if self.autoreset_mode == AutoresetMode.DISABLED and self._autoreset.any():
             raise gym.error.ResetNeeded(f"FootstepVectorEnv: envs {np.flatnonzero(self._autoreset).tolist()} ended; "
                                         "reset them with reset(options={'reset_mask': mask}) (autoreset_mode=DISABLED)")
-        out = self._step_fn(self._state, jnp.asarray(a), jnp.asarray(mask), same_step=same)
+        out = self._step_fn(self._state, self._put(jnp.asarray(a)), self._put(jnp.asarray(mask)), same_step=same)
         self._state, obs, last_obs, reward, terminated, truncated, info = out
         obs, reward = np.asarray(obs), np.asarray(reward, dtype=np.float64)
         terminated, truncated = np.asarray(terminated), np.asarray(truncated)

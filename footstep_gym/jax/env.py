@@ -35,7 +35,7 @@ from footstep_gym.errors import ConfigError
 from footstep_gym.footstep import RIGHT
 from footstep_gym.jax import shapes, walker
 from footstep_gym.jax.scenes import (PARKED, SCENES, DoorParams, Scene,  # noqa: F401  (DoorParams re-exported)
-                                     SceneParams)
+                                     SceneParams, pad_to)
 from footstep_gym.jax.sensing import Sensing, sense
 from footstep_gym.observation import ObservationScales, command_to_unit, observations
 from footstep_gym.world import World
@@ -163,10 +163,8 @@ class FootstepJaxEnv:
         width = max(len(names) for names in self.wall_names)
 
         def pad(walls: shapes.Walls) -> shapes.Walls:
-            extra = width - walls.r.shape[0]
-            far = jnp.full((extra, 2), PARKED, dt)
-            return shapes.Walls(jnp.concatenate([walls.a, far]), jnp.concatenate([walls.b, far]),
-                                jnp.concatenate([walls.r, jnp.zeros((extra,), dt)]))
+            return shapes.Walls(pad_to(walls.a, width, PARKED, dt), pad_to(walls.b, width, PARKED, dt),
+                                pad_to(walls.r, width, 0.0, dt))
 
         #: The walls ``(W, ...)``; with per-cell walls (:attr:`per_cell_walls`), each cell's ``(C, W, ...)``.
         self.walls = jax.tree.map(lambda *x: jnp.stack(x), *(pad(by_key[k][0]) for k in cell_keys))

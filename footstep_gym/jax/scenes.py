@@ -38,6 +38,13 @@ def _range(cfg: Any, key: str) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
+def pad_to(x: Any, size: int, value: float, dtype: Any) -> jax.Array:
+    """``x`` as ``dtype``, its leading axis filled up to ``size`` with ``value`` (unchanged if it has as many)."""
+    x = jnp.asarray(x, dtype)
+    extra = size - x.shape[0]
+    return jnp.concatenate([x, jnp.full((extra,) + x.shape[1:], value, dtype)]) if extra > 0 else x
+
+
 def _draw(key: jax.Array, bounds: jax.Array, dtype: Any) -> jax.Array:
     """A uniform draw in ``[lo, hi]`` (``bounds = (lo, hi)``; ``lo`` exactly where ``lo == hi``)."""
     return bounds[0] + (bounds[1] - bounds[0]) * jax.random.uniform(key, (), dtype)
@@ -172,13 +179,8 @@ class DoorScene(Scene):
 
     def start_from(self, start: dict[str, Any], p: DoorParams) -> tuple[Rods, Any]:
         dt, m = self.dtype, self.size
-        k = len(start["angle"])
-
-        def pad(x: Any, value: float = 0.0) -> jax.Array:
-            x = jnp.asarray(x, dt)
-            return jnp.concatenate([x, jnp.full((m - k,) + x.shape[1:], value, dt)]) if m > k else x
-
-        return self._rods(p, pad(start["position"], PARKED), pad(start["angle"]), pad(start["angular_velocity"])), ()
+        return self._rods(p, pad_to(start["position"], m, PARKED, dt), pad_to(start["angle"], m, 0.0, dt),
+                          pad_to(start["angular_velocity"], m, 0.0, dt)), ()
 
 
 # ---------------------------------------------------------------------------------------------------- the crowd
@@ -310,8 +312,7 @@ class CrowdScene(Scene):
         k = start["angles"].shape[-1]
 
         def pad(x: Any, value: float = 0.0) -> jax.Array:
-            x = jnp.asarray(x, dt)
-            return jnp.concatenate([x, jnp.full((m - k,) + x.shape[1:], value, dt)]) if m > k else x
+            return pad_to(x, m, value, dt)
 
         start_pt, direction = self._walk(p)
         scene = CrowdState(pad(start["angles"]), pad(start["amplitudes"]), pad(start["periods"], 1.0),
@@ -462,8 +463,7 @@ class CrossingScene(Scene):
         n = start["position"].shape[0]
 
         def pad(x: Any, value: float = 0.0) -> jax.Array:
-            x = jnp.asarray(x, dt)
-            return jnp.concatenate([x, jnp.full((m - n,) + x.shape[1:], value, dt)]) if m > n else x
+            return pad_to(x, m, value, dt)
 
         traffic = "offset" in start
         zeros = np.zeros(n)

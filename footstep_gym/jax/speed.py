@@ -16,6 +16,7 @@ as it has cores (before JAX starts), so a batch uses them all.
 
 from __future__ import annotations
 
+import functools
 import os
 import statistics
 import time
@@ -86,11 +87,21 @@ def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: in
         (state, key, total), _ = jax.lax.scan(body, (state, keys[0], jnp.zeros((), env.dtype)), None, length=steps)
         return state, key[None], total[None]
 
+    return jax.jit(on_devices(run, devices))
+
+
+def on_devices(fn: Any, devices: int) -> Any:
+    """``fn`` (every argument and result leading with the batch) run by each of the first ``devices`` devices on its
+    share of the batch (``jax.shard_map``); ``fn`` itself for one. Keywords are passed to ``fn`` as they are."""
     if devices == 1:
-        return jax.jit(run)
-    spec = jax.sharding.PartitionSpec("env")
-    return jax.jit(jax.shard_map(run, mesh=batch_mesh(devices), in_specs=(spec, spec), out_specs=(spec, spec, spec),
-                                 check_vma=False))  # each device runs its own envs: nothing is shared
+        return fn
+    mesh, spec = batch_mesh(devices), jax.sharding.PartitionSpec("env")
+
+    def run(*args: Any, **static: Any) -> Any:
+        return jax.shard_map(functools.partial(fn, **static), mesh=mesh, in_specs=spec, out_specs=spec,
+                             check_vma=False)(*args)  # each device steps its own envs: nothing is shared
+
+    return run
 
 
 def batch_mesh(devices: int) -> jax.sharding.Mesh:

@@ -8,7 +8,6 @@ settings, the observation, rewards and endings) is :class:`footstep_gym.jax.env.
 
 from __future__ import annotations
 
-import functools
 from typing import Any
 
 import gymnasium as gym
@@ -93,20 +92,8 @@ class FootstepVectorEnv(VectorEnv):
         self._state = None
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
         self.devices = int(devices)
-        self._reset_fn = jax.jit(self._on_devices(self._reset_batch))
-        self._step_fn = jax.jit(self._on_devices(self._step_batch), static_argnames=("same_step",))
-
-    def _on_devices(self, fn: Any) -> Any:
-        """``fn`` (every argument and result leading with the batch) run by each device on its share."""
-        if self.devices == 1:
-            return fn
-        mesh, spec = speed.batch_mesh(self.devices), jax.sharding.PartitionSpec("env")
-
-        def run(*args: Any, **static: Any) -> Any:
-            return jax.shard_map(functools.partial(fn, **static), mesh=mesh, in_specs=spec, out_specs=spec,
-                                 check_vma=False)(*args)  # each device steps its own envs: nothing is shared
-
-        return run
+        self._reset_fn = jax.jit(speed.on_devices(self._reset_batch, self.devices))
+        self._step_fn = jax.jit(speed.on_devices(self._step_batch, self.devices), static_argnames=("same_step",))
 
     def _put(self, x: Any) -> Any:
         """``x`` (leading with the batch) laid out over the devices."""

@@ -142,7 +142,7 @@ def episode_start(jenv: FootstepJaxEnv, config: Any, start: dict) -> tuple[Any, 
     ``randomize`` keys as drawn) and its obstacles and scene state from the episode's ``start``
     (``Scene.reference_start``)."""
     params = jenv.cell_params(dataclasses.replace(config, randomize={}))
-    rods, scene = jenv.scene.start_from(start, params)
+    rods, scene = jenv.scene.start_from(start, params, config)
     return params, rods, scene
 
 

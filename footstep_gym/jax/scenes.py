@@ -22,10 +22,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from footstep_gym.jax.shapes import Rods
+from footstep_gym.scenes import PARKED, door, uniform
 
-#: [m] where a padding member of the crowd stands (a cell with fewer members than the tier's largest): far beyond
-#: any sweep's horizon and the sensing range, still; never the nearest shape.
-PARKED = 1.0e6
 
 
 def _arr(x: Any, dtype: Any) -> jax.Array:
@@ -98,25 +96,18 @@ class Scene:
         raise NotImplementedError
 
 
-# ---------------------------------------------------------------------------------------------------- the door
-class DoorParams(NamedTuple):
-    """One tier cell's per-episode settings (leaves lead with the cell axis in ``FootstepJaxEnv.params``).
+# ---------------------------------------------------------------------------------------------------- a scene module
+class ModuleParams(NamedTuple):
+    """One tier cell's settings of a scene of :mod:`footstep_gym.scenes` (leaves lead with the cell axis in
+    ``FootstepJaxEnv.params``): its ``cell`` (the module's ``Cell`` as arrays), the ``(lo, hi)`` ``ranges`` of the
+    keys an episode draws (its ``RANDOMIZABLE``; ``lo == hi`` where the cell does not randomize one) and the moving
+    obstacles' segment in their body's frame (``a``, ``b``, ``r``)."""
 
-    ``(lo, hi)`` pairs for the keys an episode may draw. Units are the YAML's: speeds [deg/s], angles [deg],
-    lengths [m], times [s]. ``door_count``: 1 or 2 (the second door's keys are read only with 2)."""
-
-    door_count: jax.Array
-    door_speed: jax.Array
-    door_start_angle: jax.Array
-    door_angle_jitter: jax.Array
-    door_centre: jax.Array
-    second_door_speed: jax.Array
-    second_door_start_angle: jax.Array
-    second_door_angle_jitter: jax.Array
-    second_door_centre: jax.Array
-    rod_a: jax.Array
-    rod_b: jax.Array
-    rod_r: jax.Array
+    cell: Any
+    ranges: dict
+    a: jax.Array
+    b: jax.Array
+    r: jax.Array
     start: jax.Array
     start_yaw: jax.Array
     start_jitter: jax.Array
@@ -126,61 +117,90 @@ class DoorParams(NamedTuple):
     max_steps: jax.Array
 
 
-class DoorScene(Scene):
-    """``FootstepDoor-v0`` (:class:`footstep_gym.scenarios.door.Door`), with one door or two: each rod turns at its
-    speed, nothing sets it before a step. An env holds as many rods as its tier's cells have doors at most; a
-    cell with one door parks the second rod (:data:`PARKED`, still)."""
+def cell_arrays(cell: NamedTuple, dtype: Any) -> NamedTuple:
+    """A scene module's ``Cell`` of plain numbers as arrays: integers int32, the rest ``dtype``."""
+    def arr(v: Any) -> jax.Array:
+        if isinstance(v, (bool, np.bool_)):
+            return jnp.asarray(v)
+        if isinstance(v, (int, np.integer)):
+            return jnp.asarray(v, jnp.int32)
+        return _arr(v, dtype)
+    return type(cell)(*(arr(v) for v in cell))
 
-    name = "door"
-    randomizable = ("door_speed", "second_door_speed", "second_door_start_angle")
+
+class ModuleScene(Scene):
+    """A scene whose maths is a module of :mod:`footstep_gym.scenes` (``module``): this class only draws its
+    uniforms from a JAX key and holds its bodies as :class:`Rods`."""
+
+    module: ClassVar[Any]
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.randomizable, cls.moves = cls.module.RANDOMIZABLE, cls.module.MOVES
 
     def __init__(self, cfgs: list[Any], dtype: Any) -> None:
         super().__init__(cfgs, dtype)
-        #: Rods held per env: the most doors of the tier's cells.
-        self.size = max(c.door_count for c in cfgs)
+        #: Moving obstacles held per env: the most of the tier's cells.
+        self.size = max(self.module.size(c) for c in cfgs)
 
-    def cell_params(self, cfg: Any) -> DoorParams:
+    def cell_params(self, cfg: Any) -> ModuleParams:
         dt = self.dtype
-        r = cfg.door_radius
-        second = (cfg.door_centre[0] + cfg.second_door_offset, cfg.door_centre[1])
-        return DoorParams(jnp.asarray(cfg.door_count, jnp.int32), _arr(_range(cfg, "door_speed"), dt),
-                          _arr(cfg.door_start_angle, dt), _arr(cfg.door_angle_jitter, dt), _arr(cfg.door_centre, dt),
-                          _arr(_range(cfg, "second_door_speed"), dt), _arr(_range(cfg, "second_door_start_angle"), dt),
-                          _arr(cfg.second_door_angle_jitter, dt), _arr(second, dt), _arr((-r, 0.0), dt),
-                          _arr((r, 0.0), dt), _arr(0.5 * cfg.door_thickness, dt), **self.common(cfg))
+        a, b, r = self.module.shape(cfg)
+        return ModuleParams(cell_arrays(self.module.cell(cfg), dt), {k: _arr(_range(cfg, k), dt) for k in
+                                                                      self.randomizable},
+                            _arr(a, dt), _arr(b, dt), _arr(r, dt), **self.common(cfg))
 
-    def draw(self, key: jax.Array, p: DoorParams) -> tuple[Rods, Any]:
-        dt = self.dtype
-        k_speed, k_angle = jax.random.split(key)  # the first door's draws are the same with a second
-        speed = _draw(k_speed, p.door_speed, dt)
-        angle = jnp.deg2rad(p.door_start_angle + jax.random.uniform(k_angle, (), dt, -1.0, 1.0) * p.door_angle_jitter)
-        if self.size == 1:
-            return self._rods(p, p.door_centre[None], angle[None], -jnp.deg2rad(speed)[None]), ()
-        k_speed2, k_start2, k_angle2 = jax.random.split(jax.random.fold_in(key, 2), 3)
-        speed2 = _draw(k_speed2, p.second_door_speed, dt)
-        angle2 = jnp.deg2rad(_draw(k_start2, p.second_door_start_angle, dt)
-                             + jax.random.uniform(k_angle2, (), dt, -1.0, 1.0) * p.second_door_angle_jitter)
-        two = p.door_count == 2
-        centres = jnp.stack([p.door_centre, jnp.where(two, p.second_door_centre, PARKED)])
-        return self._rods(p, centres, jnp.stack([angle, jnp.where(two, angle2, 0.0)]),
-                          -jnp.deg2rad(jnp.stack([speed, jnp.where(two, speed2, 0.0)]))), ()
+    def _rods(self, p: ModuleParams, bodies: Any) -> Rods:
+        m = self.size
+        return Rods(*bodies, jnp.broadcast_to(p.a, (m, 2)), jnp.broadcast_to(p.b, (m, 2)), jnp.broadcast_to(p.r, (m,)))
 
-    def _rods(self, p: DoorParams, centres: jax.Array, angles: jax.Array, angular_velocity: jax.Array) -> Rods:
-        m, dt = self.size, self.dtype
-        return Rods(centres, angles, jnp.zeros((m, 2), dt), angular_velocity, jnp.broadcast_to(p.rod_a, (m, 2)),
-                    jnp.broadcast_to(p.rod_b, (m, 2)), jnp.broadcast_to(p.rod_r, (m,)))
+    def draw(self, key: jax.Array, p: ModuleParams) -> tuple[Rods, Any]:
+        dt, mod = self.dtype, self.module
+        shapes_ = mod.draw_shapes(self.size)
+        keys = jax.random.split(key, len(self.randomizable) + len(shapes_))
+        drawn = {k: uniform(p.ranges[k][0], p.ranges[k][1], jax.random.uniform(kk, (), dt))
+                 for k, kk in zip(self.randomizable, keys)}
+        u = type(shapes_)(*(jax.random.uniform(kk, shape, dt) for kk, shape in
+                            zip(keys[len(self.randomizable):], shapes_)))
+        bodies, scene = mod.start(jnp, p.cell._replace(**drawn), u, self.size)
+        return self._rods(p, bodies), scene
+
+    def before_step(self, scene: Any, rods: Rods, t: jax.Array, duration: jax.Array) -> Rods:
+        moved = self.module.motion(jnp, scene, t, duration)
+        if moved is None:
+            return rods
+        position, velocity = moved
+        return rods._replace(position=position, velocity=rods.velocity if velocity is None else velocity)
 
     @staticmethod
-    def reference_start(env: Any) -> dict[str, np.ndarray]:
-        bodies = [o.body for o in env.world.obstacles if not o.static]
-        return {"position": np.array([tuple(b.position) for b in bodies], dtype=np.float64).reshape(-1, 2),
-                "angle": np.array([b.angle for b in bodies], dtype=np.float64),
-                "angular_velocity": np.array([b.angular_velocity for b in bodies], dtype=np.float64)}
+    def reference_start(env: Any) -> dict[str, Any]:
+        return {"draws": env.scenario.draws}
 
-    def start_from(self, start: dict[str, Any], p: DoorParams) -> tuple[Rods, Any]:
-        dt, m = self.dtype, self.size
-        return self._rods(p, pad_to(start["position"], m, PARKED, dt), pad_to(start["angle"], m, 0.0, dt),
-                          pad_to(start["angular_velocity"], m, 0.0, dt)), ()
+    def start_from(self, start: dict[str, Any], p: ModuleParams, cfg: Any = None) -> tuple[Rods, Any]:
+        """The reference's start computed by the same function, in numpy float64 from the reference's uniforms
+        (padded to :attr:`size`), then cast: the reference's obstacles and scene state bit for bit."""
+        mod, m = self.module, self.size
+        shapes_ = mod.draw_shapes(m)
+        u = type(shapes_)(*(_pad_draw(np.asarray(x, np.float64), shape) for x, shape in zip(start["draws"], shapes_)))
+        bodies, scene = mod.start(np, mod.cell(cfg), u, m)
+        cast = lambda x: jnp.asarray(x, self.dtype if np.issubdtype(np.asarray(x).dtype, np.floating) else None)  # noqa: E731
+        return self._rods(p, jax.tree.map(cast, bodies)), jax.tree.map(cast, scene)
+
+
+def _pad_draw(x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """A reference's uniforms ``x`` filled up to ``shape`` with 0.5 (for obstacles it does not have)."""
+    out = np.full(shape, 0.5)
+    out[tuple(slice(0, n) for n in x.shape)] = x
+    return out
+
+
+# ---------------------------------------------------------------------------------------------------- the door
+class DoorScene(ModuleScene):
+    """``FootstepDoor-v0`` (:mod:`footstep_gym.scenes.door`), with one door or two; a cell with one door parks
+    the second rod (:data:`PARKED`, still)."""
+
+    name = "door"
+    module = door
 
 
 # ---------------------------------------------------------------------------------------------------- the crowd
@@ -307,7 +327,7 @@ class CrowdScene(Scene):
                 "periods": np.asarray(sc.periods, np.float64), "phases": np.asarray(sc.phases, np.float64),
                 "position": np.array([tuple(b.position) for b in members], dtype=np.float64)}
 
-    def start_from(self, start: dict[str, Any], p: CrowdParams) -> tuple[Rods, CrowdState]:
+    def start_from(self, start: dict[str, Any], p: CrowdParams, cfg: Any = None) -> tuple[Rods, CrowdState]:
         dt, m = self.dtype, self.size
         k = start["angles"].shape[-1]
 
@@ -458,7 +478,7 @@ class CrossingScene(Scene):
                        y0=np.float64(sc.y0))
         return out
 
-    def start_from(self, start: dict[str, Any], p: CrossingParams) -> tuple[Rods, CrossingState]:
+    def start_from(self, start: dict[str, Any], p: CrossingParams, cfg: Any = None) -> tuple[Rods, CrossingState]:
         dt, m = self.dtype, self.size
         n = start["position"].shape[0]
 
@@ -476,4 +496,5 @@ class CrossingScene(Scene):
 
 SCENES: dict[str, type[Scene]] = {cls.name: cls for cls in (DoorScene, CrossingScene, CrowdScene)}
 #: Any scene's ``Params``.
-SceneParams = Union[DoorParams, CrossingParams, CrowdParams]
+SceneParams = Union[ModuleParams, CrossingParams, CrowdParams]
+DoorParams = ModuleParams

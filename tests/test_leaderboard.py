@@ -213,7 +213,7 @@ def test_the_script_end_to_end(tmp_path, capsys):
     assert script.main([str(bench), "--out", str(out), "--reps", str(REPS)]) == 0
     printed = capsys.readouterr().out
     assert squash(printed)[0] == "| policy | runs | paper (2 cells) | hard (3 cells) |"
-    names = {"leaderboard.md", "leaderboard.json", "iqm_optimality_gap.png", "iqm_optimality_gap_paper.png",
+    names = {"leaderboard.md", "leaderboard.json", "iqm_per_tier.png", "iqm_optimality_gap_paper.png",
              "iqm_optimality_gap_hard.png", "performance_profiles.png"}
     assert {p.name for p in out.iterdir()} == names | {"notes.txt"}
     assert (out / "notes.txt").read_text(encoding="utf-8") == "mine"
@@ -233,6 +233,27 @@ def test_the_script_end_to_end(tmp_path, capsys):
     assert [p["policy"] for p in again["policies"]] == ["agent", "planner"]
     assert {p.name for p in out.iterdir()} == names | {"notes.txt"}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bench", "board"]
+
+
+def _png_width(data: bytes) -> int:
+    assert data.startswith(PNG)
+    return int.from_bytes(data[16:20], "big")  # the IHDR chunk's width
+
+
+def test_the_committed_figures_are_readable_at_readme_width():
+    """Every committed leaderboard figure is at most 900 px wide (a README's column), and no two policies that are
+    not null baselines share a colour and a line style."""
+    folder = Path(__file__).resolve().parents[1] / "baselines" / "results" / "benchmark"
+    pngs = sorted(folder.glob("*.png"))
+    assert {p.name for p in pngs} >= {lb.FIGURE_IQM, lb.FIGURE_PROFILES}
+    wide = [f"{p.name}: {_png_width(p.read_bytes())} px" for p in pngs if _png_width(p.read_bytes()) > 900]
+    assert not wide, f"wider than 900 px: {wide}"
+    board = json.loads((folder / "leaderboard.json").read_text(encoding="utf-8"))
+    styles = lb.policy_styles(board)
+    assert set(styles) == {p["label"] for p in board["policies"]}
+    drawn = [(tuple(st["color"]) if not isinstance(st["color"], str) else st["color"], st["linestyle"])
+             for st in styles.values() if st["group"] != "null"]
+    assert len(drawn) == len(set(drawn)) and len(drawn) > 10
 
 
 def test_help_exits_0(capsys):

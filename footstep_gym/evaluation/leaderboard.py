@@ -15,8 +15,9 @@
   (:func:`per_scene`);
 * :func:`headline_markdown` (the table the README shows; a row of another protocol, admitted by ``--allow-mixed``,
   marked ‡), :func:`scene_markdown` and :func:`markdown` (``leaderboard.md``);
-* :func:`write_figures`: ``iqm_optimality_gap.png`` (and one per tier) and ``performance_profiles.png``
-  (rliable's ``plot_interval_estimates`` and ``plot_performance_profiles``, matplotlib's Agg backend);
+* :func:`write_figures`: ``iqm_per_tier.png`` (every tier side by side), ``iqm_optimality_gap_<tier>.png`` (IQM
+  and optimality gap per tier) and ``performance_profiles.png`` (rliable's ``plot_performance_profiles``),
+  matplotlib's Agg backend, drawn for a width of 900 px;
 * :func:`write_leaderboard`: every file, written into a temporary folder beside ``out`` and then moved in one by
   one (:data:`OWN_FILES`; a user's other files in ``out``, such as the policies' own folders, are left alone).
 
@@ -62,7 +63,7 @@ GAMMA = 1.0
 TAUS = np.linspace(0.0, 1.0, 101)
 #: The file names this module writes (with ``iqm_optimality_gap_<tier>.png`` per tier); nothing else in the
 #: output folder is touched.
-FIGURE_IQM = "iqm_optimality_gap.png"
+FIGURE_IQM = "iqm_per_tier.png"
 FIGURE_PROFILES = "performance_profiles.png"
 OWN_FILES = ("leaderboard.md", "leaderboard.json", FIGURE_IQM, FIGURE_PROFILES)
 
@@ -477,11 +478,11 @@ def markdown(board: Mapping[str, Any]) -> str:
               "independent, so it is narrower than an interval over training runs]; (k/n cells): a partial run "
               "covering k of them.", "",
               "## Figures", "",
-              f"![IQM and optimality gap]({FIGURE_IQM})", "",
-              f"`{FIGURE_IQM}` (and `iqm_optimality_gap_<tier>.png`): per tier, the IQM of the success rates and "
-              f"the optimality gap (the mean of max(0, 1 - success)) over the tier's cells (every scene), with "
+              f"![IQM success per tier]({FIGURE_IQM})", "",
+              f"`{FIGURE_IQM}`: per tier, the IQM of the success rates over the tier's cells (every scene), with "
               "stratified-bootstrap 95 % intervals over training runs (rliable); a planner is one run, its interval "
-              "a point.", "",
+              "a point (a diamond). `iqm_optimality_gap_<tier>.png`: one tier's IQM and optimality gap (the mean of "
+              "max(0, 1 - success)).", "",
               f"![Performance profiles]({FIGURE_PROFILES})", "",
               f"`{FIGURE_PROFILES}`: per tier, the share of the runs x cells whose success rate exceeds τ, with "
               "95 % stratified-bootstrap bands over training runs.", ""]
@@ -505,128 +506,192 @@ def _pyplot():
     return plt
 
 
-def policy_colors(board: Mapping[str, Any]) -> dict[str, Any]:
-    """One colour per policy label (seaborn's colour-blind palette, in the leaderboard's order), the same in every
-    figure."""
+#: Line styles crossed with the palette's colours, so that no two policies of a figure are drawn alike.
+LINESTYLES = ("solid", "dashed", "dotted", "dashdot")
+#: The width a committed figure is drawn for (inches at :data:`DPI`: 900 px, a README's width).
+WIDTH_IN, DPI = 9.0, 100
+
+
+def policy_styles(board: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """One style per policy label, the same in every figure: the upper bounds black and dashed, the null baselines
+    thin grey lines (one legend entry for them all), every other policy a colour of seaborn's colour-blind palette
+    crossed with a line style (:data:`LINESTYLES`), in the leaderboard's order."""
     import seaborn as sns
 
-    labels = [p["label"] for p in board["policies"]]
-    return dict(zip(labels, sns.color_palette("colorblind", n_colors=max(len(labels), 1))))
+    from footstep_gym.planners.null import is_null
+
+    palette = sns.color_palette("colorblind", n_colors=10)
+    styles, k = {}, 0
+    for p in board["policies"]:
+        if p["upper_bound"]:
+            styles[p["label"]] = {"color": "black", "linestyle": "dashed", "linewidth": 1.5, "group": "upper bound"}
+        elif is_null(p["policy"]):
+            styles[p["label"]] = {"color": "0.65", "linestyle": "solid", "linewidth": 0.8, "group": "null"}
+        else:
+            styles[p["label"]] = {"color": palette[k % len(palette)],
+                                  "linestyle": LINESTYLES[(k // len(palette)) % len(LINESTYLES)], "linewidth": 1.5,
+                                  "group": "learned" if p["learned"] else "planner"}
+            k += 1
+    return styles
 
 
-def iqm_gap_figure(board: Mapping[str, Any], tier: str, colors: Mapping[str, Any] | None = None):
-    """One tier's IQM and optimality gap with their 95 % intervals (rliable's ``plot_interval_estimates``), or
-    None when no policy covers every cell of the tier."""
-    _pyplot()  # the Agg backend before rliable imports pyplot
-    from rliable import plot_utils
+def _interval_panel(ax, board: Mapping[str, Any], tier: str, labels: Sequence[str], metric: str,
+                    styles: Mapping[str, Mapping[str, Any]]) -> None:
+    """One panel: per policy label (top to bottom), ``metric``'s point and 95 % interval on ``tier`` (a diamond
+    where the interval is a point: one run, a planner's); nothing for a policy that does not cover the tier."""
+    by_label = {p["label"]: p for p in board["policies"]}
+    for row, label in enumerate(labels):
+        a = _aggregate(board, by_label[label]["policy"], tier)
+        if a is None or not a["covers_tier"]:
+            continue
+        point, (lo, hi) = a[metric], a[f"{metric}_ci95"]
+        color = styles[label]["color"]
+        if hi - lo > 1e-9:
+            ax.plot([lo, hi], [row, row], color=color, linewidth=4, alpha=0.45, solid_capstyle="butt")
+            ax.plot([point], [row], marker="|", markersize=9, markeredgewidth=2, color=color)
+        else:
+            ax.plot([point], [row], marker="D", markersize=4.5, color=color)
+    ax.set_ylim(len(labels) - 0.5, -0.5)
+    ax.set_xlim(-0.03, 1.03)
+    ax.set_xticks([0.0, 0.5, 1.0])
+    ax.set_xticklabels(["0", "0.5", "1"])
+    ax.grid(axis="x", alpha=0.3)
+    ax.tick_params(labelsize=8, length=2)
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(False)
 
+
+def _figure_rows(board: Mapping[str, Any]) -> tuple[list[str], list[str]]:
+    """The policy labels shown in the IQM figures (those covering every cell of some tier), and those left out."""
+    shown = [p["label"] for p in board["policies"] if any(p in in_figure(board, t)[0] for t in board["tiers"])]
+    return shown, [p["label"] for p in board["policies"] if p["label"] not in shown]
+
+
+def iqm_grid_figure(board: Mapping[str, Any], styles: Mapping[str, Mapping[str, Any]] | None = None):
+    """The IQM success of every policy on every tier, one small panel per tier side by side (policies as rows, in
+    the leaderboard's order), with the 95 % stratified-bootstrap intervals over training runs; None when no policy
+    covers a whole tier."""
+    plt = _pyplot()
+    styles = dict(styles or policy_styles(board))
+    labels, left_out = _figure_rows(board)
+    if not labels:
+        return None
+    tiers = board["tiers"]
+    fig, axes = plt.subplots(1, len(tiers), sharey=True, squeeze=False,
+                             figsize=(WIDTH_IN, 0.9 + 0.19 * len(labels)))
+    for ax, tier in zip(axes[0], tiers):
+        _interval_panel(ax, board, tier, labels, "iqm", styles)
+        ax.set_title(f"{tier} ({len(board['tier_cells'][tier])})", fontsize=9)
+    axes[0][0].set_yticks(range(len(labels)))
+    axes[0][0].set_yticklabels(labels, fontsize=8)
+    caption = "IQM success per tier (cells), 95 % CI over training runs; diamond: one run"
+    if left_out:
+        caption += "; partial runs left out: " + ", ".join(left_out)
+    fig.supxlabel(caption, fontsize=8)
+    fig.tight_layout(w_pad=0.6)
+    return fig
+
+
+def iqm_gap_figure(board: Mapping[str, Any], tier: str, styles: Mapping[str, Mapping[str, Any]] | None = None):
+    """One tier's IQM and optimality gap (the mean of max(0, 1 - success)) with their 95 % intervals, or None when
+    no policy covers every cell of the tier."""
+    plt = _pyplot()
     shown, left_out = in_figure(board, tier)
     if not shown:
         return None
-    points, intervals = {}, {}
-    for p in shown:
-        a = _aggregate(board, p["policy"], tier)
-        points[p["label"]] = np.array([a["iqm"], a["optimality_gap"]])
-        intervals[p["label"]] = np.array([[a["iqm_ci95"][0], a["optimality_gap_ci95"][0]],
-                                          [a["iqm_ci95"][1], a["optimality_gap_ci95"][1]]])
-    algorithms = list(points)[::-1]  # plot_interval_estimates draws bottom-up: the leaderboard's first on top
-    colors = dict(colors or policy_colors(board))
-    fig, axes = plot_utils.plot_interval_estimates(
-        points, intervals, metric_names=["IQM success", "Optimality gap"], algorithms=algorithms, colors=colors,
-        xlabel="", row_height=0.55)
-    fig.set_size_inches(fig.get_size_inches()[0], max(1.4, 0.55 * len(algorithms)))
-    for m, ax in enumerate(np.atleast_1d(axes)):
-        ax.set_xlim(-0.02, 1.02)
-        ax.set_xlabel("success rate" if m == 0 else "mean of max(0, 1 - success)", fontsize="x-large")
-        for k, label in enumerate(algorithms):
-            lo, hi = intervals[label][:, m]
-            if hi - lo < 1e-9:  # one run (a planner) or no spread: the interval is the point, drawn as a marker
-                ax.plot([points[label][m]], [k], marker="D", markersize=9, color=colors[label], zorder=3)
-    runs = {p["label"]: _aggregate(board, p["policy"], tier)["runs"] for p in shown}
-    caption = (f"{tier}: {len(board['tier_cells'][tier])} cells; runs: "
-               + ", ".join(f"{k} {v}" for k, v in runs.items()))
+    styles = dict(styles or policy_styles(board))
+    labels = [p["label"] for p in shown]
+    fig, axes = plt.subplots(1, 2, sharey=True, figsize=(WIDTH_IN * 0.7, 0.9 + 0.19 * len(labels)))
+    for ax, metric, title in zip(axes, ("iqm", "optimality_gap"), ("IQM success", "optimality gap")):
+        _interval_panel(ax, board, tier, labels, metric, styles)
+        ax.set_title(title, fontsize=9)
+    axes[0].set_yticks(range(len(labels)))
+    axes[0].set_yticklabels(labels, fontsize=8)
+    title = f"{tier} ({plural(len(board['tier_cells'][tier]), 'cell')})"
     if left_out:
-        caption += "; left out (partial): " + ", ".join(p["label"] for p in left_out)
-    fig.suptitle(caption, y=1.0 + 0.25 / fig.get_size_inches()[1], fontsize="large")
+        title += "; left out (partial): " + ", ".join(p["label"] for p in left_out)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout(w_pad=0.6)
     return fig
 
 
 def _png(fig) -> bytes:
     plt = _pyplot()
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120, bbox_inches="tight", facecolor="white",
+    fig.savefig(buf, format="png", dpi=DPI, facecolor="white",
                 metadata={"Software": None})  # no version stamp: the same bytes on a rerun
     plt.close(fig)
     return buf.getvalue()
 
 
-def _stack_pngs(pngs: Sequence[bytes]) -> bytes:
-    """The PNGs one under the other (white padding to the widest) as one PNG."""
-    plt = _pyplot()
-    images = [plt.imread(io.BytesIO(b), format="png")[..., :3] for b in pngs]
-    width = max(im.shape[1] for im in images)
-    rows = [np.pad(im, ((0, 12), (0, width - im.shape[1]), (0, 0)), constant_values=1.0) for im in images]
-    buf = io.BytesIO()
-    plt.imsave(buf, np.clip(np.vstack(rows), 0.0, 1.0), format="png", metadata={"Software": None})
-    return buf.getvalue()
-
-
-def profiles_figure(board: Mapping[str, Any], colors: Mapping[str, Any] | None = None):
+def profiles_figure(board: Mapping[str, Any], styles: Mapping[str, Mapping[str, Any]] | None = None):
     """Performance profiles (rliable's score distributions, :func:`profile_estimates`, drawn by
-    ``plot_performance_profiles``), one panel per tier, of the policies covering every cell of the tier, with 95 %
-    stratified-bootstrap bands over training runs."""
+    ``plot_performance_profiles``), one small panel per tier and the legend in the last one, of the policies
+    covering every cell of the tier, with 95 % stratified-bootstrap bands over training runs."""
     plt = _pyplot()
     from rliable import plot_utils
 
-    colors = dict(colors or policy_colors(board))
+    styles = dict(styles or policy_styles(board))
     tiers = board["tiers"]
     reps, seed = board["bootstrap"]["reps"], board["bootstrap"]["seed"]
-    fig, axes = plt.subplots(1, len(tiers), figsize=(4.2 * len(tiers), 3.8), squeeze=False)
-    handles = {}
-    for ax, tier in zip(axes[0], tiers):
+    ncols = 3
+    nrows = -(-(len(tiers) + 1) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(WIDTH_IN, 2.9 * nrows), squeeze=False)
+    flat = list(axes.flat)
+    handles: dict[str, Any] = {}
+    for i, (ax, tier) in enumerate(zip(flat, tiers)):
         shown, left_out = in_figure(board, tier)
-        curves, bands, styles = {}, {}, {}
+        curves, bands = {}, {}
         for p in shown:
             matrix = np.array(_aggregate(board, p["policy"], tier)["scores"], dtype=float)
-            point, interval = profile_estimates(matrix, reps, seed)
-            curves[p["label"]], bands[p["label"]] = point, interval
-            styles[p["label"]] = "dashed" if p["upper_bound"] else "solid"
+            curves[p["label"]], bands[p["label"]] = profile_estimates(matrix, reps, seed)
         if curves:
             plot_utils.plot_performance_profiles(
-                curves, TAUS, performance_profile_cis=bands, colors=colors, linestyles=styles, ax=ax,
-                xlabel=r"success rate $\tau$", ylabel="share of runs x cells > τ" if ax is axes[0][0] else "",
-                xticks=[0.0, 0.25, 0.5, 0.75, 1.0], labelsize="large", ticklabelsize="medium")
-        title = f"{tier} ({len(board['tier_cells'][tier])} cells)"
-        if left_out:
-            title += "\nleft out: " + ", ".join(p["label"] for p in left_out)
-        ax.set_title(title, fontsize="large")
-        for line in ax.get_lines():
-            handles.setdefault(line.get_label(), line)
-    labels = [p["label"] for p in board["policies"] if p["label"] in handles]
-    fig.legend([handles[k] for k in labels], labels, loc="lower center", ncol=min(len(labels), 6),
-               bbox_to_anchor=(0.5, -0.02 - 0.06 * ((len(labels) - 1) // 6)), fontsize="large", frameon=False)
-    fig.tight_layout(rect=(0, 0.1, 1, 1))
+                curves, TAUS, performance_profile_cis=bands, colors={k: styles[k]["color"] for k in curves},
+                linestyles={k: styles[k]["linestyle"] for k in curves}, ax=ax, alpha=0.08,
+                xlabel=r"success rate $\tau$" if i >= len(tiers) - ncols else "",
+                ylabel="share of runs x cells > τ" if i % ncols == 0 else "",
+                xticks=[0.0, 0.5, 1.0], yticks=[0.0, 0.5, 1.0], labelsize=8, ticklabelsize=8, grid_alpha=0.2)
+            for line in ax.get_lines():
+                label = line.get_label()
+                if label in styles:
+                    line.set_linewidth(styles[label]["linewidth"])
+                    handles.setdefault("null baselines" if styles[label]["group"] == "null" else label, line)
+        ax.set_title(f"{tier} ({plural(len(board['tier_cells'][tier]), 'cell')})", fontsize=9)
+        del left_out  # the partial runs: named once, in the legend's title
+    legend_ax = flat[len(tiers)]
+    legend_ax.axis("off")
+    for ax in flat[len(tiers) + 1:]:
+        ax.axis("off")
+    order = [p["label"] for p in board["policies"] if p["label"] in handles]
+    if "null baselines" in handles:
+        order.append("null baselines")
+    partial = [p["label"] for p in board["policies"] if not p["complete"]]
+    legend_ax.legend([handles[k] for k in order], order, loc="center", ncol=2, fontsize=7, frameon=False,
+                     handlelength=2.6, columnspacing=1.0,
+                     title=("partial runs left out: " + ", ".join(partial)) if partial else None,
+                     title_fontsize=7)
+    fig.tight_layout(h_pad=0.8, w_pad=0.8)
     return fig
 
 
 def write_figures(board: Mapping[str, Any], folder: Path) -> list[Path]:
-    """``iqm_optimality_gap_<tier>.png`` per tier, ``iqm_optimality_gap.png`` (them stacked) and
-    ``performance_profiles.png`` into ``folder``."""
-    colors = policy_colors(board)
-    files, pngs = [], []
+    """``iqm_per_tier.png`` (every tier side by side), ``iqm_optimality_gap_<tier>.png`` per tier and
+    ``performance_profiles.png`` into ``folder``, each drawn for a width of 900 px."""
+    styles = policy_styles(board)
+    files = []
+    grid = iqm_grid_figure(board, styles)
+    if grid is not None:
+        (folder / FIGURE_IQM).write_bytes(_png(grid))
+        files.append(folder / FIGURE_IQM)
     for tier in board["tiers"]:
-        fig = iqm_gap_figure(board, tier, colors)
+        fig = iqm_gap_figure(board, tier, styles)
         if fig is None:
             continue
-        png = _png(fig)
         path = folder / tier_figure_name(tier)
-        path.write_bytes(png)
+        path.write_bytes(_png(fig))
         files.append(path)
-        pngs.append(png)
-    if pngs:
-        (folder / FIGURE_IQM).write_bytes(_stack_pngs(pngs))
-        files.insert(0, folder / FIGURE_IQM)
-    (folder / FIGURE_PROFILES).write_bytes(_png(profiles_figure(board, colors)))
+    (folder / FIGURE_PROFILES).write_bytes(_png(profiles_figure(board, styles)))
     files.append(folder / FIGURE_PROFILES)
     return files
 

@@ -191,14 +191,14 @@ def runner_cells(cells: Sequence[BenchmarkCell], policy: str, runs_of: RunsOf | 
     return out, owners
 
 
-def seeds(episodes: int) -> list[int]:
-    """The seeds of every cell: the first ``episodes`` of the test split."""
-    return split_seeds(SPLIT, episodes)
+def seeds(episodes: int, split: str = SPLIT) -> list[int]:
+    """The seeds of every cell: the first ``episodes`` of the test split (of ``split``: a try on validation seeds)."""
+    return split_seeds(split, episodes)
 
 
-def tasks(cells: Sequence[Cell], episodes: int) -> list[Task]:
+def tasks(cells: Sequence[Cell], episodes: int, split: str = SPLIT) -> list[Task]:
     """Every episode: each cell at each of :func:`seeds` (nothing recorded for figures)."""
-    return [Task(i, c, s) for i, c in enumerate(cells) for s in seeds(episodes)]
+    return [Task(i, c, s) for i, c in enumerate(cells) for s in seeds(episodes, split)]
 
 
 # ---------------------------------------------------------------- records and aggregates
@@ -295,19 +295,19 @@ def source_commit() -> str | None:
 
 
 def benchmark_document(entry: registry.PolicyEntry, cells: Sequence[BenchmarkCell], records: Sequence[CellRecord],
-                       episodes: int, run_info: Mapping[str, Any], trained_on_tier: str | None = None
-                       ) -> dict[str, Any]:
+                       episodes: int, run_info: Mapping[str, Any], trained_on_tier: str | None = None,
+                       split: str = SPLIT) -> dict[str, Any]:
     """What ``benchmark.json`` holds: the protocol, the per-run records, their summary over runs, the aggregates;
     ``track`` and ``trained_on_tier`` say which track the row is on (:data:`GENERALISATION`: ``trained_on_tier``
-    None)."""
+    None). A run on another split than the test split (a try on validation seeds) is never complete: no row."""
     return {
         "benchmark": "footstep_gym", "protocol_version": PROTOCOL_VERSION, "footstep_gym": footstep_gym.__version__,
         "policy": entry.name, "label": entry.label, "upper_bound": entry.reads_truth,
         "description": entry.description,
         "track": IN_DISTRIBUTION if trained_on_tier else GENERALISATION, "trained_on_tier": trained_on_tier,
-        "complete": is_complete(cells, trained_on_tier),
+        "complete": is_complete(cells, trained_on_tier) and split == SPLIT,
         "protocol": {
-            "split": SPLIT, "episodes_per_cell": episodes, "seeds": seeds(episodes),
+            "split": split, "episodes_per_cell": episodes, "seeds": seeds(episodes, split),
             "tiers": list(dict.fromkeys(c.tier for c in cells)), "scenes": list(dict.fromkeys(c.scene for c in cells)),
             "cells": [{"scene": c.scene, "tier": c.tier, "cell": c.name, "env_id": c.env_id,
                        "env_kwargs": dict(c.env_kwargs)} for c in cells],
@@ -328,7 +328,7 @@ def _iqm_text(a: Mapping[str, Any]) -> str:
 
 
 DEFINITIONS = """\
-Every cell runs the same seeds, the first {episodes} of the test split ({first}..{last}); each
+Every cell runs the same seeds, the first {episodes} of the {split} split ({first}..{last}); each
 episode seeds the env and the policy with its seed, so the figures do not depend on the machine,
 the worker count or the backend, except the act times. Success [95 % CI] is the share of episodes
 that reached the goal with its Wilson interval; collision, fall (an infeasible step) and timeout
@@ -352,18 +352,21 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
     label = doc["label"]
     aggregates = doc["aggregates"]
     seeds_ = protocol["seeds"]
+    split = protocol.get("split", SPLIT)
     tiers = protocol["tiers"]
     lines = [f"# Benchmark: {label}", ""]
     if command:
         lines += [f"`{command}`", ""]
     n = protocol["episodes_per_cell"]
     lines.append(f"{len(protocol['cells'])} cells (tiers {', '.join(tiers)}; scenes {', '.join(protocol['scenes'])}), "
-                 f"{n} episode{'s' if n != 1 else ''} per cell, test seeds {seeds_[0]}..{seeds_[-1]}.")
+                 f"{n} episode{'s' if n != 1 else ''} per cell, {split} seeds {seeds_[0]}..{seeds_[-1]}.")
     trained_on = doc.get("trained_on_tier")
     if trained_on:
         lines += ["", f"**In-distribution track**: trained on the {trained_on} tier's cells (train-split seeds), "
                       f"tested on its test seeds only."]
-    if not doc["complete"]:
+    if split != SPLIT:
+        lines += ["", f"**A try on the {split} split**: not a leaderboard row (rows run on the {SPLIT} split)."]
+    elif not doc["complete"]:
         lines += ["", "**Partial run** (some tiers or scenes left out): not a leaderboard row."]
     by_tier = {a["tier"]: a for a in aggregates}
     row = pd.DataFrame([[label, *(_iqm_text(by_tier[t]) if t in by_tier else "–" for t in tiers)]],
@@ -386,7 +389,8 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
     head = ["tier", "scene", "cell", "n", "success [95% CI]", "collision", "fall", "timeout", "time to goal (s)*",
             "path (m)*", "clearance mm", "ZMP margin mm", "act ms median / p99"]
     lines.append(markdown_table(pd.DataFrame(rows, columns=head), left=3).rstrip("\n"))
-    lines += ["", DEFINITIONS.format(episodes=protocol["episodes_per_cell"], first=seeds_[0], last=seeds_[-1],
+    lines += ["", DEFINITIONS.format(episodes=protocol["episodes_per_cell"], split=split, first=seeds_[0],
+                                     last=seeds_[-1],
                                      warmup=protocol["warmup_acts"])]
     return "\n".join(lines)
 
@@ -409,6 +413,7 @@ class BenchmarkSettings:
     ray_address: str | None
     factory: PolicyFactory = default_factory
     trained_on_tier: str | None = None  # the in-distribution track's tier; None: the generalisation track
+    split: str = SPLIT  # the seeds' split: the test split for a row; validation for a try
 
     @property
     def policy(self) -> str:
@@ -502,7 +507,7 @@ def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell]
     (``command``: how it was run, default ``eval_planner.py`` with ``argv``)."""
     command = command or command_line(argv)
     run_info = {"command": command, "mode": "benchmark", "policy": settings.policy,
-                "episodes": settings.episodes, "split": SPLIT, "workers": settings.workers,
+                "episodes": settings.episodes, "split": settings.split, "workers": settings.workers,
                 "backend": settings.backend, "wall_time_s": round(wall_s, 2), "cpu_count": os.cpu_count(),
                 "agent_runs": sorted({c.run for c in cells if c.run})}
     source = settings.entry.source
@@ -512,7 +517,7 @@ def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell]
         run_info["policy_source"] = {"callable": settings.factory.name, "pickle_sha256": settings.factory.key}
     records = cell_records(cells, owners, results, settings.entry.reads_truth)
     doc = benchmark_document(settings.entry, settings.cells, records, settings.episodes, run_info,
-                             settings.trained_on_tier)
+                             settings.trained_on_tier, settings.split)
     text = markdown(doc, command)
     files = [folder / "benchmark.json", folder / "benchmark.md", folder / "episodes.csv", folder / "run.json"]
     files[0].write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
@@ -534,7 +539,7 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
     problem = check_cells(cells, factory=settings.factory) or check_out(settings.out)
     if problem:
         refuse(problem)
-    all_tasks = tasks(cells, settings.episodes)
+    all_tasks = tasks(cells, settings.episodes, settings.split)
     workers = max(1, min(settings.workers, len(all_tasks)))
     per_run = f" ({len(cells)} with the training runs)" if len(cells) != len(settings.cells) else ""
     print(f"benchmark of {settings.policy}: {plural(len(settings.cells), 'cell')}{per_run} x "
@@ -556,7 +561,7 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
 def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str | Path, snapshot: bool = False,
              episodes: int = EPISODES, scenes: Sequence[str] | None = None, tiers: Sequence[str] | None = None,
              workers: int | None = None, backend: str = "local", ray_address: str | None = None,
-             trained_on_tier: str | None = None) -> dict[str, Any]:
+             trained_on_tier: str | None = None, split: str = SPLIT) -> dict[str, Any]:
     """Run the benchmark for any policy and write ``benchmark.json`` (and ``benchmark.md``, ``episodes.csv``,
     ``run.json``) to ``out``, as ``eval_planner.py --benchmark`` does; returns the ``benchmark.json`` document.
 
@@ -575,6 +580,8 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
         workers, backend, ray_address: as ``eval_planner.py``'s ``--workers``, ``--backend``, ``--ray-address``.
         trained_on_tier: the method trained on this tier's cells (train-split seeds): the in-distribution
             track, run on that tier only; ``None``: the generalisation track (trained on ``train``).
+        split: the seeds' split (``configs/eval.yaml``): ``"test"`` for a leaderboard row; ``"validation"`` to try
+            a method while developing it (the document is then never ``complete``: no row).
 
     Raises ``ValueError`` (one line) before anything runs for a bad option or a policy that cannot be built
     or returns no 5-number command on the first cell's first observation;
@@ -593,7 +600,7 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
     try:
         tiers = track_tier(trained_on_tier, tiers, "trained_on_tier")
         cells = benchmark_cells(scenes, tiers)
-        split_seeds(SPLIT, episodes)
+        split_seeds(split, episodes)
     except ValueError as exc:
         raise ValueError(f"evaluate: {exc}") from None
     if backend == "local" and ray_address is not None:
@@ -604,19 +611,20 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
     settings = BenchmarkSettings(entry=entry, runs=None, scenes=tuple(scenes) if scenes else None,
                                  tiers=tuple(tiers) if tiers else None, episodes=episodes, out=out,
                                  workers=workers or usable_cores(), backend=backend, ray_address=ray_address,
-                                 factory=factory, trained_on_tier=trained_on_tier)
+                                 factory=factory, trained_on_tier=trained_on_tier, split=split)
     runner, owners = runner_cells(cells, name)
     problem = check_cells(runner, factory=factory) or check_out(out)
     if problem:
         raise ValueError(f"evaluate: {problem}")
-    all_tasks = tasks(runner, episodes)
+    all_tasks = tasks(runner, episodes, split)
     folder = new_run_folder(out)
     try:
         t0 = time.perf_counter()
         results = run_tasks(all_tasks, max(1, min(settings.workers, len(all_tasks))), backend=backend,
                             address=ray_address, factory=factory)
         write_benchmark(folder, settings, runner, owners, results, time.perf_counter() - t0, [],
-                        command=f"footstep_gym.benchmark.evaluate(make_policy_fn, name={name!r}, episodes={episodes})")
+                        command=f"footstep_gym.benchmark.evaluate(make_policy_fn, name={name!r}, episodes={episodes}"
+                                + (f", split={split!r})" if split != SPLIT else ")"))
     except BaseException:
         import shutil
 

@@ -1,12 +1,13 @@
 """The README and docs/ hold what the code and the committed results say.
 
-* ``docs/results.md`` (generated whole) and the generated blocks of ``docs/speed.md`` and ``README.md`` (cog's)
-  equal what ``baselines/make_results_doc.py`` writes from the committed result files, and the script follows a
-  change of those files;
+* ``docs/results.md`` (generated whole) and the generated blocks of ``README.md``, ``docs/benchmark.md`` and
+  ``docs/speed.md`` (cog's) equal what ``baselines/make_results_doc.py`` writes from the committed result files and
+  ``configs/eval.yaml``, and the script follows a change of those files;
 * every relative link (and image) of the README and of ``docs/*.md`` resolves to a file, and every ``#anchor`` to
   a heading of its page;
-* every Python snippet of the README runs as written (in a temporary folder: nothing is written into the checkout);
-* the README's two commands are the ones ``.ci/run`` and a newcomer use.
+* every Python snippet of the README and docs/env.md runs as written (in a temporary folder: nothing is written
+  into the checkout);
+* the README is a guide of at most 350 lines, and its two commands are the ones ``.ci/run`` and a newcomer use.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pathlib import Path
 import pytest
 
 from footstep_gym.evaluation import results_doc
+from footstep_gym.evaluation.splits import PROTOCOL_VERSION, SPLITS
 
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "baselines" / "make_results_doc.py"
@@ -40,7 +42,8 @@ def test_generated_pages_match_the_committed_results():
 
 def test_the_script_checks_and_rewrites_a_stale_page(tmp_path):
     """A copy of the repository's result files, one of them changed: --check fails, the script rewrites the pages
-    from the changed file, and the README's table shows the new number."""
+    from the changed file; a changed evaluation changes docs/results.md, a changed leaderboard row the README's table
+    too."""
     repo = tmp_path / "repo"
     shutil.copytree(REPO / "baselines" / "results", repo / "baselines" / "results",
                     ignore=shutil.ignore_patterns("episodes.csv", "tables", "runs"))
@@ -49,7 +52,7 @@ def test_the_script_checks_and_rewrites_a_stale_page(tmp_path):
         dest.parent.mkdir(parents=True)
         shutil.copy(manifest, dest)
     (repo / "docs").mkdir()
-    for rel in (results_doc.RESULTS_DOC, results_doc.SPEED_DOC, results_doc.README):
+    for rel in (results_doc.RESULTS_DOC, *results_doc.COG_PAGES):
         shutil.copy(REPO / rel, repo / rel)
     run = lambda *args: subprocess.run([sys.executable, str(SCRIPT), "--repo", str(repo), *args],  # noqa: E731
                                        capture_output=True, text=True, cwd=REPO, timeout=120)
@@ -62,13 +65,22 @@ def test_the_script_checks_and_rewrites_a_stale_page(tmp_path):
     results.write_text(json.dumps(records), encoding="utf-8")
     checked = run("--check")
     assert checked.returncode == 1
-    assert "docs/results.md" in checked.stderr and "README.md" in checked.stderr
+    assert "docs/results.md" in checked.stderr and "README.md" not in checked.stderr
     assert run().returncode == 0
     assert run("--check").returncode == 0
-    for rel in (results_doc.RESULTS_DOC, results_doc.README):
-        assert "[0.12, 0.99]" in (repo / rel).read_text(encoding="utf-8")
-    assert (repo / results_doc.SPEED_DOC).read_text(encoding="utf-8") == \
-        (REPO / results_doc.SPEED_DOC).read_text(encoding="utf-8")
+    assert "[0.12, 0.99]" in (repo / results_doc.RESULTS_DOC).read_text(encoding="utf-8")
+
+    board_path = repo / results_doc.LEADERBOARD.with_suffix(".json")
+    board = json.loads(board_path.read_text(encoding="utf-8"))
+    row = next(a for a in board["aggregates"] if a["policy"] == "lookahead" and a["tier"] == "structure")
+    row["iqm"], row["iqm_ci95"] = 0.345, [0.234, 0.456]
+    board_path.write_text(json.dumps(board), encoding="utf-8")
+    checked = run("--check")
+    assert checked.returncode == 1 and "README.md" in checked.stderr
+    assert run().returncode == 0 and run("--check").returncode == 0
+    assert "0.34 [0.23, 0.46]" in (repo / results_doc.README).read_text(encoding="utf-8")
+    for rel in (results_doc.BENCHMARK_DOC, results_doc.SPEED_DOC):
+        assert (repo / rel).read_text(encoding="utf-8") == (REPO / rel).read_text(encoding="utf-8")
 
 
 def test_a_new_evaluation_folder_gets_its_own_section(tmp_path):
@@ -83,23 +95,36 @@ def test_cog_fills_the_blocks_and_names_a_bad_one(tmp_path):
     """The pages' blocks are cog's: the text between a block's code and its end is replaced, the rest kept; an
     unknown block name is refused by name; a block without its end is cog's error."""
     page = REPO / results_doc.README
-    text = ("a\n<!-- [[[cog import footstep_gym.evaluation.results_doc as r; r.cog_block(cog, \"headline\") ]]] -->\n"
+    text = ("a\n<!-- [[[cog import footstep_gym.evaluation.results_doc as r; r.cog_block(cog, \"splits\") ]]] -->\n"
             "old\n<!-- [[[end]]] -->\nb\n")
     done = results_doc.cog_page(page, text)
     assert done.startswith("a\n<!-- [[[cog") and done.endswith("\n<!-- [[[end]]] -->\nb\n") and "old" not in done
-    assert results_doc.headline_table(REPO).strip("\n") in done
-    with pytest.raises(ValueError, match="unknown generated block 'headlines'; known: headline, leaderboard"):
-        results_doc.cog_page(page, text.replace('"headline"', '"headlines"'))
+    assert results_doc.splits_block(REPO) in done
+    with pytest.raises(ValueError, match="unknown generated block 'split'; known: leaderboard_headline, splits"):
+        results_doc.cog_page(page, text.replace('"splits"', '"split"'))
     with pytest.raises(ValueError, match=r"Missing '\[\[\[end\]\]\]'"):
         results_doc.cog_page(page, text.replace("<!-- [[[end]]] -->\n", ""))
     assert results_doc.repo_of(REPO / results_doc.SPEED_DOC) == REPO
 
 
+def test_the_pages_give_the_splits_of_the_config():
+    """The seed splits on the pages are configs/eval.yaml's (the block), and no page names another test range as
+    the test split."""
+    first, end = SPLITS["test"]
+    assert results_doc.splits_text().endswith(f"test {first}–{end - 1} (`configs/eval.yaml`, protocol "
+                                              f"{PROTOCOL_VERSION})")
+    for rel in (results_doc.README, results_doc.BENCHMARK_DOC, results_doc.RESULTS_DOC):
+        assert results_doc.splits_text() in (REPO / rel).read_text(encoding="utf-8"), rel
+    stated = re.compile(r"test (?:split )?\(?(\d{5})[-–](\d{5})")
+    for page in PAGES:
+        for lo, hi in stated.findall(page.read_text(encoding="utf-8")):
+            assert (int(lo), int(hi)) == (first, end - 1), f"{page.name} gives the test split as {lo}-{hi}"
+
+
 def test_cog_itself_checks_the_pages():
     """``cog --check`` (the standard tool, without our script) finds the committed pages up to date."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])}
-    done = subprocess.run([sys.executable, "-m", "cogapp", "--check", str(REPO / results_doc.README),
-                           str(REPO / results_doc.SPEED_DOC)],
+    done = subprocess.run([sys.executable, "-m", "cogapp", "--check", *(str(REPO / p) for p in results_doc.COG_PAGES)],
                           capture_output=True, text=True, env=env, timeout=120)
     assert done.returncode == 0, done.stdout + done.stderr
 
@@ -140,14 +165,20 @@ def test_relative_links_resolve(page):
 
 
 # ---------------------------------------------------------------- snippets and commands
-def _snippets() -> list[str]:
-    return re.findall(r"```python\n(.*?)```", (REPO / "README.md").read_text(encoding="utf-8"), re.S)
+#: The pages whose Python snippets run as written.
+SNIPPET_PAGES = (REPO / "README.md", REPO / "docs" / "env.md")
+
+
+def _snippets(page: Path = REPO / "README.md") -> list[str]:
+    return re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S)
 
 
 def _snippet_params():
-    for i, code in enumerate(_snippets()):
-        slow = "agent_runs" in code or "RecordVideo" in code  # loads torch / writes a video
-        yield pytest.param(code, id=f"snippet{i}", marks=[pytest.mark.slow] if slow else [])
+    for page in SNIPPET_PAGES:
+        for i, code in enumerate(_snippets(page)):
+            slow = any(word in code for word in ("agent_runs", "RecordVideo", "make_vec"))  # torch, a video, JAX
+            yield pytest.param(code, id=f"{page.relative_to(REPO)}:snippet{i}",
+                               marks=[pytest.mark.slow] if slow else [])
 
 
 @pytest.mark.parametrize("code", list(_snippet_params()))
@@ -165,8 +196,9 @@ def test_readme_python_snippet_runs(code, tmp_path):
         assert list((tmp_path / "runs" / "videos").glob("*.mp4"))  # it wrote where it says, in the cwd
 
 
-def test_readme_has_snippets_and_the_two_commands():
+def test_readme_is_a_guide_with_snippets_and_the_two_commands():
     readme = (REPO / "README.md").read_text(encoding="utf-8")
+    assert len(readme.splitlines()) <= 350, "the README is a guide of at most 350 lines: results go to docs/"
     assert len(_snippets()) >= 3
     blocks = re.findall(r"```bash\n(.*?)```", readme, re.S)
     assert QUICK_START in [b.strip() for b in blocks]

@@ -68,3 +68,25 @@ def test_the_sync_vector_env_beside_it_runs_both_workloads():
         assert speed.sync_vector_rate(3, workload, {"tier": "train"}, 2) > 0.0
     with pytest.raises(ValueError, match="workload must be one of"):
         speed.sync_vector_rate(3, "jog", {"tier": "train"}, 2)
+
+
+def test_the_jittery_walker_and_the_make_vec_figure():
+    """The ``jitter`` workload stays in the action box around the walk and varies; ``vector_rate`` steps the
+    Gymnasium vector env (numpy in and out) on it; the observing rollout adds the observations to its sum."""
+    import gymnasium as gym
+    import numpy as np
+
+    space = gym.spaces.Box(np.array([-0.04, 0.07, -0.4, 0.1, 0.1], np.float32),
+                           np.array([0.1, 0.12, 0.4, 0.6, 0.3], np.float32))
+    batch = gym.vector.utils.batch_space(space, 64)
+    acts = speed.host_actions("jitter", batch, np.random.default_rng(0))
+    assert acts.shape == (64, 5) and acts.dtype == np.float32 and acts in batch
+    assert 0.0 < np.abs(acts - np.asarray(speed.WALK, np.float32)).max() < 0.5 and len(np.unique(acts[:, 0])) > 32
+    rate = speed.vector_rate("FootstepDoor-v0", 4, 3, 1, "jitter", {"tier": "train"})
+    assert rate.n == 4 and rate.steps_per_s > 0.0 and len(rate.repeats) == 1
+    env = FootstepJaxEnv("door", tier="train")
+    state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(1), 4))
+    keys = jax.random.split(jax.random.key(2), 1)
+    plain = speed.rollout_fn(env, 4, 2, "jitter", chunk=2)(state, keys)[2]
+    seen = speed.rollout_fn(env, 4, 2, "jitter", chunk=2, observe=True)(state, keys)[2]
+    assert float(seen[0]) != float(plain[0])

@@ -7,7 +7,12 @@ measured apart, on the first call. Two workloads:
 * ``random``: actions uniform in the action box (about half fall at once and reset: resets weigh heavily,
   as in the reference env's speed tiers);
 * ``walk``: every env walks 5 cm strides at the nominal period towards the goal (the sweep's checks weigh
-  heavily: envs walk the door's corridor, reach the door and hit it or pass; in the crowd the ring closes in).
+  heavily: envs walk the door's corridor, reach the door and hit it or pass; in the crowd the ring closes in);
+* ``jitter``: a jittery near-nominal walker: the walk's command plus Gaussian noise of :data:`JITTER` per field,
+  clipped to the action box (envs end at different steps, as a learner's early policy does).
+
+:func:`vector_rate` times the same workloads through ``gymnasium.make_vec`` (numpy in and out, what an SB3 or
+CleanRL user steps), so the in-JAX figure and the Gymnasium one can be printed from one run.
 
 ``devices``: the batch split evenly over that many JAX devices (``jax.shard_map``), each running its share as one
 program. On a CPU, XLA runs one program on one core; :func:`use_cpu_devices` splits the CPU into as many devices
@@ -31,8 +36,10 @@ import numpy as np
 import footstep_gym  # noqa: F401
 from footstep_gym.jax.env import FootstepJaxEnv
 
-WORKLOADS = ("random", "walk")
+WORKLOADS = ("random", "walk", "jitter")
 WALK = (0.05, 0.08, 0.0, 0.6, 0.2)
+#: The ``jitter`` workload's standard deviations about :data:`WALK` (S [m], L [m], theta [rad], T_SS [s], T_DS [s]).
+JITTER = (0.01, 0.005, 0.05, 0.03, 0.02)
 
 
 @dataclass
@@ -57,9 +64,12 @@ def use_cpu_devices(count: int | None = None) -> int:
     return len(jax.devices())
 
 
-def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: int = 64, devices: int = 1) -> Any:
+def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: int = 64, devices: int = 1,
+               observe: bool = False) -> Any:
     """``(state, keys) -> (state, keys, rewards sum per device)``: ``steps`` batched footsteps with same-step resets,
-    the batch split over the first ``devices`` devices (``keys``: one per device)."""
+    the batch split over the first ``devices`` devices (``keys``: one per device). Without ``observe`` nothing reads
+    the observations, so XLA leaves them uncomputed (the backend's step alone); with it the sum also takes in each
+    env's next observation (the step's, or the fresh episode's first where one ended), which a learner reads."""
     if workload not in WORKLOADS:
         raise ValueError(f"workload must be one of {WORKLOADS}, got {workload!r}")
     if devices < 1 or n % devices or devices > len(jax.devices()):
@@ -68,6 +78,7 @@ def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: in
     low = jnp.asarray(env.action_space.low)
     high = jnp.asarray(env.action_space.high)
     walk = jnp.asarray(WALK, jnp.float32)
+    jitter = jnp.asarray(JITTER, jnp.float32)
     reset = jax.vmap(env.reset)
 
     def body(carry, _):
@@ -75,12 +86,16 @@ def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: in
         key, k_act, k_reset = jax.random.split(key, 3)
         if workload == "random":
             actions = jax.random.uniform(k_act, (local, 5), jnp.float32, low, high)
+        elif workload == "jitter":
+            actions = jnp.clip(walk + jitter * jax.random.normal(k_act, (local, 5), jnp.float32), low, high)
         else:
             actions = jnp.broadcast_to(walk, (local, 5))
-        state, _, reward, terminated, truncated, _ = env.step_batch(state, actions, chunk)
-        fresh, _ = reset(jax.random.split(k_reset, local))
+        state, obs, reward, terminated, truncated, _ = env.step_batch(state, actions, chunk)
+        fresh, fresh_obs = reset(jax.random.split(k_reset, local))
         done = terminated | truncated
         state = jax.tree.map(lambda a, b: jnp.where(done.reshape((-1,) + (1,) * (a.ndim - 1)), a, b), fresh, state)
+        if observe:
+            total = total + jnp.sum(jnp.where(done[:, None], fresh_obs, obs)).astype(total.dtype)
         return (state, key, total + jnp.sum(reward)), None
 
     def run(state, keys):
@@ -117,10 +132,10 @@ def split_over(tree: Any, devices: int) -> Any:
 
 
 def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str, seed: int = 0, chunk: int = 64,
-            devices: int = 1) -> Rate:
+            devices: int = 1, observe: bool = False) -> Rate:
     """Steps/s of ``n`` envs over ``repeats`` runs of ``steps`` batched footsteps (median), compile apart
-    (``chunk``: :meth:`FootstepJaxEnv.step_batch`'s; ``devices``: :func:`rollout_fn`'s)."""
-    fn = rollout_fn(env, n, steps, workload, chunk, devices)
+    (``chunk``: :meth:`FootstepJaxEnv.step_batch`'s; ``devices``, ``observe``: :func:`rollout_fn`'s)."""
+    fn = rollout_fn(env, n, steps, workload, chunk, devices, observe)
     key = split_over(jax.random.split(jax.random.key(seed), devices), devices)
     state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(seed + 1), n))
     state = split_over(state, devices)
@@ -139,6 +154,45 @@ def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str
     return Rate(n, statistics.median(rates), compile_s, rates, int(state_bytes))
 
 
+def host_actions(workload: str, space: gym.spaces.Box, rng: np.random.Generator) -> np.ndarray:
+    """One batch of ``workload``'s actions (numpy float32, ``space``'s shape: one env's or a batch's) for the
+    envs stepped from Python."""
+    if workload not in WORKLOADS:
+        raise ValueError(f"workload must be one of {WORKLOADS}, got {workload!r}")
+    walk = np.broadcast_to(np.asarray(WALK, np.float32), space.shape)
+    if workload == "walk":
+        return walk.copy()
+    if workload == "random":
+        return rng.uniform(space.low, space.high).astype(np.float32)
+    noise = rng.normal(size=space.shape).astype(np.float32) * np.asarray(JITTER, np.float32)
+    return np.clip(walk + noise, space.low, space.high)
+
+
+def vector_rate(env_id: str, n: int, steps: int, repeats: int, workload: str, env_kwargs: dict, seed: int = 0,
+                devices: int = 1, bank: int = 16) -> Rate:
+    """Env steps/s of ``gymnasium.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")`` (the
+    batched backend, numpy actions in, numpy observations and infos out, Gymnasium's autoreset): the median of
+    ``repeats`` runs of ``steps`` steps after 3 of warm-up (the first call's compile apart). The actions cycle
+    through ``bank`` batches drawn before timing, so the figure is the env's, not the action generator's."""
+    envs = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", devices=devices, **env_kwargs)
+    rng = np.random.default_rng(seed)
+    actions = [host_actions(workload, envs.action_space, rng) for _ in range(bank)]
+    t0 = time.perf_counter()
+    envs.reset(seed=seed)
+    envs.step(actions[0])
+    compile_s = time.perf_counter() - t0
+    for i in range(2):
+        envs.step(actions[1 + i])
+    rates = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for i in range(steps):
+            envs.step(actions[i % bank])
+        rates.append(n * steps / (time.perf_counter() - t0))
+    envs.close()
+    return Rate(n, statistics.median(rates), compile_s, rates, 0)
+
+
 def sync_vector_rate(steps: int, workload: str, env_kwargs: dict, num_envs: int, seed: int = 0,
                      env_id: str = "FootstepDoor-v0") -> float:
     """Env steps/s of Gymnasium's ``SyncVectorEnv`` of ``num_envs`` reference envs on the same workload (its own
@@ -146,12 +200,11 @@ def sync_vector_rate(steps: int, workload: str, env_kwargs: dict, num_envs: int,
     if workload not in WORKLOADS:
         raise ValueError(f"workload must be one of {WORKLOADS}, got {workload!r}")
     envs = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="sync", **env_kwargs)
-    envs.action_space.seed(seed)
+    rng = np.random.default_rng(seed)
     envs.reset(seed=seed)
-    walk = np.tile(np.asarray(WALK, np.float32), (num_envs, 1))
 
     def act() -> np.ndarray:
-        return envs.action_space.sample() if workload == "random" else walk
+        return host_actions(workload, envs.action_space, rng)
 
     for _ in range(20):
         envs.step(act())
@@ -166,17 +219,19 @@ def sync_vector_rate(steps: int, workload: str, env_kwargs: dict, num_envs: int,
 def reference_rate(steps: int, workload: str, env_kwargs: dict, seed: int = 0, env_id: str = "FootstepDoor-v0"
                    ) -> float:
     """Steps/s of one reference env (``gymnasium.make(env_id)``) on the same workload, reset at episode end."""
+    if workload not in WORKLOADS:
+        raise ValueError(f"workload must be one of {WORKLOADS}, got {workload!r}")
     env = gym.make(env_id, **env_kwargs)
-    env.action_space.seed(seed)
+    rng = np.random.default_rng(seed)
     env.reset(seed=seed)
-    walk = np.asarray(WALK, np.float32)
-    for _ in range(50):  # warm-up (numba's sweep loads on the first step)
-        _, _, te, tr, _ = env.step(env.action_space.sample() if workload == "random" else walk)
+    actions = [host_actions(workload, env.action_space, rng) for _ in range(256)]
+    for i in range(50):  # warm-up (numba's sweep loads on the first step)
+        _, _, te, tr, _ = env.step(actions[i])
         if te or tr:
             env.reset()
     t0 = time.perf_counter()
-    for _ in range(steps):
-        _, _, te, tr, _ = env.step(env.action_space.sample() if workload == "random" else walk)
+    for i in range(steps):
+        _, _, te, tr, _ = env.step(actions[i % 256])
         if te or tr:
             env.reset()
     rate = steps / (time.perf_counter() - t0)

@@ -19,11 +19,15 @@ from gymnasium.vector.utils import batch_space
 
 from footstep_gym.errors import ActionError, ConfigError
 from footstep_gym.jax import shapes, speed
-from footstep_gym.jax.env import REWARD_TERMS, FootstepJaxEnv, termination_name
+from footstep_gym.jax.env import REWARD_TERMS, TERMINATION_CODES, FootstepJaxEnv, termination_name
 
 #: ``info`` keys returned per step (arrays of ``num_envs``), each with Gymnasium's ``_key`` mask.
 INFO_KEYS = ("is_success", "termination", "feasible", "collision", "clipped", "time", "period", "steps",
              "zmp_margin", "clearance")
+
+#: ``info["termination"]``'s names indexed by the JAX env's termination code (an object array: a batch of codes
+#: becomes a batch of names by one numpy indexing).
+TERMINATION_NAMES = np.array([termination_name(c) for c in range(max(TERMINATION_CODES.values()) + 1)], dtype=object)
 
 
 def _keys_of(seeds: list[int]) -> jax.Array:
@@ -94,6 +98,8 @@ class FootstepVectorEnv(VectorEnv):
         self.devices = int(devices)
         self._reset_fn = jax.jit(speed.on_devices(self._reset_batch, self.devices))
         self._step_fn = jax.jit(speed.on_devices(self._step_batch, self.devices), static_argnames=("same_step",))
+        self._cell_names = np.empty(len(env.cells), dtype=object)
+        self._cell_names[:] = env.cells
 
     def _put(self, x: Any) -> Any:
         """``x`` (leading with the batch) laid out over the devices."""
@@ -111,6 +117,7 @@ class FootstepVectorEnv(VectorEnv):
     def _step_batch(self, state: Any, actions: jax.Array, reset_mask: jax.Array, same_step: bool) -> tuple:
         env = self.jax_env
         stepped, obs, reward, terminated, truncated, info = env.step_batch(state, actions, self.chunk)
+        info = self._host_info(info)  # the rest is not computed
         keys = jax.vmap(lambda k: jax.random.split(k))(state.key)
         fresh, fresh_obs = jax.vmap(env.reset)(keys[:, 1])
         stepped = stepped._replace(key=keys[:, 0])
@@ -176,10 +183,11 @@ class FootstepVectorEnv(VectorEnv):
         if self.autoreset_mode == AutoresetMode.DISABLED and self._autoreset.any():
             raise gym.error.ResetNeeded(f"FootstepVectorEnv: envs {np.flatnonzero(self._autoreset).tolist()} ended; "
                                         "reset them with reset(options={'reset_mask': mask}) (autoreset_mode=DISABLED)")
-        out = self._step_fn(self._state, self._put(jnp.asarray(a)), self._put(jnp.asarray(mask)), same_step=same)
+        out = self._step_fn(self._state, self._put(a), self._put(mask), same_step=same)
         self._state, obs, last_obs, reward, terminated, truncated, info = out
-        obs, reward = np.asarray(obs), np.asarray(reward, dtype=np.float64)
-        terminated, truncated = np.asarray(terminated), np.asarray(truncated)
+        # One transfer of everything the step returns to numpy (the shards of every array copied at once).
+        obs, reward, terminated, truncated, info = jax.device_get((obs, reward, terminated, truncated, info))
+        reward = reward.astype(np.float64)
         stepped = ~mask
         infos = self._infos(info, stepped)
         done = terminated | truncated
@@ -193,14 +201,22 @@ class FootstepVectorEnv(VectorEnv):
         self._autoreset = done
         return obs, reward, terminated, truncated, infos
 
+    @staticmethod
+    def _host_info(info: dict[str, Any]) -> dict[str, Any]:
+        """The part of the batched step's ``info`` that :meth:`_infos` reads (what is copied to numpy)."""
+        keys = INFO_KEYS + (("sensed_obstacles",) if "sensed_obstacles" in info else ()) + ("cell", "rewards")
+        return {k: info[k] for k in keys}
+
     def _infos(self, info: dict[str, Any], where: np.ndarray) -> dict[str, Any]:
+        """Gymnasium's vector ``info`` from the batch's (numpy arrays): each key with its ``_key`` mask ``where``;
+        the names (``termination``, ``tier_cell``) by indexing object arrays with the codes, no loop over envs."""
         out: dict[str, Any] = {}
         for key in INFO_KEYS + (("sensed_obstacles",) if "sensed_obstacles" in info else ()):
             value = np.asarray(info[key])
             if key == "termination":
-                value = np.array([termination_name(int(c)) for c in value], dtype=object)
+                value = TERMINATION_NAMES[value]
             out[key], out[f"_{key}"] = value, where.copy()
-        out["tier_cell"] = np.array([self.jax_env.cells[c] for c in np.asarray(info["cell"])], dtype=object)
+        out["tier_cell"] = self._cell_names[np.asarray(info["cell"])]
         out["_tier_cell"] = where.copy()
         out["rewards"] = {k: np.asarray(info["rewards"][k], dtype=np.float64) for k in REWARD_TERMS}
         out["_rewards"] = where.copy()

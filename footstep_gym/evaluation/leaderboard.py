@@ -515,12 +515,13 @@ WIDTH_IN, DPI = 9.0, 100
 def policy_styles(board: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     """One style per policy label, the same in every figure: the upper bounds black and dashed, the null baselines
     thin grey lines (one legend entry for them all), every other policy a colour of seaborn's colour-blind palette
-    crossed with a line style (:data:`LINESTYLES`), in the leaderboard's order."""
+    (its grey left to the null baselines) crossed with a line style (:data:`LINESTYLES`), in the leaderboard's
+    order."""
     import seaborn as sns
 
     from footstep_gym.planners.null import is_null
 
-    palette = sns.color_palette("colorblind", n_colors=10)
+    palette = [c for k, c in enumerate(sns.color_palette("colorblind", n_colors=10)) if k != 7]  # 7: its grey
     styles, k = {}, 0
     for p in board["policies"]:
         if p["upper_bound"]:
@@ -530,7 +531,7 @@ def policy_styles(board: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         else:
             styles[p["label"]] = {"color": palette[k % len(palette)],
                                   "linestyle": LINESTYLES[(k // len(palette)) % len(LINESTYLES)], "linewidth": 1.5,
-                                  "group": "learned" if p["learned"] else "planner"}
+                                  "group": "learned" if p.get("learned") else "planner"}
             k += 1
     return styles
 

@@ -4,7 +4,7 @@ Usage::
 
     python baselines/eval_planner.py                 # quick default: all envs, planners and shipped agents, 3 seeds
     python baselines/eval_planner.py --paper         # the paper's protocol (door 8/14/17 deg/s, crossing, crowd; 20 seeds)
-    python baselines/eval_planner.py --profile agents   # agents against both planners on every setting of the README
+    python baselines/eval_planner.py --profile agents   # agents against both planners (docs/results.md)
     python baselines/eval_planner.py --ablation         # period-aware with each of our additions off in turn
     python baselines/eval_planner.py --env door --door-speed 8 --door-speed 17 --policy period-aware \\
         --policy ppo --episodes 10 --split validation --out runs/door --workers 2
@@ -20,7 +20,7 @@ value; a scene without a sweep runs at its YAML's values.
 
 Each cell (env, setting, policy; for an agent, each training run) runs ``--episodes``
 episodes with the seeds of ``--split`` (disjoint ranges in ``configs/eval.yaml``: train,
-validation, test; the README's tables come from test), starting ``--seed`` seeds into it.
+validation, test; the committed results come from test), starting ``--seed`` seeds into it.
 Each episode seeds the env and the policy with its seed, so results do not depend on
 ``--workers`` or ``--backend``. Every setting is checked before anything runs (a bad value
 is one error line, exit status 2). The script prints a markdown table and writes to ``--out``

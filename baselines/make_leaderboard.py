@@ -9,7 +9,7 @@ Usage::
 Each path is a ``benchmark.json`` (``eval_planner.py --benchmark``), a folder holding one, or a folder whose
 sub-folders hold one each. The files must be of one protocol (the same ``protocol.env_configs_sha256`` and
 ``episodes_per_cell``; ``--allow-mixed`` lifts this) and name each policy once. ``--out`` gets
-``leaderboard.md``, ``leaderboard.json``, ``iqm_optimality_gap.png`` (and one per tier) and
+``leaderboard.md``, ``leaderboard.json``, ``iqm_per_tier.png``, ``iqm_optimality_gap_<tier>.png`` per tier and
 ``performance_profiles.png``, written into a temporary folder beside it and then moved in (its other files are
 kept). The machinery is ``footstep_gym.evaluation.leaderboard``; docs/benchmark.md §4 says what the figures show.
 """

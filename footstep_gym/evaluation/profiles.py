@@ -69,7 +69,7 @@ PROFILES = {
     # (filled in by --ablation: footstep_gym.planners.ablation_variants()).
     "ablation": Profile(scenes=None, episodes=10, sweeps={"door": {"door_speed": (17.0,)}},
                         policies=()),
-    # The agents against both planners on every setting the README reports (the scenes they were trained on).
+    # The agents against both planners on every setting docs/results.md reports (the scenes they were trained on).
     "agents": Profile(scenes=PAPER_SCENES, episodes=20,
                       sweeps={"door": {"door_speed": (8.0, 11.0, 14.0, 17.0, 20.0)},
                               "crowd": {"crowd_speed": (0.16, 0.2)}},

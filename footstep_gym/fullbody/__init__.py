@@ -17,7 +17,7 @@ import numpy as np
 
 from footstep_gym.robot import Robot, load_robot
 
-from footstep_gym.fullbody.model import Op3, load_model, model_path  # noqa: E402  (needs mujoco)
+from footstep_gym.fullbody.model import model_path, shared_op3
 from footstep_gym.fullbody.plan import GaitTiming, gait_plan
 from footstep_gym.fullbody.walker import WalkResult, walk_plan
 
@@ -48,7 +48,7 @@ def walk(commands: Any, robot: Robot | Mapping[str, Any] | str = "op3", seed: in
     """
     cmd = _commands(commands)
     rob = _robot(robot)
-    return walk_plan(Op3.of(load_model()), gait_plan(rob, cmd, timing), cmd, seed)
+    return walk_plan(shared_op3(), gait_plan(rob, cmd, timing), cmd, seed)
 
 
 def env_for_verdict(robot: Robot | Mapping[str, Any] | str = "op3", max_steps: int = 10_000):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import copy
 import importlib.util
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -48,7 +48,7 @@ def model_path() -> Path:
 
 
 @lru_cache(maxsize=1)
-def _xml_model() -> "mujoco.MjModel":
+def _xml_model() -> "mujoco.MjModel":  # parsing the meshes takes seconds: once per process
     return mujoco.MjModel.from_xml_path(str(model_path()))
 
 
@@ -102,6 +102,13 @@ class Op3:
                    np.array([model.jnt_qposadr[j] for j in joints]), np.array([model.jnt_dofadr[j] for j in joints]),
                    soles)
 
+    @cached_property
+    def no_contact(self) -> "mujoco.MjModel":
+        """A copy of the model with contacts off (for inverse dynamics of a planned motion)."""
+        m = copy.deepcopy(self.model)
+        m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+        return m
+
     def arm_qpos(self) -> dict[int, float]:
         """qpos address -> angle of the held arm posture."""
         m = self.model
@@ -136,7 +143,7 @@ class LegIK:
     its sole frame sits at the requested pose; the arms and head hold the posture of :data:`ARM_POSTURE`.
     """
 
-    def __init__(self, op3: Op3, iterations: int = 8, tolerance: float = 1e-7) -> None:
+    def __init__(self, op3: Op3, iterations: int = 8, tolerance: float = 1e-6) -> None:
         self.op3 = op3
         self.model = op3.model
         self.data = mujoco.MjData(self.model)
@@ -179,3 +186,9 @@ class LegIK:
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
         return err
+
+
+@lru_cache(maxsize=1)
+def shared_op3() -> Op3:
+    """One :class:`Op3` per process (walking never changes its model)."""
+    return Op3.of(load_model())

@@ -33,7 +33,8 @@ def _up_mm(x: float) -> float:
 
 
 def derive_profile() -> dict[str, tuple[object, str]]:
-    """``key -> (value, where it comes from)`` for the keys of ``configs/robot.yaml`` that the OP3 changes."""
+    """``key -> (value, where it comes from)`` for every key of ``configs/robot.yaml`` derived from the OP3's model
+    (:func:`profile_keys`: those that differ from ``robot.yaml``, the profile's keys)."""
     m = load_model()
     op3 = Op3.of(m)
     base = load_robot()
@@ -72,12 +73,18 @@ def derive_profile() -> dict[str, tuple[object, str]]:
     reach = math.sqrt((REACH_SHARE * leg) ** 2 - hip_height ** 2)
     lat = hip_y + ankle_to_sole_y  # a sole centre's lateral offset from the torso when under its hip
 
-    def reachable(S: float, L: float) -> bool:  # torso midway between the feet: each ankle S/2, L/2 - lat off its hip
-        return math.hypot(S / 2, L / 2 - lat) <= reach and math.hypot(S / 2, max(0.0, lat - L / 2)) <= reach
+    def reachable(S: float, L: float) -> bool:
+        # Single support, the torso above the support sole's centre: the support ankle lat sideways of its hip,
+        # the swing ankle (S, L - lat) off its hip.
+        return lat <= reach and math.hypot(S, L - lat) <= reach
+
+    def most(S_sign: float) -> float:  # the longest |S| reachable at every L of the side range, to a mm
+        hi = max(abs(L - lat) for L in (side_lo, base.stride_side[1]))
+        return S_sign * math.floor(1000 * math.sqrt(max(reach ** 2 - hi ** 2, 0.0))) / 1000
 
     foot_w, foot_l = _mm(sole.width), _mm(sole.length)
     side_lo = _up_mm(foot_w + base.foot_clearance)
-    front = [max(base.stride_front[0], -_mm(2 * reach)), min(base.stride_front[1], _mm(2 * reach))]
+    front = [max(base.stride_front[0], most(-1.0)), min(base.stride_front[1], most(1.0))]
     side_hi = base.stride_side[1]
     for S in front:
         for L in (side_lo, side_hi):
@@ -107,18 +114,23 @@ def derive_profile() -> dict[str, tuple[object, str]]:
         "foot_width": (foot_w, "[m] the same along y (the boxes form a cross: its corners are cut)"),
         "body_radius": (body_radius, "[m] the farthest vertex of any collision geom from the CoM's vertical in the "
                         "walking posture (arms down: shoulder roll 1.45 rad), up to a cm"),
-        "stride_front": (front, f"[m] robot.yaml's S range, narrowed to 2 x the reach ({reach:.4f} m: the ankle "
-                         f"within {REACH_SHARE} of the leg's length of its hip at the walking height) where "
-                         f"that is smaller"),
+        "stride_front": (front, f"[m] robot.yaml's S range, narrowed where a swing ankle would leave the reach "
+                         f"({reach:.4f} m: within {REACH_SHARE} of the leg's length of its hip at the walking "
+                         f"height) in single support, the torso above the support sole, at any L"),
         "stride_side": ([side_lo, side_hi], "[m] L from the sole's width + foot_clearance (the soles never "
                         "overlap side by side) to robot.yaml's upper end; every corner of the S x L box is "
-                        "within the reach with the torso midway between the feet"),
+                        "within that reach"),
         "nominal_side_stride": (_mm(nominal_side), "[m] the sole centres' distance with both legs straight "
                                 "below their hips (op3.xml: hip-roll axes 2 x {:.3f} m apart, sole centres {:.4f} m "
                                 "outward of the ankles)".format(hip_y, ankle_to_sole_y)),
     }
-    base_data = config.read_yaml("robot.yaml")
-    return {k: v for k, v in out.items() if list(np.atleast_1d(v[0])) != list(np.atleast_1d(base_data[k]))}
+    return out
+
+
+def profile_keys(derived: dict[str, tuple[object, str]]) -> dict[str, object]:
+    """The derived keys whose values differ from ``configs/robot.yaml``'s: what ``op3.yaml`` sets."""
+    base = config.read_yaml("robot.yaml")
+    return {k: v for k, (v, _) in derived.items() if list(np.atleast_1d(v)) != list(np.atleast_1d(base[k]))}
 
 
 def _standing_targets(op3: Op3, qpos: np.ndarray) -> np.ndarray:
@@ -146,8 +158,12 @@ HEADER = """\
 def profile_yaml(profile: dict[str, tuple[object, str]] | None = None) -> str:
     """The text of ``configs/robots/op3.yaml``."""
     profile = derive_profile() if profile is None else profile
+    keys = profile_keys(profile)
     lines = [HEADER.rstrip("\n")]
     for key, (value, source) in profile.items():
         text = f"[{value[0]}, {value[1]}]" if isinstance(value, list) else f"{value}"
-        lines.append(f"{key}: {text}".ljust(30) + f"# {source}")
+        if key in keys:
+            lines.append(f"{key}: {text}".ljust(30) + f"# {source}")
+        else:  # derived too, but robot.yaml's value: a profile sets only what differs
+            lines.append(f"# {key}: {text} as robot.yaml. {source}")
     return "\n".join(lines) + "\n"

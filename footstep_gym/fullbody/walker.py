@@ -10,7 +10,6 @@ gain differs from the model's.
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -22,8 +21,9 @@ from footstep_gym.footstep import LEFT, RIGHT
 from footstep_gym.fullbody.model import LegIK, Op3, yaw_matrix
 from footstep_gym.fullbody.plan import GaitPlan
 
-#: Torso (free joint) height [m] of the walking posture: hip-pitch axis to ankle 0.20 m of the legs' 0.22 m.
-TORSO_HEIGHT = 0.259
+#: Torso (free joint) height [m] of the walking posture: the hip-pitch axes 0.176 m above the ankles (of the legs'
+#: 0.220 m: knees bent 74 deg), low enough that a 10 cm stride stays within the legs' reach in single support.
+TORSO_HEIGHT = 0.235
 #: A fall: the torso below this share of its walking height, or tilted beyond this angle [rad].
 FALL_HEIGHT_SHARE = 0.6
 FALL_TILT = math.radians(45.0)
@@ -77,7 +77,7 @@ def servo_targets(op3: Op3, plan: GaitPlan, qpos: np.ndarray) -> np.ndarray:
     double support), then taken off each leg through its Jacobian.
     """
     m = op3.model
-    dm = _no_contact(m)
+    dm = op3.no_contact
     d = mujoco.MjData(dm)
     n, dt = len(qpos), plan.t[1] - plan.t[0]
     qvel = np.zeros((n, m.nv))
@@ -109,12 +109,6 @@ def servo_targets(op3: Op3, plan: GaitPlan, qpos: np.ndarray) -> np.ndarray:
     return ctrl
 
 
-def _no_contact(model: "mujoco.MjModel") -> "mujoco.MjModel":
-    m = copy.deepcopy(model)
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
-    return m
-
-
 @dataclass
 class WalkResult:
     """What the OP3 made of a footstep sequence.
@@ -134,6 +128,7 @@ class WalkResult:
     cop_margin: np.ndarray  # (k,) [m]
     sim_time: float  # [s] simulated, prelude and stop included
     wall_time: float  # [s] planning and simulating
+    ik_residual: float  # [m or rad] the plan's largest IK residual: above a millimetre a sole was out of reach
     zmp_offset: list[complex] = field(default_factory=list)  # the LIPM's p of each command (support foot frame)
     frames: list[np.ndarray] = field(default_factory=list)  # rendered frames (``render_every``)
 
@@ -219,7 +214,7 @@ def walk_plan(op3: Op3, plan: GaitPlan, commands: np.ndarray, seed: int | None =
     cop = cop[:done]
     cop[np.isinf(cop)] = np.nan
     return WalkResult(fell_at is not None, fell_at, np.array(foot_error), np.array(yaw_error), cop,
-                      float(d.time), time.perf_counter() - t0, list(plan.zmp_offset), frames)
+                      float(d.time), time.perf_counter() - t0, jp.ik_residual, list(plan.zmp_offset), frames)
 
 
 def _tracking_camera(d: "mujoco.MjData", op3: Op3) -> "mujoco.MjvCamera":

@@ -1,0 +1,126 @@
+"""Footstep commands walked on the ROBOTIS OP3 in MuJoCo (footstep_gym.fullbody; docs/fullbody.md).
+
+    python baselines/fullbody.py replay --policy period-aware --env FootstepDoor-v0 --episodes 10 [--video]
+    python baselines/fullbody.py nominal            # 20 footsteps of the nominal command (and of 5 cm strides)
+    python baselines/fullbody.py agreement          # the env's verdict against the OP3 (docs/fullbody.md §3)
+
+Episodes use the validation split's seeds (configs/eval.yaml), never the test split's. Results go to
+baselines/results/fullbody/; an existing file is kept unless --force.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from footstep_gym.config import read_yaml
+
+OUT = Path(__file__).resolve().parent / "results" / "fullbody"
+
+
+def _target(path: Path, force: bool) -> Path:
+    if path.exists() and not force:
+        sys.exit(f"{path} exists; pass --force to replace it")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def validation_seeds(n: int, offset: int) -> list[int]:
+    first, end = read_yaml("eval.yaml")["splits"]["validation"]
+    if offset < 0 or first + offset + n > end:
+        sys.exit(f"--offset {offset} + --episodes {n} leaves the validation split [{first}, {end})")
+    return list(range(first + offset, first + offset + n))
+
+
+def cmd_replay(args: argparse.Namespace) -> None:
+    from footstep_gym.fullbody.replay import markdown_table, record_episodes, summary, table_rows, walk_episodes, \
+        write_video
+
+    name = f"{args.env}_{args.tier}_{args.cell or 'all'}_{args.policy}_{args.robot}".replace("/", "-")
+    path = _target(args.out / f"{name}.md", args.force)
+    episodes = record_episodes(args.policy, args.env, validation_seeds(args.episodes, args.offset), args.tier,
+                               args.cell, args.robot, args.run)
+    rows = table_rows(walk_episodes(episodes, args.robot))
+    text = (f"# {args.policy} on {args.env} (tier {args.tier}, cell {args.cell or 'drawn'}), robot {args.robot}, "
+            f"walked on the OP3\n\n" + markdown_table(summary(rows)) + "\n" + markdown_table(rows))
+    path.write_text(text, encoding="utf-8")
+    print(text)
+    if args.video:
+        os.environ.setdefault("MUJOCO_GL", "osmesa")
+        ep = episodes[0]
+        print("video:", write_video(ep.commands, _target(args.out / f"{name}_{ep.seed}.mp4", args.force), args.robot))
+
+
+def cmd_nominal(args: argparse.Namespace) -> None:
+    from footstep_gym.fullbody import walk
+    from footstep_gym.robot import load_robot
+
+    robot = load_robot(args.robot)
+    path = _target(args.out / f"nominal_{args.robot}.json", args.force)
+    out = {}
+    for label, stride in (("nominal", 0.0), ("stride_5cm", 0.05)):
+        cmd = robot.nominal_command.copy()
+        cmd[0] = stride
+        t = time.perf_counter()
+        res = walk(np.tile(cmd, (args.steps, 1)), robot=args.robot)
+        wall = time.perf_counter() - t
+        short = walk(np.tile(cmd, (1, 1)), robot=args.robot)  # the prelude and stop alone (and one step)
+        out[label] = {"command": cmd.tolist(), "footsteps": args.steps, "fell": res.fell, "fell_at": res.fell_at,
+                      "median_foot_error_mm": round(1000 * float(np.median(res.foot_error)), 2),
+                      "max_foot_error_mm": round(1000 * float(np.max(res.foot_error)), 2),
+                      "median_yaw_error_deg": round(float(np.degrees(np.median(res.yaw_error))), 3),
+                      "min_cop_margin_mm": round(1000 * float(np.nanmin(res.cop_margin)), 2),
+                      "wall_s": round(wall, 2), "sim_s": round(res.sim_time, 2),
+                      "wall_per_footstep_s": round((res.wall_time - short.wall_time) / (args.steps - 1), 3)}
+        print(label, out[label])
+    path.write_text(json.dumps(out, indent=1) + "\n", encoding="utf-8")
+
+
+def cmd_agreement(args: argparse.Namespace) -> None:
+    from footstep_gym.fullbody.study import agreement_records, agreement_report
+
+    path = _target(args.out / f"agreement_{args.robot}_seed{args.seed}.json", args.force)
+
+    def progress(i: int, rec: dict) -> None:
+        print(f"{i:4d} {rec['family']:15s} env {rec['env_fall_at']} {rec['env_fall']}  OP3 fell {rec['body_fell_at']}"
+              f"  fell or tipped {rec['body_failed_at']}  {rec['wall_time']:.1f} s", flush=True)
+
+    records = agreement_records(args.robot, args.sequences, args.seed, progress)
+    report = agreement_report(records, args.robot)
+    print(json.dumps({k: v for k, v in report.items()}, indent=1))
+    path.write_text(json.dumps({"robot": args.robot, "seed": args.seed, "sequences": args.sequences,
+                                "report": report, "records": records}, indent=1) + "\n", encoding="utf-8")
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robot", default="op3", help="robot profile (configs/robots/)")
+    parser.add_argument("--out", type=Path, default=OUT, help="output folder")
+    parser.add_argument("--force", action="store_true", help="replace existing output files")
+    sub = parser.add_subparsers(dest="command", required=True)
+    rp = sub.add_parser("replay", help="record a policy's episodes through the env and walk them on the OP3")
+    rp.add_argument("--policy", required=True, help="a name of footstep_gym.make_policy (planner or agent)")
+    rp.add_argument("--env", default="FootstepDoor-v0")
+    rp.add_argument("--tier", default="paper")
+    rp.add_argument("--cell", default=None, help="the tier's cell (default: drawn per episode)")
+    rp.add_argument("--episodes", type=int, default=10)
+    rp.add_argument("--offset", type=int, default=0, help="first validation seed's offset in its split")
+    rp.add_argument("--run", default=None, help="an agent's training run (zoo folder or .zip)")
+    rp.add_argument("--video", action="store_true", help="an MP4 of the first episode (MUJOCO_GL=osmesa headless)")
+    nm = sub.add_parser("nominal", help="the nominal gait")
+    nm.add_argument("--steps", type=int, default=20)
+    ag = sub.add_parser("agreement", help="the env's verdict against the OP3 on drawn sequences")
+    ag.add_argument("--sequences", type=int, default=120)
+    ag.add_argument("--seed", type=int, default=2026)
+    args = parser.parse_args(argv)
+    {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement}[args.command](args)
+
+
+if __name__ == "__main__":
+    main()

@@ -45,7 +45,7 @@ class SiteError(ValueError):
 class Method:
     name: str
     label: str
-    kind: str  # planner / agent / baseline (a null walker) / upper bound
+    kind: str  # planner / agent / baseline (a null walker, a reactive or classical baseline) / upper bound
     track: str
     trained_on_tier: str | None
     description: str
@@ -101,12 +101,25 @@ def _read_json(path: Path) -> Any:
         raise SiteError(f"{path}: not a readable JSON file ({exc})") from None
 
 
-def _kind(row: Mapping[str, Any]) -> str:
+def _kind(row: Mapping[str, Any], baselines: set[str]) -> str:
     if row.get("upper_bound"):
         return "upper bound"
-    if str(row["policy"]).startswith("null-"):
+    if str(row["policy"]).startswith("null-") or row["policy"] in baselines:
         return "baseline"
     return "agent" if row.get("learned") else "planner"
+
+
+def _baselines(root: Path, board: Mapping[str, Any]) -> set[str]:
+    """The rows the board counts as baselines besides the null walkers: those configured in configs/baselines.yaml
+    (where it exists) and the board's reactive anchors (``scores.reactive_baselines``, protocol 3)."""
+    names: set[str] = set()
+    path = root / "configs/baselines.yaml"
+    if path.is_file():
+        names |= set(yaml.safe_load(path.read_text(encoding="utf-8")) or {})
+    scores = board.get("scores")
+    if isinstance(scores, dict):
+        names |= set(scores.get("reactive_baselines") or [])
+    return names
 
 
 def load_site_data(root: Path, board_dir: Path | None = None) -> SiteData:
@@ -119,6 +132,7 @@ def load_site_data(root: Path, board_dir: Path | None = None) -> SiteData:
     if not isinstance(board, dict) or board.get("leaderboard") != "footstep_gym" or "policies" not in board:
         raise SiteError(f"{board_path}: not a footstep_gym leaderboard.json")
     methods = []
+    baselines = _baselines(root, board)
     for row in list(board["policies"]) + list(board.get("in_distribution") or []):
         name = row["policy"]
         source = row.get("source")
@@ -127,7 +141,7 @@ def load_site_data(root: Path, board_dir: Path | None = None) -> SiteData:
         agents = root / "baselines/agents" / name
         manifests = [_read_json(p) for p in sorted(agents.glob("*/manifest.json"))] if agents.is_dir() else []
         runs = row.get("runs") or [1]
-        methods.append(Method(name, row.get("label", name), _kind(row), row.get("track", "generalisation"),
+        methods.append(Method(name, row.get("label", name), _kind(row, baselines), row.get("track", "generalisation"),
                               row.get("trained_on_tier"), row.get("description", ""), bool(row.get("complete", True)),
                               int(max(runs)), path if path.is_file() else None, bench, manifests))
     cells = [(t, *c.split("/", 1)) for t in board["tiers"] for c in board["tier_cells"][t]]
@@ -264,7 +278,7 @@ def board_page(data: SiteData) -> str:
              f'cells in {len(tiers)} tiers, {esc(proto.get("episodes_per_cell"))} episodes per cell on the '
              f'<b>{esc(proto.get("split", "test"))}</b> split; configs <code>{esc(str(proto.get("env_configs_sha256", ""))[:12])}'
              f'</code>{_fingerprint(proto)}. Each tier: {esc(label)} with its 95 % interval. Upper bounds (italic) read the true '
-             f'future and are not baselines; baselines (grey: null walkers) sense nothing. Track: gen. = '
+             f'future and are not baselines; baselines are grey. Track: gen. = '
              f'generalisation (trained on <code>train</code>). Click a column to sort; '
              f'<a href="cells.html">every cell</a> is on its own page. Source: <code>{esc(_rel(data, data.board_path))}'
              f'</code>.</p>')

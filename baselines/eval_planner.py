@@ -42,7 +42,7 @@ place only once it has finished: a run that fails or is interrupted leaves ``--o
 ``--agent [SCENE=]PATH`` repeated over the training runs of one method, named with ``--name``) on every
 cell of every tier of every scene
 (``footstep_gym.evaluation.benchmark``; docs/benchmark.md) with the first ``--episodes`` seeds of
-the test split (100; ``--full``: 500), and writes ``benchmark.json`` (the protocol, one record per
+the test split (100, a leaderboard row's number), and writes ``benchmark.json`` (the protocol, one record per
 scene x tier x cell x training run, the records over runs, per tier the IQM with its
 stratified-bootstrap interval over runs), ``benchmark.md`` (the leaderboard row and every cell),
 ``episodes.csv`` and ``run.json``, with the same checks and the same temporary folder as above.
@@ -180,8 +180,6 @@ def build_parser() -> argparse.ArgumentParser:
                        help=f"run the benchmark: --policy NAME (or --agent PATH per training run), --episodes N "
                             f"(default {benchmark.EPISODES}) seeds of the test split per cell; writes benchmark.json "
                             "and benchmark.md")
-    bench.add_argument("--full", action="store_true",
-                       help=f"with --benchmark: {benchmark.FULL_EPISODES} episodes per cell (the full protocol)")
     bench.add_argument("--tier", action="append", metavar="TIER",
                        help="with --benchmark: only this tier of configs/benchmark.yaml (paper, train, shifted, "
                             "structure, noise); repeatable; a partial run (so is --env)")
@@ -216,11 +214,11 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings | BenchmarkSet
                 parser.error(f"--benchmark runs the protocol's cells and test seeds: {', '.join(clash)} "
                              f"{'does' if len(clash) == 1 else 'do'} not apply")
             return benchmark.benchmark_settings(
-                policies=args.policy, agents=args.agent, name=args.name, full=args.full, episodes=args.episodes,
+                policies=args.policy, agents=args.agent, name=args.name, episodes=args.episodes,
                 envs=args.env, tiers=args.tier, out=args.out, workers=args.workers, backend=args.backend,
                 ray_address=args.ray_address, agents_dir=args.agents_dir, algo=args.algo,
                 vecnormalize=args.vecnormalize, trained_on_tier=args.trained_on_tier)
-        given = [flag for flag, value in (("--full", args.full), ("--tier", args.tier), ("--name", args.name),
+        given = [flag for flag, value in (("--tier", args.tier), ("--name", args.name),
                                           ("--trained-on-tier", args.trained_on_tier)) if value]
         if given:
             parser.error(f"{', '.join(given)} {'goes' if len(given) == 1 else 'go'} with --benchmark only")

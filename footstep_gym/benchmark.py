@@ -9,6 +9,6 @@ The implementation lives in :mod:`footstep_gym.evaluation.benchmark`; this modul
     doc = evaluate(lambda scene, seed: my_act, name="mine", out="runs/bench/mine")
 """
 
-from footstep_gym.evaluation.benchmark import EPISODES, FULL_EPISODES, evaluate
+from footstep_gym.evaluation.benchmark import EPISODES, evaluate
 
-__all__ = ["EPISODES", "FULL_EPISODES", "evaluate"]
+__all__ = ["EPISODES", "evaluate"]

@@ -189,6 +189,14 @@ class PolicyEntry:
     agent: Any = None
     source: ImportedPolicy | None = None
 
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """An entry goes to a worker process by its name, which the worker's registry resolves to the same entry
+        (as a function pickles by its qualified name: a planner's builder may be a class made at import); a
+        callable's (:func:`footstep_gym.benchmark.evaluate`, no name to look up) goes by value."""
+        if self.kind == "callable":
+            return (PolicyEntry, (self.name, self.kind, self.description, self.build, self.reads_truth))
+        return (resolve, (self.name,))
+
     @property
     def is_agent(self) -> bool:
         """A trained agent (a shipped one or ``agent:<label>``): made from a training run (``run=``)."""

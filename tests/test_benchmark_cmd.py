@@ -168,7 +168,7 @@ def test_a_shipped_agent_registered_with_a_tier_runs_there_only(tmp_path):
         run = tmp_path / "agents" / "ppo-structure" / f"{env_id}_1"
         run.mkdir(parents=True)
         (run / f"{env_id}.zip").write_bytes(b"")
-    common = dict(agents=None, name=None, full=False, episodes=1, envs=None, out=tmp_path / "x", workers=1,
+    common = dict(agents=None, name=None, episodes=1, envs=None, out=tmp_path / "x", workers=1,
                   backend="local", ray_address=None, agents_dir=tmp_path / "agents")
     settings = benchmark.benchmark_settings(policies=["ppo-structure"], tiers=None, **common)
     assert settings.trained_on_tier == "structure" and settings.tiers == ("structure",)
@@ -200,7 +200,6 @@ def test_the_ray_backend_gives_the_same_records(tmp_path):
     (["--policy", FAST, "--paper", "--video"], "--paper, --video do not apply"),
     (["--policy", FAST, "--door-speed", "8"], "--door-speed"),
     (["--policy", FAST, "--split", "validation"], "--split validation"),
-    (["--policy", FAST, "--full", "--episodes", "3"], "--full is 500"),
     (["--policy", FAST, "--tier", "impossible"], "unknown benchmark tier"),
     (["--policy", "teleport"], "unknown policy 'teleport'"),
     (["--policy", FAST, "--name", "x"], "--name names an --agent"),
@@ -213,8 +212,8 @@ def test_bad_benchmark_options_exit_2_before_touching_out(args, message, tmp_pat
 
 
 def test_benchmark_options_need_benchmark(tmp_path):
-    proc = run_cli("--full", "--out", str(tmp_path / "x"), timeout=120)
-    assert proc.returncode == 2 and "--full goes with --benchmark only" in proc.stderr
+    proc = run_cli("--tier", "paper", "--out", str(tmp_path / "x"), timeout=120)
+    assert proc.returncode == 2 and "--tier goes with --benchmark only" in proc.stderr
     assert not (tmp_path / "x").exists()
 
 

@@ -151,9 +151,9 @@ def test_planner_notes_reads_last_info():
     class P:
         last_info = {"command_pre_pso": [0.01, 0.08, 0.0, 0.6, 0.2], "pso_ran": False}
 
-    pre, ran = planner_notes(P())
+    pre, ran = planner_notes(P().last_info)
     assert pre.shape == (5,) and ran is False
-    assert planner_notes(object()) == (None, None)
+    assert planner_notes(None) == (None, None) and planner_notes({}) == (None, None)
 
 
 def test_command_table_format(stand_in_traces):
@@ -597,3 +597,29 @@ def test_videos_go_to_a_new_folder_without_warnings_and_with_safe_names(tmp_path
     assert not [str(w.message) for w in caught if "video" in str(w.message).lower()]
     assert [p.name for p in paths] == ["door_8_straight.mp4", "door_8_agent-x.mp4"]
     assert sorted(p.name for p in (tmp_path / "videos").iterdir()) == sorted(p.name for p in paths)
+
+
+def test_a_policy_name_is_resolved_once_and_its_entry_travels(monkeypatch):
+    """The benchmark resolves the name; its cells carry the entry through the checks, the episodes and (by name,
+    back to the same entry) the pickle to a worker: the registry is not asked again."""
+    import pickle
+
+    from footstep_gym import registry
+    from footstep_gym.evaluation import benchmark
+    from footstep_gym.evaluation.runner import check_cells, run_tasks
+
+    entry = registry.resolve("null-walk-10cm-0.4s")
+    assert pickle.loads(pickle.dumps(entry)) is entry
+    cells, _ = benchmark.runner_cells(benchmark.benchmark_cells(["crossing"], ["paper"]), entry)
+    assert [c.entry for c in cells] == [entry] and cells[0].policy == entry.name
+
+    def asked_again(*args, **kwargs):
+        raise AssertionError(f"the registry was asked again: {args}")
+
+    monkeypatch.setattr(registry, "resolve", asked_again)
+    monkeypatch.setattr(registry, "make_policy", asked_again)
+    assert check_cells(cells) is None
+    (result,) = run_tasks(benchmark.tasks(cells, 1), workers=1, progress=False)
+    assert result.steps > 0 and result.outcome in OUTCOMES
+    with pytest.raises(ValueError, match="entry 'null-walk-10cm-0.4s' is not policy 'other'"):
+        Cell(cells[0].env_id, "crossing", "other", entry=entry)

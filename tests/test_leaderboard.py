@@ -351,3 +351,17 @@ def test_the_benchmarks_bootstrap_intervals_are_seeded_and_leave_numpys_generato
     assert np.random.random() == after_first  # the global stream untouched by the bootstrap
     column = [[0.2], [0.6], [0.9]]
     assert stats.iqm_over_tasks(column, reps=300) == stats.iqm_over_tasks(column, reps=300)
+
+
+def test_a_mix_of_episodes_per_cell_is_refused_in_one_short_line(tmp_path):
+    """Many files of the board's number and one of another: one short line naming the odd file, its number and
+    the board's (not a list of every file)."""
+    board = [document(f"planner-{k}", PLANNER) for k in range(31)]
+    write_fakes(tmp_path / "bench", [*board, document("mine", PLANNER, episodes=2)])
+    with pytest.raises(lb.LeaderboardError) as exc:
+        lb.leaderboard([tmp_path / "bench"], reps=REPS)
+    text = str(exc.value)
+    mine = tmp_path / "bench" / "mine" / "benchmark.json"
+    assert "\n" not in text and len(text) < 200 + 2 * len(str(mine)), text
+    assert f"{mine}: 2 episodes per cell; the board (" in text and f"and 30 more): {EPISODES};" in text, text
+    assert "--allow-mixed" in text

@@ -322,3 +322,25 @@ def test_evaluate_passes_the_snapshot_when_asked(tmp_path):
     doc = evaluate(make, name="sees", out=tmp_path / "sees", snapshot=True, episodes=1, scenes=["crossing"],
                    tiers=["paper"], workers=1)
     assert not doc["complete"] and doc["records"][0]["episodes"] == 1
+
+
+@pytest.mark.parametrize("fn, options, message", [
+    (None, {"workers": 0}, "evaluate: workers must be a whole number >= 1 (worker processes), got 0"),
+    (None, {"workers": 1.5}, "evaluate: workers must be a whole number >= 1 (worker processes), got 1.5"),
+    (None, {"episodes": 0}, "evaluate: episodes must be a whole number >= 1 (seeds per cell), got 0"),
+    (None, {"episodes": -2}, "evaluate: episodes must be a whole number >= 1 (seeds per cell), got -2"),
+    (lambda obs: np.zeros(5), {}, "evaluate: make_policy_fn must take (scene, seed) and return a policy"),
+    (np.zeros(5), {}, "evaluate: make_policy_fn must be a function (scene, seed) -> policy, got a ndarray"),
+])
+def test_evaluate_names_a_bad_argument_in_one_line_before_anything_is_written(tmp_path, fn, options, message):
+    """workers=0 (which the command line refuses too), episodes=0, and an observation -> action function given in
+    place of make_policy_fn(scene, seed): each a one-line ValueError naming the argument, nothing written."""
+    from footstep_gym.benchmark import evaluate
+
+    fn = fn if fn is not None else (lambda scene, seed: (lambda obs: np.zeros(5)))
+    with pytest.raises(ValueError) as exc:
+        evaluate(fn, name="mine", out=tmp_path / "x", **{"episodes": 1, "scenes": ["crossing"], "tiers": ["paper"],
+                                                         **options})
+    assert str(exc.value).startswith(message) and "\n" not in str(exc.value), exc.value
+    assert "got n=" not in str(exc.value) and "offset" not in str(exc.value)  # not split_seeds's words
+    assert list(tmp_path.iterdir()) == []

@@ -8,8 +8,7 @@ thin front-end to this module:
   runs as ``gymnasium.make(env_id, tier=TIER, tier_cell=CELL)``;
 * :func:`runner_cells` and :func:`tasks`: the evaluation runner's cells (one per benchmark cell and
   training run) and episodes, the same seeds for every cell: the first ``episodes`` seeds of the
-  test split (:data:`EPISODES` by default, :data:`FULL_EPISODES` for a full run, as CrowdNav's 500
-  test cases), run by :func:`~footstep_gym.evaluation.runner.run_tasks` locally or on Ray;
+  test split (:data:`EPISODES`, a leaderboard row's number), run by :func:`~footstep_gym.evaluation.runner.run_tasks` locally or on Ray;
 * :func:`cell_records`: one record per scene x tier x cell x policy (x training run), the
   evaluation's record (:func:`~footstep_gym.evaluation.stats.cell_record`: success with its Wilson
   95 % interval, collision, fall and timeout rates, time to goal and path length over the
@@ -60,9 +59,8 @@ from footstep_gym.scenarios import resolve_env_id, scene_of
 
 #: The seeds of every cell: the test split's first ones (configs/eval.yaml).
 SPLIT = "test"
-#: Episodes per cell by default, and for a full run (CrowdNav's 500 test cases).
+#: Episodes per cell: every leaderboard row's number (make_leaderboard.py refuses a mix of numbers), the default.
 EPISODES = 100
-FULL_EPISODES = 500
 # PROTOCOL_VERSION (imported above): the protocol's version written into benchmark.json, configs/eval.yaml's.
 
 
@@ -171,9 +169,10 @@ def track_tier(tier: str | None, tiers: Sequence[str] | None, where: str) -> tup
 RunsOf = Callable[[str], Sequence["str | AgentArg | None"]]
 
 
-def runner_cells(cells: Sequence[BenchmarkCell], policy: str, runs_of: RunsOf | None = None
+def runner_cells(cells: Sequence[BenchmarkCell], entry: registry.PolicyEntry, runs_of: RunsOf | None = None
                  ) -> tuple[list[Cell], list[BenchmarkCell]]:
-    """The runner's cells (one per benchmark cell and training run) and, index for index, their benchmark cells.
+    """The runner's cells (one per benchmark cell and training run), each carrying ``entry`` (the policy, resolved
+    once), and, index for index, their benchmark cells.
 
     ``runs_of``: an agent's training runs per env id (``None``: a planner, no run). A cell whose env has
     no run is left out (the caller says so).
@@ -183,10 +182,11 @@ def runner_cells(cells: Sequence[BenchmarkCell], policy: str, runs_of: RunsOf | 
     for bc in cells:
         for run in (runs_of(bc.env_id) if runs_of is not None else [None]):
             if isinstance(run, AgentArg):
-                out.append(Cell(bc.env_id, bc.scene, policy, bc.selector, run=run.path, algo=run.algo,
-                                vecnormalize=run.vecnormalize))
+                out.append(Cell(bc.env_id, bc.scene, entry.name, bc.selector, run=run.path, algo=run.algo,
+                                vecnormalize=run.vecnormalize, entry=entry))
             else:
-                out.append(Cell(bc.env_id, bc.scene, policy, bc.selector, run=None if run is None else str(run)))
+                out.append(Cell(bc.env_id, bc.scene, entry.name, bc.selector, run=None if run is None else str(run),
+                                entry=entry))
             owners.append(bc)
     return out, owners
 
@@ -425,7 +425,7 @@ class BenchmarkSettings:
 
 
 def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str | Path] | None, name: str | None,
-                       full: bool, episodes: int | None, envs: Sequence[str] | None, tiers: Sequence[str] | None,
+                       episodes: int | None, envs: Sequence[str] | None, tiers: Sequence[str] | None,
                        out: Path, workers: int | None, backend: str, ray_address: str | None,
                        agents_dir: Path | None, algo: str | None = None,
                        vecnormalize: Sequence[str] | None = None,
@@ -445,9 +445,7 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str |
         raise OptionError("--algo and --vecnormalize go with --agent")
     if name and not agents:
         raise OptionError("--name names an --agent's method")
-    if full and episodes not in (None, FULL_EPISODES):
-        raise OptionError(f"--full is {FULL_EPISODES} episodes per cell; --episodes {episodes} contradicts it")
-    episodes = FULL_EPISODES if full else episodes or EPISODES
+    episodes = episodes or EPISODES
     entry = None
     if named:
         try:
@@ -534,7 +532,7 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
     the episodes, write into a temporary folder that replaces ``settings.out`` once finished (as an evaluation
     does); returns the exit status."""
     runs = settings.runs
-    cells, owners = runner_cells(settings.cells, settings.policy,
+    cells, owners = runner_cells(settings.cells, settings.entry,
                                  None if runs is None else (lambda env_id: runs.get(env_id, ())))
     problem = check_cells(cells, factory=settings.factory) or check_out(settings.out)
     if problem:
@@ -558,6 +556,27 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
 
 
 # ---------------------------------------------------------------- the library's way in
+def _check_factory(make_policy_fn: Any) -> None:
+    """``ValueError`` (one line) unless ``make_policy_fn`` is a callable that takes ``(scene, seed)``: a plain
+    ``observation -> action`` function given in its place is named as such."""
+    import inspect
+
+    if not callable(make_policy_fn):
+        raise ValueError(f"evaluate: make_policy_fn must be a function (scene, seed) -> policy, got a "
+                         f"{type(make_policy_fn).__name__}")
+    try:
+        signature = inspect.signature(make_policy_fn)
+    except (TypeError, ValueError):  # a builtin without a signature: its call says what is wrong
+        return
+    try:
+        signature.bind("door", 0)
+    except TypeError:
+        label = getattr(make_policy_fn, "__name__", type(make_policy_fn).__name__)
+        raise ValueError(f"evaluate: make_policy_fn must take (scene, seed) and return a policy (a Policy or an "
+                         f"observation -> action callable); {label}{signature} does not: to evaluate an observation "
+                         f"-> action function f itself, pass make_policy_fn=lambda scene, seed: f") from None
+
+
 def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str | Path, snapshot: bool = False,
              episodes: int = EPISODES, scenes: Sequence[str] | None = None, tiers: Sequence[str] | None = None,
              workers: int | None = None, backend: str = "local", ray_address: str | None = None,
@@ -575,7 +594,7 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
             with cloudpickle, its own module by value, so it may be a closure or a lambda.
         name: the method's name in the tables.
         out: the output folder (an earlier run's files there are replaced once this run has finished).
-        episodes: seeds per cell (:data:`EPISODES`; :data:`FULL_EPISODES` for a full run).
+        episodes: seeds per cell (:data:`EPISODES`, the leaderboard's number; fewer for a quick try).
         scenes, tiers: only these (a partial run, no leaderboard row); ``None``: every one.
         workers, backend, ray_address: as ``eval_planner.py``'s ``--workers``, ``--backend``, ``--ray-address``.
         trained_on_tier: the method trained on this tier's cells (train-split seeds): the in-distribution
@@ -594,8 +613,12 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
         raise ValueError("evaluate: name= the method's name in the tables")
     if name in registry.policy_names():
         raise ValueError(f"evaluate: name {name!r} is a registered policy's; choose another for your method")
-    if not callable(make_policy_fn):
-        raise ValueError(f"evaluate: make_policy_fn must be callable, got {type(make_policy_fn).__name__}")
+    _check_factory(make_policy_fn)
+    for arg, value, what in (("episodes", episodes, "seeds per cell"), ("workers", workers, "worker processes")):
+        if value is None and arg == "workers":
+            continue
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"evaluate: {arg} must be a whole number >= 1 ({what}), got {value!r}")
     out = Path(out)
     try:
         tiers = track_tier(trained_on_tier, tiers, "trained_on_tier")
@@ -612,7 +635,7 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
                                  tiers=tuple(tiers) if tiers else None, episodes=episodes, out=out,
                                  workers=workers or usable_cores(), backend=backend, ray_address=ray_address,
                                  factory=factory, trained_on_tier=trained_on_tier, split=split)
-    runner, owners = runner_cells(cells, name)
+    runner, owners = runner_cells(cells, entry)
     problem = check_cells(runner, factory=factory) or check_out(out)
     if problem:
         raise ValueError(f"evaluate: {problem}")

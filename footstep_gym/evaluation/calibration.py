@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
+from footstep_gym import registry
 from footstep_gym.evaluation.benchmark import BenchmarkCell, benchmark_cells
 from footstep_gym.evaluation.runner import Cell, Task, run_tasks
 from footstep_gym.evaluation.splits import split_seeds
@@ -47,9 +48,10 @@ def calibration_tasks(cells: Sequence[BenchmarkCell], policies: Sequence[str], e
     """The episodes of every ``policy`` on every cell, on ``episodes`` validation seeds from the ``offset``-th on;
     and, per runner cell index, ``(benchmark cell, policy)``."""
     seeds = split_seeds(SPLIT, episodes, offset)
+    entries = {p: registry.resolve(p) for p in policies}
     owners = [(bc, p) for bc in cells for p in policies]
-    tasks = [Task(i, Cell(bc.env_id, bc.scene, p, bc.selector), s) for i, (bc, p) in enumerate(owners)
-             for s in seeds]
+    tasks = [Task(i, Cell(bc.env_id, bc.scene, p, bc.selector, entry=entries[p]), s)
+             for i, (bc, p) in enumerate(owners) for s in seeds]
     return tasks, owners
 
 

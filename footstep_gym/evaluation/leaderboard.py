@@ -143,11 +143,24 @@ def check_compatible(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path], a
     if allow_mixed:
         return
     for key in PROTOCOL_KEYS:
-        values = {str(doc["protocol"][key]) for doc in docs}
-        if len(values) > 1:
-            which = ", ".join(f"{p} ({str(d['protocol'][key])[:12]})" for d, p in zip(docs, paths))
-            raise LeaderboardError(f"the files differ in protocol.{key}: {which}; rerun on one protocol or pass "
-                                   "--allow-mixed")
+        groups: dict[str, list[Path]] = {}
+        for doc, path in zip(docs, paths):
+            groups.setdefault(str(doc["protocol"][key]), []).append(path)
+        if len(groups) > 1:
+            board = max(groups, key=lambda v: len(groups[v]))  # the value most files have (the first on a tie)
+
+            def said(value: str) -> str:
+                return f"{value} episodes per cell" if key == "episodes_per_cell" else f"env configs {value[:12]}"
+
+            yours = "; ".join(f"{_files(found)}: {said(v)}" for v, found in groups.items() if v != board)
+            raise LeaderboardError(f"the files differ in protocol.{key}: {yours}; the board "
+                                   f"({_files(groups[board])}): {said(board).removesuffix(' episodes per cell')}; "
+                                   "rerun on one protocol or pass --allow-mixed")
+
+
+def _files(paths: Sequence[Path]) -> str:
+    """The first of ``paths``, and how many more: ``a/benchmark.json`` or ``a/benchmark.json and 30 more``."""
+    return str(paths[0]) + (f" and {len(paths) - 1} more" if len(paths) > 1 else "")
 
 
 # ---------------------------------------------------------------- scores

@@ -15,6 +15,7 @@ from __future__ import annotations
 import itertools
 import os
 import sys
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -137,6 +138,9 @@ class Settings:
     ray_address: str | None
     figures: bool
     video: bool
+    #: Each policy's entry and each user agent's (``agent:<label>``), by name: resolved once, here, and carried by
+    #: the cells (:func:`make_cells`).
+    entries: dict[str, registry.PolicyEntry] = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @property
     def seeds(self) -> list[int]:
@@ -158,11 +162,12 @@ def evaluation_settings(profile_name: str, *, envs: Sequence[str] | None, polici
     except ValueError as exc:
         raise OptionError(str(exc)) from None
     available = registry.policy_names()
+    entries: dict[str, registry.PolicyEntry] = {}
     if policies:
         unknown = []
         for p in policies:
             try:
-                registry.resolve(p)
+                entries[p] = registry.resolve(p)
             except registry.PolicyLoadError as exc:
                 raise OptionError(str(exc)) from None
             except ValueError:
@@ -180,7 +185,8 @@ def evaluation_settings(profile_name: str, *, envs: Sequence[str] | None, polici
     elif profile.policies is not None:
         chosen = tuple(p for p in profile.policies if p in available)
     else:  # every registered policy but an upper bound (oracle), which runs only when named
-        chosen = tuple(p for p in available if not registry.resolve(p).reads_truth)
+        entries = {p: registry.resolve(p) for p in available}
+        chosen = tuple(p for p in available if not entries[p].reads_truth)
     if (algo or vecnormalize) and not agents:
         raise OptionError("--algo and --vecnormalize go with --agent")
     try:
@@ -201,10 +207,15 @@ def evaluation_settings(profile_name: str, *, envs: Sequence[str] | None, polici
         split_seeds(split, episodes, offset)
     except ValueError as exc:
         raise OptionError(str(exc)) from None
+    entries = {p: entries.get(p) or registry.resolve(p) for p in chosen}
+    for agent in user_agents:
+        name = f"{registry.USER_AGENT_PREFIX}{agent.label}"
+        entries[name] = registry.resolve(name)
     return Settings(
         profile=profile_name, envs=scenes, policies=chosen, agents=user_agents,
         agents_dir=agents_dir, episodes=episodes, split=split, offset=offset, sweeps=swept, out=out,
         workers=workers or usable_cores(), backend=backend, ray_address=ray_address, figures=figures, video=video,
+        entries=entries,
     )
 
 
@@ -218,7 +229,8 @@ def make_cells(settings: Settings) -> list[Cell]:
     """
     from footstep_gym.rl.registry import agent_runs, missing_agents_note
 
-    shipped = {p for p in settings.policies if registry.resolve(p).kind == "agent"}
+    entry = settings.entries.get
+    shipped = {p for p in settings.policies if (entry(p) or registry.resolve(p)).kind == "agent"}
     cells = []
     missing: dict[str, list[str]] = {}
     for scenario in settings.envs:
@@ -234,13 +246,16 @@ def make_cells(settings: Settings) -> list[Cell]:
         for params in variants:
             for policy in settings.policies:
                 if policy in shipped:
-                    cells += [Cell(env_id, scenario, policy, params, run=str(r)) for r in runs_of[policy]]
+                    cells += [Cell(env_id, scenario, policy, params, run=str(r), entry=entry(policy))
+                              for r in runs_of[policy]]
                 else:
-                    cells.append(Cell(env_id=env_id, scenario=scenario, policy=policy, params=params))
+                    cells.append(Cell(env_id=env_id, scenario=scenario, policy=policy, params=params,
+                                      entry=entry(policy)))
             for agent in settings.agents:
                 if agent.scene in (None, scenario):
-                    cells.append(Cell(env_id, scenario, f"{registry.USER_AGENT_PREFIX}{agent.label}", params,
-                                      run=agent.path, algo=agent.algo, vecnormalize=agent.vecnormalize))
+                    name = f"{registry.USER_AGENT_PREFIX}{agent.label}"
+                    cells.append(Cell(env_id, scenario, name, params, run=agent.path, algo=agent.algo,
+                                      vecnormalize=agent.vecnormalize, entry=entry(name)))
     if missing:
         print(missing_agents_note(missing, settings.agents_dir), file=sys.stderr)
     return cells

@@ -31,7 +31,7 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Sequence
 
 import gymnasium as gym
 import numpy as np
@@ -39,6 +39,9 @@ import numpy as np
 import footstep_gym  # noqa: F401  (registers the envs)
 from footstep_gym.errors import ActionError, FootstepGymError
 from footstep_gym.evaluation.stats import EpisodeResult
+
+if TYPE_CHECKING:
+    from footstep_gym.registry import PolicyEntry
 
 #: ``factory(cell, robot, seed) -> policy`` with ``reset(seed=...)`` and ``act(obs, snapshot)``.
 PolicyFactory = Callable[..., Any]
@@ -91,9 +94,13 @@ class PolicyFailed(FootstepGymError, RuntimeError):
 
 @dataclass(frozen=True)
 class Cell:
-    """One evaluation cell: an env id, a policy name (:func:`footstep_gym.registry.resolve`), env keyword arguments
-    (``params``) and, for a trained agent, the training run evaluated (a zoo run folder or a model ``.zip``; ``algo``
-    and ``vecnormalize`` for a ``.zip`` without the zoo's files)."""
+    """One evaluation cell: an env id, a policy's name, env keyword arguments (``params``) and, for a trained agent,
+    the training run evaluated (a zoo run folder or a model ``.zip``; ``algo`` and ``vecnormalize`` for a ``.zip``
+    without the zoo's files).
+
+    ``entry``: the policy's :class:`~footstep_gym.registry.PolicyEntry`, resolved once by whoever made the cell
+    (the benchmark, an evaluation's settings) and carried to the workers with it; a cell made with a name alone
+    (a test's, a speed run's) has its name resolved by :attr:`policy_entry` when its policy is built."""
 
     env_id: str
     scenario: str  # a key of footstep_gym.scenarios.SCENARIOS (door / crossing / crowd)
@@ -102,6 +109,20 @@ class Cell:
     run: str | None = None  # agents: path of the training run; planners: None
     algo: str | None = None  # agents: the algorithm, where the run does not name it (a plain .zip)
     vecnormalize: str | None = None  # agents: a VecNormalize file given apart from the run
+    entry: PolicyEntry | None = field(default=None, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.entry is not None and self.entry.name != self.policy:
+            raise ValueError(f"Cell: entry {self.entry.name!r} is not policy {self.policy!r}")
+
+    @property
+    def policy_entry(self) -> PolicyEntry:
+        """The policy's entry: the one the cell carries, else its name resolved (:func:`footstep_gym.registry.resolve`)."""
+        if self.entry is not None:
+            return self.entry
+        from footstep_gym import registry
+
+        return registry.resolve(self.policy)
 
     @property
     def params_dict(self) -> dict[str, float]:
@@ -185,13 +206,13 @@ class Trace:
 
 
 # ---------------------------------------------------------------- the policy's own report
-def planner_notes(policy: Any) -> tuple[np.ndarray | None, bool | None]:
-    """``(command before PSO or None, whether PSO ran or None)`` from ``policy.last_info`` after ``act``.
+def planner_notes(last_info: dict[str, Any] | None) -> tuple[np.ndarray | None, bool | None]:
+    """``(command before PSO or None, whether PSO ran or None)`` from a policy's ``last_info`` after ``act``.
 
     The reference planners report ``command_pre_pso`` (``None`` for ``pso-only``, which has
     no earlier stage) and ``pso_ran``; a policy without ``last_info`` reports neither.
     """
-    info = getattr(policy, "last_info", None) or {}
+    info = last_info or {}
     pre = info.get("command_pre_pso")
     ran = info.get("pso_ran")
     return (None if pre is None else np.asarray(pre, dtype=float).reshape(5),
@@ -213,11 +234,8 @@ def bind_truth(policy: Any, env: Any) -> bool:
 
 
 def default_factory(cell: Cell, robot: Any, seed: int) -> Any:
-    """The policy registry (imported here so workers resolve it themselves, once per process and name)."""
-    from footstep_gym import registry
-
-    return registry.make_policy(cell.policy, robot, seed=seed, run=cell.run, algo=cell.algo,
-                                vecnormalize=cell.vecnormalize)
+    """The cell's policy, built from the entry it carries (:attr:`Cell.policy_entry`) for ``robot``, seeded ``seed``."""
+    return cell.policy_entry.make(robot, seed, run=cell.run, algo=cell.algo, vecnormalize=cell.vecnormalize)
 
 
 def _poses(snapshot: Any) -> np.ndarray:
@@ -255,27 +273,22 @@ def warm_up(cell: Cell, seed: int, factory: PolicyFactory = default_factory, act
         return False
     env = gym.make(cell.env_id, **cell.params_dict)
     try:
-        base, policy, obs = _start(env, cell, seed, factory)
-        for k in range(1, acts + 1):
-            action = _policy_call(cell, seed, f"warm-up act {k}", policy.act, obs, base.sensing())
-            obs, _, terminated, truncated, _ = _step(env, cell, seed, k, action)
-            if terminated or truncated:
-                break
+        policy, obs = _start(env, cell, seed, factory)
+        _play(env, cell, seed, policy, obs, label="warm-up act {}", limit=acts)
     finally:
         env.close()
     _warmed.add(key)
     return True
 
 
-def _start(env: gym.Env, cell: Cell, seed: int, factory: PolicyFactory) -> tuple[Any, Any, np.ndarray]:
+def _start(env: gym.Env, cell: Cell, seed: int, factory: PolicyFactory) -> tuple[Any, np.ndarray]:
     """An episode's start: the policy made for the env's robot (the truth bound where it reads it), env and policy
-    seeded with ``seed``; ``(env.unwrapped, policy, first observation)``."""
-    base = env.unwrapped
-    policy = _policy_call(cell, seed, "building it", factory, cell, base.robot, seed)
+    seeded with ``seed``; ``(policy, first observation)``."""
+    policy = _policy_call(cell, seed, "building it", factory, cell, env.unwrapped.robot, seed)
     bind_truth(policy, env)
     obs, _ = env.reset(seed=seed)
     _policy_call(cell, seed, "reset", policy.reset, seed=seed)
-    return base, policy, obs
+    return policy, obs
 
 
 def _policy_call(cell: Cell, seed: int, what: str, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Any:
@@ -298,6 +311,45 @@ def _step(env: gym.Env, cell: Cell, seed: int, footstep: int, action: Any) -> tu
     except ActionError as exc:
         raise PolicyFailed(f"policy {cell.policy} returned a bad action at footstep {footstep} on env={cell.env_id} "
                            f"params={cell.params_dict} seed={seed}: {exc}") from exc
+
+
+def _sense(env: gym.Env) -> tuple[Any, float]:
+    """``env.unwrapped.sensing()`` and the seconds it took."""
+    t0 = time.perf_counter()
+    snapshot = env.unwrapped.sensing()
+    return snapshot, time.perf_counter() - t0
+
+
+#: ``visit(timing, snapshot) -> stop``: :func:`_play` calls it after every footstep with the snapshot sensed after
+#: the step (the next act's); a true return ends the episode there.
+Visit = Callable[[ActTiming, Any], Any]
+
+
+def _play(env: gym.Env, cell: Cell, seed: int, policy: Any, obs: Any, first: tuple[Any, float] | None = None, *,
+          label: str = "act at footstep {}", limit: int | None = None, visit: Visit | None = None
+          ) -> tuple[dict[str, Any], bool, bool]:
+    """The one episode loop: sense, act, step, until the episode ends, ``limit`` footsteps were taken or ``visit``
+    returns true. ``first``: the snapshot after the reset and its sensing time (sensed here if None); ``label``
+    names an act in a failure (``{}``: the footstep). Returns the last step's ``info``, ``terminated`` and
+    ``truncated``."""
+    snapshot, sense_s = first if first is not None else _sense(env)
+    info: dict[str, Any] = {}
+    terminated = truncated = False
+    k = 0
+    while not (terminated or truncated) and (limit is None or k < limit):
+        k += 1
+        t0 = time.perf_counter()
+        action = _policy_call(cell, seed, label.format(k), policy.act, obs, snapshot)
+        t1 = time.perf_counter()
+        obs, _, terminated, truncated, info = _step(env, cell, seed, k, action)
+        step_s = time.perf_counter() - t1
+        snapshot, next_sense_s = _sense(env)
+        if visit is not None and visit(ActTiming(k, sense_s, t1 - t0, step_s, action,
+                                                 getattr(policy, "last_info", None) or {}, info, terminated,
+                                                 truncated), snapshot):
+            break
+        sense_s = next_sense_s
+    return info, terminated, truncated
 
 
 def run_episode(task: Task, factory: PolicyFactory = default_factory, warm: bool = True,
@@ -324,45 +376,33 @@ def _run(task: Task, factory: PolicyFactory, on_step: StepHook | None = None) ->
     cell, seed = task.cell, task.seed
     env = gym.make(cell.env_id, **cell.params_dict)
     try:
-        base, policy, obs = _start(env, cell, seed, factory)
-        t_sense = time.perf_counter()
-        snapshot = base.sensing()
-        sense_s = time.perf_counter() - t_sense
-        snaps = [snapshot]
+        base = env.unwrapped
+        policy, obs = _start(env, cell, seed, factory)
+        first = _sense(env)
+        snaps = [first[0]]
         plan_ms: list[float] = []
         periods: list[float] = []
         pso_ran: list[bool | None] = []
         clearance: list[float] = []
         zmp_margin: list[float] = []
         applied, planned, pre_pso = [], [], []
-        info: dict[str, Any] = {}
-        terminated = truncated = False
-        while not (terminated or truncated):
-            t0 = time.perf_counter()
-            action = _policy_call(cell, seed, f"act at footstep {len(plan_ms) + 1}", policy.act, obs, snapshot)
-            t1 = time.perf_counter()
-            plan_ms.append(1e3 * (t1 - t0))
-            pre, ran = planner_notes(policy)
-            t_step = time.perf_counter()
-            obs, _, terminated, truncated, info = _step(env, cell, seed, len(plan_ms), action)
-            step_s = time.perf_counter() - t_step
+
+        def visit(timing: ActTiming, snapshot: Any) -> Any:
+            info = timing.info
+            pre, ran = planner_notes(timing.last_info)
+            plan_ms.append(1e3 * timing.act_s)
             applied.append(info["command"])
-            planned.append(np.asarray(action, dtype=float).reshape(5))
+            planned.append(np.asarray(timing.action, dtype=float).reshape(5))
             pre_pso.append(pre if pre is not None else np.full(5, np.nan))
             pso_ran.append(ran)
             periods.append(float(info["period"]))
             if info["clearance"] is not None:
                 clearance.append(float(info["clearance"]))
             zmp_margin.append(float(info["zmp_margin"]))
-            t_sense = time.perf_counter()
-            snapshot = base.sensing()
-            next_sense_s = time.perf_counter() - t_sense
             snaps.append(snapshot)
-            if on_step is not None and on_step(ActTiming(
-                    len(plan_ms), sense_s, t1 - t0, step_s, action, getattr(policy, "last_info", None) or {}, info,
-                    terminated, truncated)):
-                break
-            sense_s = next_sense_s
+            return on_step is not None and on_step(timing)
+
+        info, terminated, _ = _play(env, cell, seed, policy, obs, first, visit=visit)
         outcome = info["termination"] if terminated else "timeout"
         centre = np.array([s.centre for s in snaps], dtype=float)
         com_path = np.asarray(base.history["com"], dtype=float).reshape(-1, 2)
@@ -474,7 +514,8 @@ def run_tasks(tasks: list[Task], workers: int = 1, backend: str = "local", addre
     return results
 
 
-def record_video(cell: Cell, seed: int, folder: str | Path, name: str | None = None) -> Path:
+def record_video(cell: Cell, seed: int, folder: str | Path, name: str | None = None,
+                 factory: PolicyFactory = default_factory) -> Path:
     """Play one episode of ``cell`` at ``seed`` and save it as ``<folder>/<name>.mp4`` (real time).
 
     The env draws frames inside every footstep (``render_mode="rgb_array_list"``), so the
@@ -493,13 +534,8 @@ def record_video(cell: Cell, seed: int, folder: str | Path, name: str | None = N
         env = RecordVideo(env, str(scratch / "recording"), name_prefix=name, episode_trigger=lambda _: True,
                           disable_logger=True)
         try:
-            policy = default_factory(cell, env.unwrapped.robot, seed)
-            bind_truth(policy, env)
-            obs, _ = env.reset(seed=seed)
-            policy.reset(seed=seed)
-            terminated = truncated = False
-            while not (terminated or truncated):
-                obs, _, terminated, truncated, _ = env.step(policy.act(obs, env.unwrapped.sensing()))
+            policy, obs = _start(env, cell, seed, factory)
+            _play(env, cell, seed, policy, obs)
         finally:
             env.close()
         path = scratch / "recording" / f"{name}-episode-0.mp4"
@@ -552,7 +588,6 @@ def check_cells(cells: "Sequence[Cell]", describe: "Callable[[Cell], str] | None
     a submitted policy (imported by ``module:attr``, or any ``factory`` but the registry's) is built and acts once
     (:func:`check_policy`), in this process, before anything runs. ``describe(cell)`` names a cell's setting in
     the message (default: its keyword arguments)."""
-    from footstep_gym import registry
     from footstep_gym.rl.agents import check_run
 
     built: set[tuple[str, Any]] = set()
@@ -573,7 +608,7 @@ def check_cells(cells: "Sequence[Cell]", describe: "Callable[[Cell], str] | None
                     return problem
             continue
         try:
-            entry = registry.resolve(cell.policy)
+            entry = cell.policy_entry
         except ValueError as exc:
             return str(exc)
         if entry.kind == "import" and ("policy", cell.policy) not in checked:

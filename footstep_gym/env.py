@@ -5,13 +5,13 @@ from __future__ import annotations
 import cmath
 import dataclasses
 import math
-from typing import Any, NamedTuple
+from typing import Any, Mapping, NamedTuple
 
 import gymnasium as gym
 import numpy as np
 from gymnasium.envs.registration import EnvSpec
 
-from footstep_gym import config, footstep, lipm, tiers
+from footstep_gym import config, footstep, lipm
 from footstep_gym.action import ActionReader, action_limits, action_space
 from footstep_gym.env_config import EnvConfig
 from footstep_gym.errors import ConfigError
@@ -23,12 +23,45 @@ from footstep_gym.scenarios.base import RobotMotion
 from footstep_gym.sensing import ObstacleView, Snapshot, nearest_views, sense
 from footstep_gym.world import World
 
-__all__ = ["FootstepEnv", "EnvConfig", "TERMINATIONS", "FALL_REASONS", "with_step_limit"]
+__all__ = ["FootstepEnv", "EnvConfig", "TERMINATIONS", "FALL_REASONS", "DEFAULT_CELL", "cell_configs", "with_step_limit"]
 
 TERMINATIONS = ("goal", "collision", "fall")
 #: Why a step is a fall (``info["fall"]``), in the order they are checked: outside the command box (never from
 #: the env, which clips to it), outside the swinging side's turn limits, feet overlapping, ZMP outside the region.
 FALL_REASONS = footstep.KINEMATIC_VIOLATIONS + ("zmp",)
+
+
+#: The one cell of an env made without ``cells``: the keyword overrides alone.
+DEFAULT_CELL = "default"
+
+
+def cell_configs(scenario: str, cells: Mapping[str, Mapping[str, Any]]
+                 ) -> tuple[Robot, dict[str, tuple[Any, EnvConfig]]]:
+    """The robot and, per cell, ``(scenario config, env config)`` built from the cell's env keywords (any key of the
+    scene's YAML, of ``configs/env.yaml``, and ``robot``); every cell is built now, so a bad key or value raises
+    :class:`ConfigError` here. The cells share one robot, the first cell's."""
+    if scenario not in SCENARIOS:
+        raise ConfigError(f"unknown scenario {scenario!r}; choose one of {sorted(SCENARIOS)}")
+    if not isinstance(cells, Mapping) or not cells:
+        raise ConfigError(f"FootstepEnv({scenario}): cells must be a non-empty mapping {{name: {{keywords}}}}, "
+                          f"got {cells!r}")
+    cls = SCENARIOS[scenario]
+    robot = None
+    out: dict[str, tuple[Any, EnvConfig]] = {}
+    for name, kwargs in cells.items():
+        where = f"FootstepEnv({scenario})" + ("" if len(cells) == 1 else f" cell {name!r}")
+        if not isinstance(name, str) or not isinstance(kwargs, Mapping):
+            raise ConfigError(f"{where}: a cell is a name and a mapping of env keywords, got {name!r}: {kwargs!r}")
+        groups, leftover = config.split_overrides(kwargs, ("robot", Robot), ("scenario", cls.Config),
+                                                  ("env", EnvConfig))
+        if leftover:
+            known = [f.name for c in (cls.Config, EnvConfig) for f in dataclasses.fields(c)]
+            raise ConfigError(config.unknown_keys_message(where, list(leftover), known + ["robot"]))
+        if robot is None:
+            robot = config.load(Robot, "robot.yaml", groups["robot"])
+        out[name] = (cls.load_config(groups["scenario"]), config.load(EnvConfig, "env.yaml", groups["env"]))
+    assert robot is not None
+    return robot, out
 
 
 def _pair(z: complex) -> tuple[float, float]:
@@ -174,10 +207,10 @@ class FootstepEnv(gym.Env):
     | ``sensed_obstacles`` | moving obstacles sensed (only with a ``sensing_*`` option on) |
 
     ``reset`` returns ``com``, ``com_vel``, ``support_foot``, ``foot_pose``, ``time`` (and
-    ``tier_cell`` outside the default tier, ``sensed_obstacles`` as above).
+    ``tier_cell``, the episode's cell, in an env made with a ``tier``; ``sensed_obstacles`` as above).
 
     ## Arguments
-    ``gymnasium.make("FootstepDoor-v0", render_mode=None, tier="paper", tier_cell=None, **overrides)``:
+    ``gymnasium.make("FootstepDoor-v0", render_mode=None, tier=None, tier_cell=None, **overrides)``:
 
     | argument | meaning |
     |---|---|
@@ -185,7 +218,8 @@ class FootstepEnv(gym.Env):
     | any key of ``configs/env.yaml`` | ``reward_time=-0.2``, ``fixed_period=True`` (the action is ``[S, L, θ]``, T_SS and T_DS held at the robot's nominal ones), the ``sensing_*`` keys |
     | ``robot`` | keys of ``configs/robot.yaml`` as a mapping, or a profile's name (``"darwin-op"``) |
     | ``render_mode`` | ``"rgb_array"`` (the present), ``"rgb_array_list"`` (frames inside the steps at ``video_fps`` per simulated second) or ``"human"`` |
-    | ``tier``, ``tier_cell`` | a benchmark tier of ``configs/benchmark.yaml`` (``"paper"``, ``"train"``, ``"shifted"``, ``"structure"``, ``"noise"``), one cell drawn per episode, or one cell for all (docs/model.md §4.7) |
+    | ``tier``, ``tier_cell`` | ``gymnasium.make`` only: a benchmark tier of ``configs/benchmark.yaml`` (``"paper"``, ``"train"``, ``"shifted"``, ``"structure"``, ``"noise"``), one cell drawn per episode, or one cell for all (docs/model.md §4.7); :mod:`footstep_gym.tiers` turns them into ``cells`` and ``tier`` before the env is built, and without them the file is not read |
+    | ``cells``, ``tier`` | the class itself: ``{name: {keywords}}``, one cell drawn per episode from the reset's generator (one cell: no draw), exclusive with ``overrides``; ``tier`` names where they came from (reported as ``info["tier_cell"]``) |
 
     Unknown keys and bad values raise :class:`~footstep_gym.errors.ConfigError` (a ``ValueError``)
     naming them. A planner reads :meth:`sensing`: a read-only snapshot of what a robot could sense now.
@@ -197,34 +231,30 @@ class FootstepEnv(gym.Env):
     metadata = {"render_modes": ["human", "rgb_array", "rgb_array_list"], "render_fps": 4}
     _spec: EnvSpec | None = None
 
-    def __init__(self, scenario: str = "door", render_mode: str | None = None, tier: str | None = tiers.DEFAULT_TIER,
-                 tier_cell: str | None = None, **overrides: Any) -> None:
+    def __init__(self, scenario: str = "door", render_mode: str | None = None, *,
+                 cells: Mapping[str, Mapping[str, Any]] | None = None, tier: str | None = None,
+                 **overrides: Any) -> None:
         if scenario not in SCENARIOS:
             raise ConfigError(f"unknown scenario {scenario!r}; choose one of {sorted(SCENARIOS)}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        if cells is not None and overrides:
+            raise ConfigError(f"FootstepEnv({scenario}): give the keywords {', '.join(map(repr, overrides))} inside "
+                              "each of the cells, not beside them")
+        if tier is not None and cells is None:
+            raise ConfigError(f"FootstepEnv({scenario}): tier={tier!r} names the cells given with it; for a benchmark "
+                              "tier's env use gymnasium.make(env_id, tier=...) or footstep_gym.tiers.env_kwargs")
         self.scenario_name = scenario
         self._scenario_cls: type[Scenario] = SCENARIOS[scenario]
-        # The tier's cells (configs/benchmark.yaml, footstep_gym.tiers), each with the overrides on top, built here
-        # (a bad value fails now): one (scenario config, env config) per cell. The default tier has one cell that
-        # sets nothing: the overrides alone.
-        self.tier: str = tiers.DEFAULT_TIER if tier is None else tier
-        #: The cells episodes are drawn from (one: no draw), and the one of the episode under way (:attr:`tier_cell`).
-        self.tier_cells: list[tiers.TierCell] = tiers.cells(scenario, self.tier, tier_cell)
-        self._cell_configs: list[tuple[Any, EnvConfig]] = []
-        for cell in self.tier_cells:
-            groups, leftover = config.split_overrides(
-                tiers.merge(cell, overrides, f"FootstepEnv({scenario})"),
-                ("robot", Robot), ("scenario", self._scenario_cls.Config), ("env", EnvConfig)
-            )
-            if leftover:
-                known = [f.name for cls in (self._scenario_cls.Config, EnvConfig) for f in dataclasses.fields(cls)]
-                raise ConfigError(config.unknown_keys_message(f"FootstepEnv({scenario})", list(leftover),
-                                                              known + ["robot", "tier", "tier_cell"]))
-            if not self._cell_configs:  # cells set no robot key: one robot
-                self.robot: Robot = config.load(Robot, "robot.yaml", groups["robot"])
-            self._cell_configs.append((self._scenario_cls.load_config(groups["scenario"]),
-                                       config.load(EnvConfig, "env.yaml", groups["env"])))
+        #: Where the cells came from (a benchmark tier's name, given by :mod:`footstep_gym.tiers`), or None.
+        self.tier: str | None = tier
+        #: The env keywords of each cell episodes are drawn from (one: no draw); the episode's is :attr:`tier_cell`.
+        self.cells: dict[str, dict[str, Any]] = {DEFAULT_CELL: dict(overrides)} if cells is None else \
+            {name: dict(kwargs) for name, kwargs in cells.items()}
+        self.robot: Robot
+        self.robot, configs = cell_configs(scenario, self.cells)
+        self._cell_names = list(configs)
+        self._cell_configs: list[tuple[Any, EnvConfig]] = list(configs.values())
         self._use_cell(0)
         self.render_mode = render_mode
         if render_mode == "rgb_array_list":  # frames from inside the steps, evenly spaced in simulated time
@@ -252,14 +282,14 @@ class FootstepEnv(gym.Env):
 
     # ------------------------------------------------------------------ state
     def _use_cell(self, index: int) -> None:
-        """Make tier cell ``index`` the current one: its scenario config and env config (sensing keys)."""
-        self.tier_cell: str = self.tier_cells[index].name
+        """Make cell ``index`` the current one: its scenario config and env config (sensing keys)."""
+        self.tier_cell: str = self._cell_names[index]
         self.scenario_config, self.config = self._cell_configs[index]
         self._scales = ObservationScales.of(self.config)
 
     @property
     def step_limit(self) -> int:
-        """The largest ``max_steps`` of the tier's cells: the most footsteps an episode can take."""
+        """The largest ``max_steps`` of the cells: the most footsteps an episode can take."""
         return max(cfg.max_steps for cfg, _ in self._cell_configs)
 
     def _reset_state(self) -> None:
@@ -320,7 +350,7 @@ class FootstepEnv(gym.Env):
               ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
         rng = self.np_random
-        if len(self._cell_configs) > 1:  # a tier of several cells: this episode's, drawn first (one cell: no draw)
+        if len(self._cell_configs) > 1:  # several cells: this episode's, drawn first (one cell: no draw)
             self._use_cell(int(rng.integers(len(self._cell_configs))))
         cfg = self.scenario_config.draw(rng)
         self.episode_config = cfg
@@ -359,7 +389,7 @@ class FootstepEnv(gym.Env):
             "com": _pair(self.com), "com_vel": _pair(self.com_vel), "time": 0.0,
             "support_foot": SIDE_NAMES[self.support_side], "foot_pose": self.feet[self.support_side],
         }
-        if self.tier != tiers.DEFAULT_TIER:
+        if self.tier is not None:
             info["tier_cell"] = self.tier_cell
         self._sensed = None
         if env_cfg.sensing_limited:

@@ -50,7 +50,8 @@ class FootstepMixEnv(gym.Env):
     * ``scenes``: the scenes to draw from (default every scenario of ``SCENARIOS``, in its order);
     * ``weights``: their probabilities (default uniform);
     * ``render_mode``: as :class:`~footstep_gym.env.FootstepEnv`;
-    * ``tier``: a benchmark tier (``configs/benchmark.yaml``; default ``"paper"``), passed to every scene's env,
+    * ``tier``: a benchmark tier (``configs/benchmark.yaml``; default none: the file is not read), passed to every
+      scene's env,
       each drawing its tier's cells per episode as :class:`~footstep_gym.env.FootstepEnv` does; a scene's own
       mapping may name another ``tier`` (and a ``tier_cell``, a cell's name being per scene);
     * ``<scene>=...`` (``door``, ``crossing``, ``crowd``, ...): a mapping of keyword overrides of that
@@ -65,7 +66,7 @@ class FootstepMixEnv(gym.Env):
     _spec: EnvSpec | None = None
 
     def __init__(self, scenes: tuple[str, ...] | list[str] | None = None, weights: list[float] | None = None,
-                 render_mode: str | None = None, tier: str | None = "paper",
+                 render_mode: str | None = None, tier: str | None = None,
                  **scene_kwargs: Mapping[str, Any] | None) -> None:
         known = tuple(SCENARIOS)
         scenes = known if scenes is None else tuple(scenes)
@@ -94,8 +95,7 @@ class FootstepMixEnv(gym.Env):
         self.weights = probs
         self.render_mode = render_mode
         self.tier = tier
-        self.envs = {s: FootstepEnv(scenario=s, render_mode=render_mode, **{"tier": tier, **dict(overrides[s] or {})})
-                     for s in scenes}
+        self.envs = {s: _scene_env(s, render_mode, {"tier": tier, **dict(overrides[s] or {})}) for s in scenes}
         for name, env in self.envs.items():
             env.display_name = f"{type(self).__name__} (scene {name!r})"  # reset() puts the registered id in
         first = self.envs[scenes[0]]
@@ -166,3 +166,14 @@ class FootstepMixEnv(gym.Env):
     def close(self) -> None:
         for env in self.envs.values():
             env.close()
+
+
+def _scene_env(scene: str, render_mode: str | None, kwargs: dict[str, Any]) -> FootstepEnv:
+    """Scene ``scene``'s env from its keywords: with a ``tier`` (or ``tier_cell``), through
+    :func:`footstep_gym.tiers.make_env`, which resolves them; without, the env itself (no tiers' file read)."""
+    if kwargs.get("tier") is None and kwargs.get("tier_cell") is None:
+        kwargs = {k: v for k, v in kwargs.items() if k not in ("tier", "tier_cell")}
+        return FootstepEnv(scene, render_mode, **kwargs)
+    from footstep_gym.tiers import make_env
+
+    return make_env(scene, render_mode, **kwargs)

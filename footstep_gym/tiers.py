@@ -1,7 +1,8 @@
 """Benchmark tiers: named distributions of scene settings, read from ``configs/benchmark.yaml``.
 
 Every scene env takes ``tier=`` at ``gymnasium.make`` (as Procgen's envs take
-``distribution_mode``): ``"paper"`` (the default: today's fixed settings, the paper's scenes),
+``distribution_mode``): ``"paper"`` (today's fixed settings, the paper's scenes: what an env made
+without a tier is),
 ``"train"`` (each scene's training distribution), ``"shifted"`` (each training range moved to
 the next band beyond it), ``"structure"`` (the train tier's scenes with a named structural change:
 a second door, wider cars, reactive pedestrians, a denser ring) and ``"noise"`` (known scenes
@@ -13,6 +14,11 @@ shape the observation). ``gymnasium.make(id, tier="shifted")`` draws one of the 
 episode, uniformly, from the env's seeded generator (``reset(seed=s)`` fixes the cell and the
 episode; a tier with one cell draws nothing, so ``tier="paper"`` is today's env bit for bit), and
 ``tier_cell="fast"`` picks one cell for every episode (what a benchmark reports per cell).
+
+The env knows nothing of tiers: ``gymnasium.make`` builds a scene env through :func:`make_env`, which turns
+``tier`` and ``tier_cell`` into :class:`~footstep_gym.env.FootstepEnv`'s plain ``cells`` (one mapping of env
+keywords per cell, the user's keywords merged in) and ``tier`` (a label) with :func:`env_kwargs`, before the env
+is built; an env made without ``tier`` never reads this file.
 
 Keywords given with a tier are applied on top of its cells, except those a cell sets (as a value
 or as a ``randomize`` range): giving one of those raises :class:`~footstep_gym.errors.ConfigError`
@@ -33,11 +39,16 @@ from __future__ import annotations
 import dataclasses
 import os
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
+
+import yaml
 
 from footstep_gym import config
 from footstep_gym.env_config import EnvConfig
 from footstep_gym.errors import ConfigError
+
+if TYPE_CHECKING:
+    from footstep_gym.env import FootstepEnv
 
 #: The file, relative to ``configs/``.
 TIERS_FILE = "benchmark.yaml"
@@ -351,7 +362,14 @@ def load_tiers() -> dict[str, Tier]:
         raise ConfigError(f"{path}: the benchmark tiers' file is missing ({exc})") from None
     tiers = _CACHE.get(stamp)
     if tiers is None:
-        tiers = _parse(config.read_yaml(TIERS_FILE), TIERS_FILE)
+        try:
+            data = config.read_yaml(TIERS_FILE)
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
+            raise ConfigError(f"{path}: the benchmark tiers' file is not valid YAML{where}: "
+                              f"{getattr(exc, 'problem', None) or exc}") from None
+        tiers = _parse(data, TIERS_FILE)
         _CACHE.clear()
         _CACHE[stamp] = tiers
     return tiers
@@ -423,3 +441,29 @@ def merge(cell: TierCell, overrides: Mapping[str, Any], where: str) -> dict[str,
     if randomize or "randomize" in overrides:
         out["randomize"] = randomize
     return out
+
+
+def env_kwargs(scene: str, tier_name: str, cell: str | None = None, overrides: Mapping[str, Any] | None = None
+               ) -> dict[str, Any]:
+    """The keywords of :class:`~footstep_gym.env.FootstepEnv` for an env of ``scene`` in tier ``tier_name`` (every
+    cell, or only ``cell``) with the user's ``overrides``: ``{"tier": tier_name, "cells": {name: keywords}}``, each
+    cell's keywords its own with the overrides merged in (:func:`merge`, which refuses an override of what the cell
+    fixes). Reads ``configs/benchmark.yaml``; :class:`ConfigError` naming the file for a bad tier or cell."""
+    where = f"FootstepEnv({scene})"
+    return {"tier": tier_name,
+            "cells": {c.name: merge(c, dict(overrides or {}), where) for c in cells(scene, tier_name, cell)}}
+
+
+def make_env(scenario: str = "door", render_mode: str | None = None, tier: str | None = None,
+             tier_cell: str | None = None, **overrides: Any) -> FootstepEnv:
+    """``gymnasium.make``'s entry point of every scene env: ``FootstepEnv(scenario, render_mode, **overrides)``, or
+    with ``tier`` (and ``tier_cell``) the tier's cells resolved first (:func:`env_kwargs`). Without ``tier`` the
+    tiers' file is not read."""
+    from footstep_gym.env import FootstepEnv
+
+    if tier is None:
+        if tier_cell is not None:
+            raise ConfigError(f"FootstepEnv({scenario}): tier_cell={tier_cell!r} needs tier= (the tier it is a cell "
+                              f"of, e.g. tier={DEFAULT_TIER!r})")
+        return FootstepEnv(scenario, render_mode, **overrides)
+    return FootstepEnv(scenario, render_mode, **env_kwargs(scenario, tier, tier_cell, overrides))

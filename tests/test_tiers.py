@@ -87,7 +87,7 @@ def test_every_cell_builds_and_its_keys_reach_the_episode(tier, scene, cell):
     _, info = env.reset(seed=3)
     base = env.unwrapped
     assert base.tier == tier and base.tier_cell == cell
-    assert info.get("tier_cell") == (None if tier == "paper" else cell)
+    assert info["tier_cell"] == cell
     kwargs = tiers.plain(tiers.cells(scene, tier, cell)[0].kwargs)
     randomize = kwargs.pop("randomize", {})
     for key, value in kwargs.items():
@@ -117,15 +117,15 @@ def test_the_paper_tier_is_the_env_without_a_tier(env_id):
     """Same observations, rewards and info, and the same random numbers left in the generator."""
     for seed in (0, 5):
         plain_env, paper = gym.make(env_id), gym.make(env_id, tier="paper")
-        assert episode(plain_env, seed) == episode(paper, seed)
+        assert episode(plain_env, seed) == episode(paper, seed, cell=False)
         assert plain_env.unwrapped.np_random.bit_generator.state == paper.unwrapped.np_random.bit_generator.state
-        assert paper.unwrapped.tier_cells[0].kwargs == {}
-    assert gym.make(env_id, tier=None).unwrapped.tier == "paper"
+        assert paper.unwrapped.cells == {"default": {}} and paper.unwrapped.tier == "paper"
+    assert gym.make(env_id, tier=None).unwrapped.tier is None
 
 
 def test_a_tier_of_several_cells_draws_its_cell_per_episode_from_the_seed():
     env = gym.make("FootstepCrowd-v0", tier="structure")
-    names = [c.name for c in env.unwrapped.tier_cells]
+    names = list(env.unwrapped.cells)
     assert len(names) > 1
     drawn = []
     for seed in range(30):
@@ -306,7 +306,7 @@ def test_the_mix_passes_the_tier_to_every_scene():
     assert {s: e.tier for s, e in env.unwrapped.envs.items()} == {s: "shifted" for s in SCENES}
     env = gym.make(footstep_gym.MIX_ENV_ID, tier="shifted", crowd={"tier": "noise", "tier_cell": "train"})
     assert env.unwrapped.envs["crowd"].tier == "noise" and env.unwrapped.envs["door"].tier == "shifted"
-    assert [c.name for c in env.unwrapped.envs["crowd"].tier_cells] == ["train"]
+    assert list(env.unwrapped.envs["crowd"].cells) == ["train"]
     _, info = env.reset(seed=0)
     assert info["scene"] in SCENES and "tier_cell" in info
 
@@ -686,3 +686,60 @@ def test_a_trainer_on_any_tier_takes_train_seeds():
     assert info["tier_cell"] in ("train", "wide_cars")
     with pytest.raises(ValueError, match="train split"):
         next(splits.train_seed_stream(end))
+
+
+# ------------------------------------------------------------------ the env knows nothing of the tiers
+def test_env_py_imports_nothing_of_the_benchmark_layer():
+    """footstep_gym/env.py (and the mix) import neither the tiers nor the evaluation (read from their source)."""
+    import ast
+
+    for module in ("env", "mix", "env_config"):
+        tree = ast.parse((ROOT / "footstep_gym" / f"{module}.py").read_text(encoding="utf-8"))
+        imported = set()
+        for node in tree.body:  # module-level imports only (the mix builds a tier's scene envs lazily)
+            if isinstance(node, ast.ImportFrom):
+                imported |= {node.module or ""} | {f"{node.module}.{a.name}" for a in node.names}
+            elif isinstance(node, ast.Import):
+                imported |= {a.name for a in node.names}
+        bad = sorted(m for m in imported if m.startswith(("footstep_gym.tiers", "footstep_gym.evaluation")))
+        assert not bad, (module, bad)
+
+
+@pytest.fixture
+def broken_tiers(tmp_path, monkeypatch):
+    """A copy of configs/ whose benchmark.yaml is not YAML, as FOOTSTEP_GYM_CONFIG_DIR."""
+    folder = tmp_path / "configs"
+    shutil.copytree(config_dir(), folder)
+    (folder / tiers.TIERS_FILE).write_text("paper: [door: {\n  about: nope\n", encoding="utf-8")
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(folder))
+    return folder / tiers.TIERS_FILE
+
+
+@pytest.mark.parametrize("env_id", [*footstep_gym.ENV_IDS.values(), footstep_gym.MIX_ENV_ID])
+def test_an_env_without_a_tier_never_reads_the_tiers_file(broken_tiers, env_id):
+    env = gym.make(env_id, tier=None)
+    obs, info = env.reset(seed=0)
+    assert "tier_cell" not in info and env.unwrapped.tier is None
+    env.step(np.asarray(NOMINAL, dtype=np.float32))
+    env.close()
+    with pytest.raises(ConfigError) as exc:
+        gym.make(env_id, tier="train")
+    text = str(exc.value)
+    assert text.startswith(f"{broken_tiers}: the benchmark tiers' file is not valid YAML (line ") and "\n" not in text
+
+
+def test_the_env_takes_plain_cells_and_a_label():
+    """The class itself: cells of env keywords and the label they came under, no tiers' file; a tier without its
+    cells, or keywords beside the cells, is refused in one line."""
+    from footstep_gym.env import FootstepEnv
+
+    env = FootstepEnv("door", cells={"slow": {"door_speed": 8.0}, "fast": {"door_speed": 16.0}}, tier="mine")
+    drawn = {env.reset(seed=s)[1]["tier_cell"] for s in range(12)}
+    assert drawn == {"slow", "fast"} and env.tier == "mine"
+    assert env.episode_config.door_speed == {"slow": 8.0, "fast": 16.0}[env.tier_cell]
+    with pytest.raises(ConfigError, match="tier='train' names the cells given with it"):
+        FootstepEnv("door", tier="train")
+    with pytest.raises(ConfigError, match="give the keywords 'max_steps' inside each of the cells"):
+        FootstepEnv("door", cells={"a": {}}, max_steps=5)
+    made = gym.make("FootstepDoor-v0", tier="train").unwrapped
+    assert made.cells == tiers.env_kwargs("door", "train")["cells"] and made.tier == "train"

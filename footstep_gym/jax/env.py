@@ -95,7 +95,7 @@ class FootstepJaxEnv:
     answers do not depend on it). ``action_space`` and ``observation_space`` are the reference env's.
     """
 
-    def __init__(self, scenario: str = "door", *, dtype: Any = "float32", tier: str | None = tiers.DEFAULT_TIER,
+    def __init__(self, scenario: str = "door", *, dtype: Any = "float32", tier: str | None = None,
                  tier_cell: str | None = None, block: int = shapes.DEFAULT_BLOCK, **env_kwargs: Any) -> None:
         if scenario not in SCENES:
             raise _unsupported(f"scene {scenario!r}")
@@ -105,8 +105,8 @@ class FootstepJaxEnv:
         if not (isinstance(block, int) and block >= 1):
             raise ConfigError(f"FootstepJaxEnv: block must be an integer >= 1, got {block!r}")
         self.block = block
-        ref = FootstepEnv(scenario, tier=tier, tier_cell=tier_cell, **env_kwargs)  # validates every cell
-        self.scenario, self.tier, self.cells = scenario, ref.tier, [c.name for c in ref.tier_cells]
+        ref = tiers.make_env(scenario, tier=tier, tier_cell=tier_cell, **env_kwargs)  # validates every cell
+        self.scenario, self.tier, self.cells = scenario, ref.tier, list(ref.cells)
         self.robot = robot = ref.robot
         self.config = env_cfg = ref.config
         self.action_space, self.observation_space = ref.action_space, ref.observation_space

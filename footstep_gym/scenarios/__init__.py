@@ -77,7 +77,7 @@ def check_scenario(name: str, cls: type[Scenario]) -> None:
 def _register_env(name: str) -> None:
     env_id = SCENARIOS[name].env_id
     if env_id not in registry:
-        register(id=env_id, entry_point="footstep_gym.env:FootstepEnv", kwargs={"scenario": name},
+        register(id=env_id, entry_point="footstep_gym.tiers:make_env", kwargs={"scenario": name},
                  vector_entry_point=SCENARIOS[name].vector_entry_point)
 
 

@@ -6,7 +6,9 @@ their allowed range raise :class:`ConfigError` naming the key and the value.
 
 A config is a frozen dataclass; each field's type (resolved from its annotation) picks its
 converter in :data:`CONVERTERS`, and its constraint (:func:`positive`, :func:`interval`, ...) the
-range the value must lie in. Typed converters rather than pydantic, because the configs stay plain
+range the value must lie in. A field's default is in the code (``positive(0.23)``), so a config can
+be made without a file (``EnvConfig()``); the YAML documents every key and overrides the defaults, and
+a key the file leaves out keeps its default. Typed converters rather than pydantic, because the configs stay plain
 dataclasses that plugins declare with one-line fields, and every error stays the one line that names
 the file, the key and the value (with a "did you mean" for an unknown key) without translating
 pydantic's multi-line reports.
@@ -14,6 +16,7 @@ pydantic's multi-line reports.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import difflib
 import math
@@ -60,34 +63,59 @@ def read_yaml(relative: str) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------- field constraints
-def positive(allow_inf: bool = False, **kw: Any) -> Any:
+def _field(check: str | None, default: Any, kw: dict[str, Any]) -> Any:
+    """A dataclass field with constraint ``check`` and ``default`` (a list or dict is copied for each instance;
+    ``dataclasses.MISSING``: none, the key is required)."""
+    metadata = {"check": check, **kw}
+    if isinstance(default, (list, dict)):
+        return dataclasses.field(default_factory=lambda: copy.deepcopy(default), metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+def positive(default: Any = dataclasses.MISSING, allow_inf: bool = False, **kw: Any) -> Any:
     """A number field that must be > 0 (and finite, unless ``allow_inf``: then ``.inf`` means no limit)."""
-    return dataclasses.field(metadata={"check": "positive_or_inf" if allow_inf else "positive", **kw})
+    return _field("positive_or_inf" if allow_inf else "positive", default, kw)
 
 
-def nonnegative(**kw: Any) -> Any:
+def nonnegative(default: Any = dataclasses.MISSING, **kw: Any) -> Any:
     """A float field that must be >= 0."""
-    return dataclasses.field(metadata={"check": "nonnegative", **kw})
+    return _field("nonnegative", default, kw)
 
 
-def fraction(**kw: Any) -> Any:
+def fraction(default: Any = dataclasses.MISSING, **kw: Any) -> Any:
     """A float field in (0, 1]."""
-    return dataclasses.field(metadata={"check": "fraction", **kw})
+    return _field("fraction", default, kw)
 
 
-def interval(**kw: Any) -> Any:
+def interval(default: Any = dataclasses.MISSING, **kw: Any) -> Any:
     """A pair ``[lo, hi]`` with lo <= hi."""
-    return dataclasses.field(metadata={"check": "interval", **kw})
+    return _field("interval", default, kw)
 
 
-def pair(**kw: Any) -> Any:
+def pair(default: Any = dataclasses.MISSING, **kw: Any) -> Any:
     """A point ``[x, y]`` of two finite numbers."""
-    return dataclasses.field(metadata={"check": "pair", **kw})
+    return _field("pair", default, kw)
 
 
-def plain(**kw: Any) -> Any:
+def plain(default: Any = dataclasses.MISSING, **kw: Any) -> Any:
     """A field with no constraint beyond its type."""
-    return dataclasses.field(metadata={"check": None, **kw})
+    return _field(None, default, kw)
+
+
+def has_default(f: dataclasses.Field) -> bool:
+    """Whether config field ``f`` has a default in the code (a key a file may leave out)."""
+    return f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING
+
+
+def defaults(cls: type) -> dict[str, Any]:
+    """``{field: default}`` of config dataclass ``cls``, for the fields that have one."""
+    out = {}
+    for f in dataclasses.fields(cls):  # type: ignore[arg-type]
+        if f.default is not dataclasses.MISSING:
+            out[f.name] = f.default
+        elif f.default_factory is not dataclasses.MISSING:
+            out[f.name] = f.default_factory()
+    return out
 
 
 def unknown_keys_message(where: str, unknown: list[str], known: list[str]) -> str:
@@ -200,11 +228,13 @@ def number(label: str, value: Any) -> float:
 
 
 def build(cls: type[T], data: Mapping[str, Any], where: str) -> T:
-    """Make dataclass ``cls`` from ``data``: every field present, nothing unknown, all valid."""
+    """Make dataclass ``cls`` from ``data`` over the fields' defaults: nothing unknown, every field without a
+    default present, all valid (the defaults included)."""
     fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     unknown = [k for k in data if k not in fields]
     if unknown:
         raise ConfigError(unknown_keys_message(where, unknown, list(fields)))
+    data = {**defaults(cls), **data}
     missing = [k for k in fields if k not in data]
     if missing:
         raise ConfigError(f"{where}: missing key(s) {', '.join(missing)}")

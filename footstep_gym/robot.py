@@ -32,24 +32,24 @@ class Robot:
     #: Where the profiles are (``configs/robots/<name>.yaml``); not a field.
     PROFILE_FOLDER = "robots"
 
-    gravity: float = positive()  # [m/s^2]
-    com_height: float = positive()  # [m]
-    foot_length: float = positive()  # [m]
-    foot_width: float = positive()  # [m]
-    zmp_region_scale: float = fraction()  # stable region / foot
-    foot_clearance: float = nonnegative()  # [m]
-    body_radius: float = positive()  # [m]
-    stride_front: tuple[float, float] = interval()  # S [m]
-    stride_side: tuple[float, float] = interval()  # L [m]
-    turn_inner: float = nonnegative()  # [rad]
-    turn_outer: float = nonnegative()  # [rad]
-    t_ss: tuple[float, float] = interval()  # [s]
-    t_ds: tuple[float, float] = interval()  # [s]
-    nominal_t_ss: float = positive()  # [s]
-    nominal_t_ds: float = positive()  # [s]
-    nominal_side_stride: float = positive()  # [m]
-    generator_weight_position: float = positive()
-    generator_weight_velocity: float = positive()
+    gravity: float = positive(9.81)  # [m/s^2]
+    com_height: float = positive(0.23)  # [m]
+    foot_length: float = positive(0.104)  # [m]
+    foot_width: float = positive(0.066)  # [m]
+    zmp_region_scale: float = fraction(0.5)  # stable region / foot
+    foot_clearance: float = nonnegative(0.002)  # [m]
+    body_radius: float = positive(0.1)  # [m]
+    stride_front: tuple[float, float] = interval((-0.04, 0.1))  # S [m]
+    stride_side: tuple[float, float] = interval((0.07, 0.12))  # L [m]
+    turn_inner: float = nonnegative(0.2)  # [rad]
+    turn_outer: float = nonnegative(0.4)  # [rad]
+    t_ss: tuple[float, float] = interval((0.1, 0.6))  # [s]
+    t_ds: tuple[float, float] = interval((0.1, 0.3))  # [s]
+    nominal_t_ss: float = positive(0.6)  # [s]
+    nominal_t_ds: float = positive(0.2)  # [s]
+    nominal_side_stride: float = positive(0.08)  # [m]
+    generator_weight_position: float = positive(10.0)
+    generator_weight_velocity: float = positive(1.0)
 
     def validate(self) -> None:
         if self.stride_side[0] <= 0:

@@ -257,11 +257,15 @@ def test_load_and_replace():
 
 
 def test_build_reports_every_missing_and_unknown_key():
-    data = read_yaml("robot.yaml")
-    del data["gravity"], data["com_height"]
+    @dataclasses.dataclass(frozen=True)
+    class NoDefaults:  # a plugin's config may leave its defaults out: then every key is required
+        gravity: float = config.positive()
+        com_height: float = config.positive()
+        feet: int = config.positive(2)
+
     with pytest.raises(ConfigError) as exc:
-        config.build(Robot, data, "robot")
-    assert "gravity" in str(exc.value) and "com_height" in str(exc.value)
+        config.build(NoDefaults, {"feet": 3}, "robot")
+    assert "gravity" in str(exc.value) and "com_height" in str(exc.value) and "feet" not in str(exc.value)
     data = read_yaml("robot.yaml")
     data.update(gravty=9.8, colour="red")
     with pytest.raises(ConfigError) as exc:
@@ -475,7 +479,8 @@ def test_class_constants_are_no_keywords(env_id, kwargs):
 
 
 def test_env_config_sits_below_the_env_and_the_tiers():
-    """``tiers`` reads ``EnvConfig``'s fields from ``env_config``, which imports neither ``env`` nor ``tiers``."""
+    """``tiers`` reads ``EnvConfig``'s fields from ``env_config``, which imports neither ``env`` nor ``tiers``; the env
+    imports no tiers (tests/test_tiers.py) and the tiers import the env only to build one."""
     import ast
 
     import footstep_gym.env_config
@@ -490,8 +495,10 @@ def test_env_config_sits_below_the_env_and_the_tiers():
         return names
 
     assert not {"footstep_gym.env", "footstep_gym.tiers"} & imported(footstep_gym.env_config)
-    assert "footstep_gym.env" not in imported(footstep_gym.tiers)
     assert "footstep_gym.env_config" in imported(footstep_gym.tiers)
+    # the tiers build an env only in make_env (gymnasium.make's entry point), importing it there, not at load
+    top = ast.parse(open(footstep_gym.tiers.__file__, encoding="utf-8").read()).body
+    assert not any(isinstance(n, ast.ImportFrom) and n.module == "footstep_gym.env" for n in top)
 
 
 def test_fields_are_converted_by_their_declared_types():
@@ -535,3 +542,50 @@ def test_a_list_of_numbers_names_a_bad_item(value, match):
     assert config.build(Grid, {"steps": [1, 2.5]}, "grid.yaml").steps == (1.0, 2.5)
     with pytest.raises(ConfigError, match=f"grid.yaml.steps {match}"):
         config.build(Grid, {"steps": value}, "grid.yaml")
+
+
+# ------------------------------------------------------------------ defaults in the code
+def _configs():
+    from footstep_gym.env_config import EnvConfig
+    from footstep_gym.planners.params import PlannerConfig
+
+    return EnvConfig, Robot, PlannerConfig
+
+
+def test_configs_are_made_without_a_file(tmp_path, monkeypatch):
+    """EnvConfig, Robot and PlannerConfig have their defaults in the code: made (and validated through
+    config.build) with the config folder empty; the shipped YAML states the same values (it documents them)."""
+    from footstep_gym.env_config import EnvConfig
+    from footstep_gym.planners.params import _SECTION_TYPES, load_planner_config
+
+    shipped = (config.load(EnvConfig, "env.yaml"), load_robot(), load_planner_config())
+    (tmp_path / "empty").mkdir()
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(tmp_path / "empty"))
+    made = tuple(cls() for cls in _configs())
+    assert made == shipped
+    assert config.build(EnvConfig, {}, "env") == made[0] and config.build(Robot, {}, "robot") == made[1]
+    for name, section in _SECTION_TYPES.items():
+        assert config.build(section, {}, name) == getattr(made[2], name)
+    assert made[1].omega == math.sqrt(9.81 / 0.23) and made[0].sensing_max_range == math.inf
+    assert made[2].period_search.rollout_wait_steps is not type(made[2])().period_search.rollout_wait_steps
+
+
+def test_the_yaml_overrides_the_defaults_and_may_leave_keys_out(tmp_path, monkeypatch):
+    from footstep_gym.env_config import EnvConfig
+    from footstep_gym.planners.params import load_planner_config
+
+    folder = tmp_path / "configs"
+    shutil.copytree(config_dir(), folder)
+    (folder / "env.yaml").write_text("reward_time: -0.5\n", encoding="utf-8")
+    (folder / "robot.yaml").write_text("com_height: 0.25\n", encoding="utf-8")
+    (folder / "planner.yaml").write_text("rrt: {iterations: 7}\n", encoding="utf-8")
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(folder))
+    env_cfg, robot, planner = config.load(EnvConfig, "env.yaml"), load_robot(), load_planner_config()
+    assert env_cfg == dataclasses.replace(EnvConfig(), reward_time=-0.5)
+    assert robot == dataclasses.replace(Robot(), com_height=0.25)
+    assert planner.rrt.iterations == 7 and planner.pso == type(planner)().pso
+    env = gym.make("FootstepDoor-v0").unwrapped
+    assert env.config.reward_time == -0.5 and env.robot.com_height == 0.25
+    (folder / "env.yaml").write_text("reward_time: high\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="env.yaml.reward_time must be a number, got 'high'"):
+        config.load(EnvConfig, "env.yaml")

@@ -1,7 +1,8 @@
 """Configuration: YAML files under ``configs/`` loaded into validated dataclasses.
 
-Every number the simulation uses comes from a YAML file; keyword arguments of
-``gymnasium.make`` override single keys. Unknown keys, wrong types and values outside
+Every number the simulation uses is a config field with its default in the code, stated and
+documented in a YAML file that overrides it; keyword arguments of ``gymnasium.make`` override
+single keys. Unknown keys, wrong types and values outside
 their allowed range raise :class:`ConfigError` naming the key and the value.
 
 A config is a frozen dataclass; each field's type (resolved from its annotation) picks its

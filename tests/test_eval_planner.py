@@ -428,14 +428,14 @@ def test_a_run_that_fails_midway_leaves_out_as_it_was(tmp_path, monkeypatch, cap
     from footstep_gym import registry
 
     script = load_script("eval_planner")
-    real = registry.make_policy
+    real = registry.PolicyEntry.make
 
-    def failing(name, robot=None, seed=None, **kwargs):
+    def failing(entry, robot=None, seed=None, **kwargs):  # the entry the cell carries builds each episode's policy
         if seed == FIRST_TEST_SEED + 1:
             raise RuntimeError("simulated failure")
-        return real(name, robot, seed=seed, **kwargs)
+        return real(entry, robot, seed, **kwargs)
 
-    monkeypatch.setattr(registry, "make_policy", failing)
+    monkeypatch.setattr(registry.PolicyEntry, "make", failing)
     out = tmp_path / "eval"
     before = _earlier_run(out)
     code = script.main(["--env", "crossing", "--policy", FASTEST_POLICY, "--episodes", "2", "--workers", "1",
@@ -581,7 +581,7 @@ def test_file_names_are_safe_and_the_same_everywhere(tmp_path):
     assert names == ["figures/door_8.png", "tables/door_8_agent-FootstepDoor-v0_1_seed3.md"]
 
 
-def test_videos_go_to_a_new_folder_without_warnings_and_with_safe_names(tmp_path, monkeypatch):
+def test_videos_go_to_a_new_folder_without_warnings_and_with_safe_names(tmp_path):
     """Gymnasium warned "Overwriting existing videos" from the second video of a fresh folder on."""
     pytest.importorskip("moviepy")
     pytest.importorskip("pygame")
@@ -589,11 +589,10 @@ def test_videos_go_to_a_new_folder_without_warnings_and_with_safe_names(tmp_path
 
     from footstep_gym.evaluation import runner
 
-    monkeypatch.setattr(runner, "default_factory", stand_in)
     cells = [Cell("FootstepDoor-v0", "door", policy, (("door_speed", 8.0),)) for policy in ("straight", "agent:x")]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        paths = [runner.record_video(c, 3, tmp_path / "videos") for c in cells]
+        paths = [runner.record_video(c, 3, tmp_path / "videos", factory=stand_in) for c in cells]
     assert not [str(w.message) for w in caught if "video" in str(w.message).lower()]
     assert [p.name for p in paths] == ["door_8_straight.mp4", "door_8_agent-x.mp4"]
     assert sorted(p.name for p in (tmp_path / "videos").iterdir()) == sorted(p.name for p in paths)

@@ -103,11 +103,6 @@ def plain(default: Any = dataclasses.MISSING, **kw: Any) -> Any:
     return _field(None, default, kw)
 
 
-def has_default(f: dataclasses.Field) -> bool:
-    """Whether config field ``f`` has a default in the code (a key a file may leave out)."""
-    return f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING
-
-
 def defaults(cls: type) -> dict[str, Any]:
     """``{field: default}`` of config dataclass ``cls``, for the fields that have one."""
     out = {}

@@ -5,8 +5,9 @@
 * :mod:`.records`: a cell's record (:class:`CellRecord`: success with a Wilson interval, collisions, falls,
   clearance, ZMP margin, planning time; each field says how it pools over training runs) and :func:`over_runs`;
   :mod:`.stats`: the Wilson interval and rliable's intervals over training runs;
-* the policies come from the one factory :func:`footstep_gym.make_policy` (names resolved in
-  :mod:`footstep_gym.registry`; trained agents in :mod:`footstep_gym.rl`); :mod:`.submission`: a user's
+* the policies come from the registry (:mod:`footstep_gym.registry`; trained agents in :mod:`footstep_gym.rl`):
+  a name is resolved once, where a run's settings are made, and its entry travels with the cells to every
+  worker (:attr:`Cell.entry`), which builds each episode's policy from it; :mod:`.submission`: a user's
   agents (``--agent [SCENE=]PATH``) and callables (:func:`footstep_gym.benchmark.evaluate`);
 * :mod:`.splits`: the seed ranges for training, validation and the reported test;
 * :mod:`.report`: an evaluation's tables and files (pandas, :mod:`.tables`); :mod:`.figures`: trajectory pictures

@@ -166,3 +166,32 @@ def test_site_in_headless_chromium(built: Path, tmp_path: Path) -> None:
 
     with Image.open(png) as im:
         assert im.size == site_browser.SCREENSHOT_SIZE
+
+
+def test_a_board_with_scores_shows_them_without_code_changes(tmp_path: Path) -> None:
+    """A later protocol's board (protocol 3: ``scores`` with scene-balanced tier figures and a ranking) is shown by
+    building again: its figures replace the IQM, and its score and probability of improvement get columns."""
+    board = json.loads(json.dumps(BOARD))
+    first, second = board["policies"][0]["policy"], board["policies"][1]["policy"]
+    board["protocol_version"] = 3
+    board["protocol"]["fingerprint"] = "f" * 64
+    board["scores"] = {"tiers": [{"policy": first, "tier": t, "success": 0.123, "success_ci95": [0.1, 0.2]}
+                                 for t in board["tiers"]],
+                       "ranking": [{"policy": first, "score": 0.456, "p_improvement": 0.789},
+                                   {"policy": second, "score": 0.4, "p_improvement": None}]}
+    folder = tmp_path / "board"
+    folder.mkdir()
+    (folder / "leaderboard.json").write_text(json.dumps(board))
+    site.build_site(ROOT, tmp_path / "site", folder)
+    index = (tmp_path / "site/index.html").read_text()
+    assert "Each tier: scene-balanced success" in index and "Each tier: IQM" not in index
+    assert "fingerprint <code>ffffffffffff</code>" in index
+    row = re.search(rf'<tr class="">(<td data-v="{re.escape(first)}".*?)</tr>', index).group(1)
+    cells = re.findall(r'<td[^>]*data-v="([^"]*)"', row)
+    tiers = len(board["tiers"])
+    assert cells[3:3 + tiers] == ["0.123000"] * tiers  # method, track, runs (kind sorts by its text), the tiers
+    assert cells[3 + tiers:5 + tiers] == ["0.456000", "0.789000"]  # score, P(better than next)
+    # a row the scores leave out (the in-distribution track) keeps its IQM, and says so
+    ind = board["in_distribution"][0]["policy"]
+    method = (tmp_path / f"site/methods/{ind}.html").read_text()
+    assert "IQM success" in method and "scene-balanced success" not in method

@@ -160,9 +160,8 @@ def _num(x: Any) -> float | None:
 def tier_figure(data: SiteData, policy: str, tier: str) -> tuple[float | None, Sequence[float] | None]:
     """A row's figure on a tier and its 95 % interval: the board's scene-balanced success where it has ``scores``
     (protocol 3), its IQM otherwise; ``(None, None)`` where the row does not cover the tier."""
-    scores = data.board.get("scores")
-    if isinstance(scores, dict) and scores.get("tiers"):
-        for row in scores["tiers"]:
+    if _scored(data, policy):
+        for row in data.board["scores"]["tiers"]:
             if row.get("policy") == policy and row.get("tier") == tier:
                 return _num(row.get("success")), row.get("success_ci95")
         return None, None
@@ -172,9 +171,17 @@ def tier_figure(data: SiteData, policy: str, tier: str) -> tuple[float | None, S
     return None, None
 
 
-def tier_label(data: SiteData) -> str:
+def _scored(data: SiteData, policy: str | None = None) -> bool:
+    """Whether the board has ``scores`` (protocol 3) and, given ``policy``, tier scores of that row."""
     scores = data.board.get("scores")
-    return "scene-balanced success" if isinstance(scores, dict) and scores.get("tiers") else "IQM success"
+    if not (isinstance(scores, dict) and scores.get("tiers")):
+        return False
+    return policy is None or any(row.get("policy") == policy for row in scores["tiers"])
+
+
+def tier_label(data: SiteData, policy: str | None = None) -> str:
+    """What :func:`tier_figure` gives: the board's (``policy`` None) or that row's."""
+    return "scene-balanced success" if _scored(data, policy) else "IQM success"
 
 
 def cell_summary(method: Method, tier: str, scene: str, cell: str) -> dict[str, Any] | None:
@@ -307,7 +314,8 @@ def board_page(data: SiteData) -> str:
         tds += [f'<td data-v="{key:.0f}" class="nowrap">{esc(text)}</td>', num_td(act_ms(m), 2)]
         rows.append(f"<tr>{''.join(tds)}</tr>")
     if rows:
-        body += ("<h2>In-distribution track</h2><p>Trained on a tier itself (its train seeds), tested on its cells.</p>"
+        body += ("<h2>In-distribution track</h2><p>Trained on a tier itself (its train seeds), tested on its cells; "
+                 f"each tier: {esc(tier_label(data, ind[0].name))} with its 95 % interval.</p>"
                  + table(["method", "trained on", "runs"] + [esc(t) for t in tiers] + ["training budget", "act ms"],
                          rows, "board-in-distribution"))
     body += "<h2>Per tier</h2>" + "".join(_tier_table(data, t) for t in tiers)
@@ -336,7 +344,9 @@ def _tier_table(data: SiteData, tier: str) -> str:
         if value is None and m.name not in aggs:
             continue
         a = aggs.get(m.name, {})
-        tds = [f'<td data-v="{esc(m.name)}">{method_link(m)}</td>', f"<td>{esc(m.track)}</td>", num_td(m.runs, 0),
+        mine = tier_label(data, m.name)
+        note = "" if mine == tier_label(data) else f' <span class="ci">({esc(mine)})</span>'  # a row the scores skip
+        tds = [f'<td data-v="{esc(m.name)}">{method_link(m)}{note}</td>', f"<td>{esc(m.track)}</td>", num_td(m.runs, 0),
                interval_td(value, ci), interval_td(_num(a.get("optimality_gap")), a.get("optimality_gap_ci95")),
                num_td(_num(a.get("success_mean")))]
         for s in scenes:
@@ -416,7 +426,7 @@ def method_page(data: SiteData, m: Method, figures: dict[str, str]) -> str:
              ("results file", f'<code>{esc(_rel(data, m.source)) if m.source else "–"}</code>')]
     body = _kv_table(pairs)
     tiers = data.board["tiers"]
-    body += "<h2>Tiers</h2>" + table(["tier", esc(tier_label(data))],
+    body += "<h2>Tiers</h2>" + table(["tier", esc(tier_label(data, m.name))],
                                      (f"<tr><td>{esc(t)}</td>{interval_td(*tier_figure(data, m.name, t))}</tr>"
                                       for t in tiers), "method-tiers")
     rows = []

@@ -68,7 +68,7 @@ def episode_frames(env_id: str, tier: str, cell: str, policy: str, seed: int, ro
                 outcome = str(info.get("termination") or "timeout") if terminated else "timeout"
                 break
             if len(frames) / fps > MAX_SECONDS:
-                outcome = f"(cut at {MAX_SECONDS:.0f} s)"
+                outcome = "still walking, video cut"
                 break
         return frames, outcome, float(env.unwrapped.time)
     finally:
@@ -136,6 +136,7 @@ def render_videos(root: Path, cells: Sequence[str] | None = None, methods: Seque
     if manifest.get("seed") not in (None, seed) or manifest.get("methods") not in (None, list(methods)):
         manifest["videos"] = {}  # another seed or other methods: the old videos are not of this set
     videos = manifest.get("videos") or {}
+    fps = _video_fps() / FRAME_STRIDE
     made = []
     for key in wanted:
         tier, scene, cell = key.split("/")
@@ -145,7 +146,6 @@ def render_videos(root: Path, cells: Sequence[str] | None = None, methods: Seque
             frames, outcome, length = episode_frames(env_id, tier, cell, policy, seed, root)
             episodes.append((policy, frames, outcome, length))
             print(f"  {key} {policy}: {outcome} at {length:.1f} s ({len(frames)} frames)", flush=True)
-        fps = _video_fps() / FRAME_STRIDE
         name = f"videos/{slug(tier)}-{slug(scene)}-{slug(cell)}.mp4"
         composed = _compose(episodes)
         _write_mp4(folder / name, composed, fps)

@@ -144,8 +144,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="with --agent: its VecNormalize statistics (.pkl) where they are not the zoo's; one per "
                              "--agent, in their order")
     parser.add_argument("--agents-dir", type=Path, metavar="DIR",
-                        help=f"where the shipped agents are (default ${AGENTS_DIR_ENV_VAR}, else "
-                             f"./baselines/agents in the working directory: {default_agents_dir()})")
+                        help=f"where the shipped agents are (default ${AGENTS_DIR_ENV_VAR}, else ./baselines/agents "
+                             f"in the working directory, else the checkout's: {default_agents_dir()})")
     parser.add_argument("--profile", choices=sorted(PROFILES), help="defaults of a run (default quick)")
     parser.add_argument("--paper", action="store_true", help="same as --profile paper: "
                         f"{', '.join(describe_sweep(paper, e) for e in paper.envs)}, {paper.episodes} seeds, planners only")

@@ -1,13 +1,15 @@
-"""Train ``ppo-jax`` (Brax's PPO on a batched JAX scene, footstep_gym/jax/ppo.py), several seeds in a row; ship them.
+"""Train ``ppo-jax`` (Brax's PPO on a batched JAX scene, footstep_gym/rl/ppo_jax.py), several seeds in a row; ship them.
 
 Usage::
 
-    python baselines/train_jax.py --seeds 1 --timesteps 200000          # a first, short try: runs/ppo-jax/
+    python baselines/train_jax.py --timesteps 200000                    # a first, short try (seed 1): runs/ppo-jax/
     python baselines/train_jax.py --seeds 1 2 3 4 5 --ship              # train, ship, write the figures
     python baselines/train_jax.py --report                              # the figures again, from the shipped agents
 
-Hyperparameters: ``configs/rl/ppo-jax.yml`` (``--config``). Each seed trains in this process (JAX on every core
-it is given) into ``--runs-dir/<EnvId>_<seed>/`` in rl_zoo3's layout (:func:`footstep_gym.jax.ppo.write_run`);
+Hyperparameters: ``configs/rl/ppo-jax.yml`` (``--config``). Brax trains whole PPO updates in equal chunks between
+validations, so the env steps are rounded up (:func:`footstep_gym.rl.ppo_jax.planned`); the first line printed says
+what is trained, the number the run records. Each seed trains in this process (JAX on every core
+it is given) into ``--runs-dir/<EnvId>_<seed>/`` in rl_zoo3's layout (:func:`footstep_gym.rl.ppo_jax.write_run`);
 between training chunks the deterministic policy plays the validation split's first seeds in the reference env
 (the learning curve: success against training wall time, jit included, validation left out). With ``--ship``
 each run is copied to ``--agents-dir/ppo-jax/<EnvId>_<seed>/`` with a ``manifest.json``
@@ -21,10 +23,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
 import shlex
 import sys
-from importlib import metadata
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -37,11 +37,12 @@ TARGET = 0.95
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5], help="training seeds (default 1-5)")
-    p.add_argument("--env", default="FootstepDoor-v0",
-                   help="env id, its entry of the config (FootstepDoor-v0, FootstepCrowd-v0, FootstepCrossing-v0)")
+    p.add_argument("--seeds", type=int, nargs="+", default=[1], help="training seeds (default 1; the shipped: 1-5)")
+    p.add_argument("--env", default="door",
+                   help="a scene (door, crossing, crowd) or its env id (FootstepDoor-v0): its entry of the config")
     p.add_argument("--config", type=Path, default=None, help="hyperparameter file (default configs/rl/ppo-jax.yml)")
-    p.add_argument("--timesteps", type=int, default=None, help="env steps per seed (default: the config's)")
+    p.add_argument("--timesteps", type=int, default=None,
+                   help="env steps per seed (default: the config's), rounded up to whole PPO updates")
     p.add_argument("--runs-dir", type=Path, default=REPO / "runs" / AGENT, help="where runs are written")
     p.add_argument("--devices", type=int, default=1,
                    help="CPU cores as JAX devices, over which Brax's trainer splits the envs and each update "
@@ -56,50 +57,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-report", action="store_true",
                    help="with --ship: do not write the figures (seeds trained in parallel processes; --report after)")
     return p
-
-
-def versions() -> dict[str, str | None]:
-    def version(dist: str) -> str | None:
-        try:
-            return metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            return None
-
-    return {d: version(d) for d in ("footstep_gym", "jax", "jaxlib", "brax", "flax", "optax", "gymnasium")}
-
-
-def jax_devices() -> str:
-    """The devices JAX trained on, e.g. ``"2 x cpu"``."""
-    import jax
-
-    return f"{len(jax.devices())} x {jax.devices()[0].platform}"
-
-
-def ship_run(run: Path, result: Any, agents_dir: Path) -> Path:
-    """Ship ``run`` (the caller checked ``--force``) and add ppo-jax's figures to its manifest."""
-    from footstep_gym.rl import training
-
-    dest = training.ship(run, agents_dir, result.wall_time_s, seed=result.seed, force=True, agent=AGENT)
-    path = dest / "manifest.json"
-    manifest = json.loads(path.read_text(encoding="utf-8"))
-    t = result.time_to(TARGET)
-    manifest.update({
-        "library": "brax.training.agents.ppo (Brax's PPO trainer) on footstep_gym.jax (FootstepJaxEnv)",
-        "n_envs": result.config.num_envs,
-        "jax_devices": jax_devices(),
-        "torch_threads": None,
-        "wall_time_includes": "start-up and JAX compilation; not the validation episodes in the reference env",
-        "validation_time_s": round(result.validation_time_s, 1),
-        "load_average_start_end": [round(v, 2) for v in result.load_average],
-        "cpu_time_s": round(result.cpu_time_s, 1),
-        f"cpu_time_to_{TARGET}_s": None if result.cpu_time_to(TARGET) is None else round(result.cpu_time_to(TARGET), 1),
-        f"time_to_{TARGET}_s": None if t is None else round(t, 1),
-        "versions": versions(),
-        "python": platform.python_version(),
-        "machine": platform.machine(),
-    })
-    path.write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
-    return dest
 
 
 # ---------------------------------------------------------------- the figures
@@ -238,8 +195,15 @@ def write_report(agents_dir: Path, results: Path, env_id: str, reference: str) -
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from footstep_gym.errors import ConfigError
+    from footstep_gym.scenarios import resolve_env_id
+
+    try:
+        env_id = resolve_env_id(args.env)
+    except ConfigError as exc:
+        parser.error(f"--env: {exc}")
     if args.report:
-        for path in write_report(args.agents_dir, args.results, args.env, args.reference):
+        for path in write_report(args.agents_dir, args.results, env_id, args.reference):
             print(path)
         return 0
     if any(s < 0 for s in args.seeds):
@@ -252,9 +216,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--timesteps must be >= 1")
     if args.devices < 1:
         parser.error("--devices must be >= 1")
-    import dataclasses
-
-    from footstep_gym.errors import ConfigError
     from footstep_gym.jax import speed
 
     if args.devices > 1:
@@ -263,20 +224,18 @@ def main(argv: Sequence[str] | None = None) -> int:
                 parser.error(f"--devices {args.devices}: JAX has fewer devices here")
         except RuntimeError as exc:  # JAX started before (train_jax.main called in a process that used JAX)
             parser.error(f"--devices {args.devices}: {exc}")
-    from footstep_gym.jax import ppo
+    from footstep_gym.rl import ppo_jax as ppo
 
     try:
-        cfg = ppo.load_config(args.env, args.config)
-        if args.timesteps is not None:
-            raw = {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(cfg).items()
-                   if k != "env_id"}
-            cfg = ppo.parse_config(dict(raw, num_timesteps=args.timesteps), cfg.env_id, "--timesteps")
+        asked = ppo.load_config(env_id, args.config)
+        cfg = ppo.planned(asked, args.timesteps)
     except ConfigError as exc:
         print(f"train_jax.py: {exc}", file=sys.stderr)
         return 2
     if cfg.num_envs % args.devices or cfg.batch_size % args.devices:
         parser.error(f"--devices {args.devices}: num_envs ({cfg.num_envs}) and batch_size ({cfg.batch_size}) of "
                      f"{cfg.env_id} must divide by it")
+    print(ppo.plan_line(args.timesteps or asked.num_timesteps, cfg), f"on {ppo.jax_devices()}", flush=True)
     if args.ship and not args.force:
         taken = [str(d) for s in args.seeds if (d := args.agents_dir / AGENT / f"{cfg.env_id}_{s}").exists()]
         if taken:
@@ -285,8 +244,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
     command = "python baselines/train_jax.py " + shlex.join(argv if argv is not None else sys.argv[1:])
     for seed in args.seeds:
-        print(f"{AGENT} {cfg.env_id} seed {seed}: {cfg.num_timesteps:,} env steps, {cfg.num_envs} envs on "
-              f"{jax_devices()}", flush=True)
+        print(f"{AGENT} {cfg.env_id} seed {seed}", flush=True)
 
         def progress(steps: int, wall: float, rate: float) -> None:
             print(f"  {steps:>10,} env steps  {wall:7.1f} s  validation success {rate:.2f}", flush=True)
@@ -294,10 +252,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         result = ppo.train(cfg, seed, progress=progress)
         run = ppo.write_run(result, args.runs_dir, command)
         t = result.time_to(TARGET)
-        print(f"  done: {result.wall_time_s:.1f} s ({result.timesteps / result.wall_time_s:,.0f} env steps/s), time to "
-              f"{TARGET}: {'never' if t is None else f'{t:.1f} s'}; run {run}", flush=True)
+        print(f"  done: {result.timesteps:,} env steps in {result.wall_time_s:.1f} s "
+              f"({result.timesteps / result.wall_time_s:,.0f} env steps/s), time to {TARGET}: "
+              f"{'never' if t is None else f'{t:.1f} s'}; run {run}", flush=True)
         if args.ship:
-            print(f"  shipped: {ship_run(run, result, args.agents_dir)}", flush=True)
+            dest = ppo.ship(run, result, args.agents_dir, AGENT, TARGET)
+            print(f"  shipped: {dest}", flush=True)
     if args.ship and not args.no_report:
         for path in write_report(args.agents_dir, args.results, cfg.env_id, args.reference):
             print(path)

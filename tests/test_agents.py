@@ -388,24 +388,41 @@ def test_an_agent_ships_into_its_registered_folder_with_its_env_options(tmp_path
         training.ship(run, agents, 1.0, agent="../elsewhere")
 
 
-def test_the_agents_folder_is_an_argument_a_variable_or_the_working_directory(tmp_path, monkeypatch):
-    """Not found through the package's own location: a non-editable install has no agents unless pointed at some."""
+def test_the_agents_folder_is_an_argument_a_variable_the_working_directory_or_the_checkout(tmp_path, monkeypatch):
+    """Run elsewhere, the checkout the package is imported from gives its agents; a non-editable install (no
+    checkout) has none unless pointed at some, and says so in one line, as for a missing folder or an unknown env."""
+    from footstep_gym.rl import registry
     from footstep_gym.rl.registry import AGENTS_DIR_ENV_VAR, default_agents_dir, missing_agents_note
 
     monkeypatch.delenv(AGENTS_DIR_ENV_VAR, raising=False)
     monkeypatch.chdir(REPO)
     assert default_agents_dir() == SHIPPED and len(agent_runs("ppo", "FootstepDoor-v0")) == 3
-    monkeypatch.chdir(tmp_path)
+    monkeypatch.chdir(tmp_path)  # elsewhere: the checkout's agents, not an empty list
+    assert default_agents_dir() == SHIPPED and len(agent_runs("ppo", "FootstepDoor-v0")) == 3
+    assert agent_runs("ppo", "door") == agent_runs("ppo", "FootstepDoor-v0")  # a scene's name, as eval_planner's
+    installed = tmp_path / "site-packages" / "footstep_gym" / "rl" / "registry.py"  # an install: no checkout above
+    monkeypatch.setattr(registry, "__file__", str(installed))
     assert default_agents_dir() == tmp_path / "baselines" / "agents"
-    assert agent_runs("ppo", "FootstepDoor-v0") == []
+    with pytest.raises(FileNotFoundError) as err:
+        agent_runs("ppo", "FootstepDoor-v0")
+    message = str(err.value)
+    assert len(message.splitlines()) == 1 and f"agents folder {tmp_path / 'baselines' / 'agents'} does not exist" in \
+        message and AGENTS_DIR_ENV_VAR in message
     note = missing_agents_note({"ppo": ["FootstepDoor-v0"]})
     assert len(note.splitlines()) == 1 and AGENTS_DIR_ENV_VAR in note and "ppo on FootstepDoor-v0" in note
     assert len(agent_runs("ppo", "FootstepDoor-v0", SHIPPED)) == 3  # the argument
+    with pytest.raises(FileNotFoundError, match=r"agents folder .*nowhere does not exist \(agents_dir\)"):
+        agent_runs("ppo", "FootstepDoor-v0", tmp_path / "nowhere")
     monkeypatch.setenv(AGENTS_DIR_ENV_VAR, str(SHIPPED))  # the variable
     assert default_agents_dir() == SHIPPED and len(agent_runs("ppo", "FootstepDoor-v0")) == 3
-    assert agent_runs("ppo", "FootstepDoor-v0", tmp_path) == []  # the argument wins
+    assert agent_runs("ppo", "FootstepDoor-v0", tmp_path) == []  # the argument wins; a folder without ppo's runs
+    monkeypatch.setenv(AGENTS_DIR_ENV_VAR, str(tmp_path / "gone"))
+    with pytest.raises(FileNotFoundError, match=rf"gone does not exist \(\${AGENTS_DIR_ENV_VAR}\)"):
+        agent_runs("ppo", "FootstepDoor-v0")
     with pytest.raises(ValueError, match="unknown agent 'teleport'; registered: ppo, "):
         agent_runs("teleport", "FootstepDoor-v0")
+    with pytest.raises(ValueError, match="unknown env 'FootstepLift-v0'; choose from door, "):
+        agent_runs("ppo", "FootstepLift-v0", SHIPPED)
 
 
 def test_ship_cli_refuses_with_one_line_and_exit_status_2(tmp_path):

@@ -51,7 +51,12 @@ CHECK = textwrap.dedent("""
     command = policy.act(obs, env.unwrapped.sensing())
     assert env.action_space.contains(np.asarray(command, dtype=np.float32))
     from footstep_gym.rl import agent_runs, default_agents_dir  # installed; the agents are not (run outside the repo)
-    assert default_agents_dir() == Path.cwd() / "baselines" / "agents" and agent_runs("ppo", "FootstepDoor-v0") == []
+    assert default_agents_dir() == Path.cwd() / "baselines" / "agents"
+    try:
+        agent_runs("ppo", "FootstepDoor-v0")
+        raise AssertionError("agent_runs found an agents folder outside a checkout")
+    except FileNotFoundError as exc:  # one line saying how to point at the agents
+        assert "FOOTSTEP_GYM_AGENTS_DIR" in str(exc) and len(str(exc).splitlines()) == 1, exc
     for missing in ("torch", "pygame", "matplotlib", "scipy"):
         assert missing not in sys.modules, missing
     import importlib.util

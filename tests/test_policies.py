@@ -121,14 +121,28 @@ def test_importing_the_package_imports_no_rl_code():
 
 
 def test_the_agents_registry_sits_below_what_it_lists():
-    """rl/registry.py imports neither the loader nor the training; they import it (no cycle)."""
+    """rl/registry.py imports nothing of footstep_gym.rl (neither the loader nor the training); they import it (no
+    cycle)."""
     tree = ast.parse((REPO / "footstep_gym" / "rl" / "registry.py").read_text(encoding="utf-8"))
     imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)} | {
         a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
-    assert not {m for m in imported if m and m.startswith("footstep_gym")}, imported
+    assert not {m for m in imported if m and m.startswith("footstep_gym.rl")}, imported
     for module in ("agents", "training"):
         text = (REPO / "footstep_gym" / "rl" / f"{module}.py").read_text(encoding="utf-8")
         assert "from footstep_gym.rl.agents import AGENTS" not in text
+
+
+def test_the_jax_backend_holds_the_env_and_imports_no_rl():
+    """footstep_gym/jax/ is the env: the RL adapters (Brax's, SB3's, the ppo-jax loader) live in footstep_gym/rl/,
+    which imports jax/, never the other way (no cycle)."""
+    found = []
+    for path in sorted((REPO / "footstep_gym" / "jax").rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        names = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)} | {
+            a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+        found += [f"{path.name}: {m}" for m in sorted(filter(None, names))
+                  if m.startswith("footstep_gym.rl") or m.split(".")[0] in ("brax", "stable_baselines3", "flax", "torch")]
+    assert not found, found
 
 
 def test_a_planner_spec_checks_its_class_can_be_built():

@@ -1,4 +1,4 @@
-"""The JAX backend behind stable-baselines3's ``VecEnv`` (``footstep_gym.jax.sb3``).
+"""The JAX backend behind stable-baselines3's ``VecEnv`` (``footstep_gym.rl.sb3_jax``).
 
 Checked against Gymnasium's vector env of the same backend (``FootstepVectorEnv``, NEXT_STEP autoreset) from the
 same seeds and actions: the same observations, rewards and endings up to each env's first ending, where SB3's
@@ -17,7 +17,7 @@ from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize  # noqa: E402
 
 from footstep_gym.errors import ActionError  # noqa: E402
-from footstep_gym.jax.sb3 import FootstepSB3VecEnv  # noqa: E402
+from footstep_gym.rl.sb3_jax import FootstepSB3VecEnv  # noqa: E402
 from footstep_gym.jax.vector import FootstepVectorEnv  # noqa: E402
 
 N = 4

@@ -487,7 +487,10 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str |
         if entry.kind == "agent":
             from footstep_gym.rl.registry import agent_runs, missing_agents_note
 
-            runs = {env_id: tuple(str(r) for r in agent_runs(entry.name, env_id, agents_dir)) for env_id in env_ids}
+            try:
+                runs = {env_id: tuple(str(r) for r in agent_runs(entry.name, env_id, agents_dir)) for env_id in env_ids}
+            except FileNotFoundError as exc:  # no agents folder
+                raise OptionError(f"{entry.name}: {exc}") from None
             missing = [env_id for env_id, found in runs.items() if not found]
             if missing:
                 raise OptionError(f"{entry.name}: no training run for {', '.join(missing)} "

@@ -240,7 +240,10 @@ def make_cells(settings: Settings) -> list[Cell]:
         runs_of = {}
         for policy in settings.policies:
             if policy in shipped:
-                runs_of[policy] = agent_runs(policy, env_id, settings.agents_dir)
+                try:
+                    runs_of[policy] = agent_runs(policy, env_id, settings.agents_dir)
+                except FileNotFoundError:  # no agents folder: skipped, said in the note below
+                    runs_of[policy] = []
                 if not runs_of[policy]:
                     missing.setdefault(policy, []).append(env_id)
         for params in variants:

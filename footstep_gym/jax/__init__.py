@@ -12,5 +12,7 @@ Importing this package imports JAX; ``import footstep_gym`` does not.
 
 try:
     import jax  # noqa: F401
-except ImportError as exc:  # one line saying what to install
-    raise ImportError("footstep_gym.jax (the batched JAX backend) needs JAX: pip install 'footstep_gym[jax]'") from exc
+except ImportError as exc:  # one line saying what to install, or how to do without
+    raise ImportError(f"footstep_gym.jax (the batched JAX backend, gymnasium.make_vec's default for the door, the "
+                      f"crossing and the crowd) needs JAX ({exc}): pip install 'footstep_gym[jax]', or "
+                      f"gymnasium.make_vec(..., vectorization_mode=\"sync\") for reference envs") from None

@@ -34,7 +34,8 @@ import jax.numpy as jnp
 import numpy as np
 
 import footstep_gym  # noqa: F401
-from footstep_gym.jax.env import FootstepJaxEnv
+from footstep_gym.jax.autoreset import step_autoreset
+from footstep_gym.jax.env import FootstepJaxEnv, chunked_vmap
 
 WORKLOADS = ("random", "walk", "jitter")
 WALK = (0.05, 0.08, 0.0, 0.6, 0.2)
@@ -79,24 +80,20 @@ def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: in
     high = jnp.asarray(env.action_space.high)
     walk = jnp.asarray(WALK, jnp.float32)
     jitter = jnp.asarray(JITTER, jnp.float32)
-    reset = jax.vmap(env.reset)
 
     def body(carry, _):
         state, key, total = carry
-        key, k_act, k_reset = jax.random.split(key, 3)
+        key, k_act = jax.random.split(key)
         if workload == "random":
             actions = jax.random.uniform(k_act, (local, 5), jnp.float32, low, high)
         elif workload == "jitter":
             actions = jnp.clip(walk + jitter * jax.random.normal(k_act, (local, 5), jnp.float32), low, high)
         else:
             actions = jnp.broadcast_to(walk, (local, 5))
-        state, obs, reward, terminated, truncated, _ = env.step_batch(state, actions, chunk)
-        fresh, fresh_obs = reset(jax.random.split(k_reset, local))
-        done = terminated | truncated
-        state = jax.tree.map(lambda a, b: jnp.where(done.reshape((-1,) + (1,) * (a.ndim - 1)), a, b), fresh, state)
+        out = chunked_vmap(functools.partial(step_autoreset, env), state, actions, chunk)
         if observe:
-            total = total + jnp.sum(jnp.where(done[:, None], fresh_obs, obs)).astype(total.dtype)
-        return (state, key, total + jnp.sum(reward)), None
+            total = total + jnp.sum(out.obs).astype(total.dtype)
+        return (out.state, key, total + jnp.sum(out.reward)), None
 
     def run(state, keys):
         (state, key, total), _ = jax.lax.scan(body, (state, keys[0], jnp.zeros((), env.dtype)), None, length=steps)

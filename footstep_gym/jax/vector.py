@@ -18,8 +18,8 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from footstep_gym.errors import ActionError, ConfigError
-from footstep_gym.jax import shapes, speed
-from footstep_gym.jax.env import REWARD_TERMS, TERMINATION_CODES, FootstepJaxEnv, termination_name
+from footstep_gym.jax import autoreset, shapes, speed
+from footstep_gym.jax.env import REWARD_TERMS, TERMINATION_CODES, FootstepJaxEnv, chunked_vmap, termination_name
 
 #: ``info`` keys returned per step (arrays of ``num_envs``), each with Gymnasium's ``_key`` mask.
 INFO_KEYS = ("is_success", "termination", "feasible", "collision", "clipped", "time", "period", "steps",
@@ -110,27 +110,22 @@ class FootstepVectorEnv(VectorEnv):
         new, obs = jax.vmap(self.jax_env.reset)(keys)
         if state is None:
             return new, obs
-        keep = ~mask
-        merged = jax.tree.map(lambda n, o: jnp.where(keep.reshape((-1,) + (1,) * (n.ndim - 1)), o, n), new, state)
-        return merged, obs
+        return autoreset.where(mask, new, state), obs
 
     def _step_batch(self, state: Any, actions: jax.Array, reset_mask: jax.Array, same_step: bool) -> tuple:
         env = self.jax_env
-        stepped, obs, reward, terminated, truncated, info = env.step_batch(state, actions, self.chunk)
-        info = self._host_info(info)  # the rest is not computed
-        keys = jax.vmap(lambda k: jax.random.split(k))(state.key)
-        fresh, fresh_obs = jax.vmap(env.reset)(keys[:, 1])
-        stepped = stepped._replace(key=keys[:, 0])
-        mask = (terminated | truncated) if same_step else reset_mask
 
-        def pick(a, b):
-            return jnp.where(mask.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)
+        def one(state_mask: tuple, action: jax.Array) -> autoreset.AutoresetStep:
+            s, m = state_mask
+            return autoreset.step_autoreset(env, s, action, reset=None if same_step else m)
 
-        new_state = jax.tree.map(pick, fresh, stepped)
+        out = chunked_vmap(one, (state, reset_mask), actions, self.chunk)
+        info = self._host_info(out.info)  # the rest is not computed
         if same_step:
-            return new_state, pick(fresh_obs, obs), obs, reward, terminated, truncated, info
-        return (new_state, pick(fresh_obs, obs), obs, jnp.where(mask, 0.0, reward), terminated & ~mask,
-                truncated & ~mask, info)
+            return out.state, out.obs, out.step_obs, out.reward, out.terminated, out.truncated, info
+        mask = reset_mask  # NEXT_STEP: these envs ended at the step before; this step only resets them
+        return (out.state, out.obs, out.step_obs, jnp.where(mask, 0.0, out.reward), out.terminated & ~mask,
+                out.truncated & ~mask, info)
 
     # ------------------------------------------------------------------ Gymnasium API
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None

@@ -38,8 +38,9 @@ from footstep_gym.rl.training import zoo_yaml
 ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "a2c": "A2C", "ddpg": "DDPG",
               "sac_sbx": "SAC", "td3_sbx": "TD3", "ppo_lstm": "RecurrentPPO", "ppo_jax": "BraxPPO"}
 #: The package of an algorithm's class when it is not ``stable_baselines3`` (``ppo_jax``: Brax's PPO trained on the
-#: JAX env, :class:`footstep_gym.jax.ppo.BraxPPO`, loaded and predicting as SB3's models do).
-ALGORITHM_PACKAGES = {"sac_sbx": "sbx", "td3_sbx": "sbx", "ppo_lstm": "sb3_contrib", "ppo_jax": "footstep_gym.jax.ppo"}
+#: JAX env, :class:`footstep_gym.rl.ppo_jax.BraxPPO`, loaded and predicting as SB3's models do).
+ALGORITHM_PACKAGES = {"sac_sbx": "sbx", "td3_sbx": "sbx", "ppo_lstm": "sb3_contrib",
+                      "ppo_jax": "footstep_gym.rl.ppo_jax"}
 
 
 def algorithm_class(algo: str) -> Any:

@@ -6,9 +6,9 @@ how it was trained (its hyperparameter file in ``configs/rl/``, the zoo's evalua
 that ``baselines/train_rl.py --agent NAME`` trains it again as it was shipped.
 
 Which agents folder: the ``agents_dir`` argument, else the environment variable
-``FOOTSTEP_GYM_AGENTS_DIR``, else ``./baselines/agents`` relative to the current working directory
-(:func:`default_agents_dir`): the repository's shipped agents when run from the checkout's root,
-as the README's commands are. The agents are not part of the installed package.
+``FOOTSTEP_GYM_AGENTS_DIR``, else ``./baselines/agents`` relative to the current working directory,
+else the ``baselines/agents`` of the checkout the package is imported from (:func:`default_agents_dir`).
+The agents are not part of the installed package.
 
 This module sits below what it lists: the loader (:mod:`.agents`) and the training
 (:mod:`.training`) import it, it imports neither (nor torch).
@@ -116,13 +116,38 @@ DEFAULT_AGENTS_DIR = Path("baselines") / "agents"
 
 
 def default_agents_dir() -> Path:
-    """``$FOOTSTEP_GYM_AGENTS_DIR``, else ``./baselines/agents`` in the current working directory (absolute).
+    """The agents folder when none is passed (absolute): ``$FOOTSTEP_GYM_AGENTS_DIR``; else ``./baselines/agents``
+    in the current working directory if it is a folder (a checkout's root, as the README's commands run); else the
+    ``baselines/agents`` of the checkout ``footstep_gym`` is imported from (an editable install, or ``PYTHONPATH``
+    on a checkout), if there is one; else ``./baselines/agents`` (which does not exist: :func:`agent_runs` says so).
 
-    Not where the package is installed: run from a checkout's root (as the README's commands
-    are), this is its shipped agents; elsewhere set the variable or pass ``agents_dir``.
+    A non-editable install has no agents (they are not part of the package): set the variable or pass
+    ``agents_dir``.
     """
     env = os.environ.get(AGENTS_DIR_ENV_VAR)
-    return Path(env).expanduser().absolute() if env else Path.cwd() / DEFAULT_AGENTS_DIR
+    if env:
+        return Path(env).expanduser().absolute()
+    here = Path.cwd() / DEFAULT_AGENTS_DIR
+    if here.is_dir():
+        return here
+    checkout = Path(__file__).resolve().parents[2]  # footstep_gym/rl/registry.py -> the folder above the package
+    if (checkout / "pyproject.toml").is_file() and (checkout / DEFAULT_AGENTS_DIR).is_dir():
+        return checkout / DEFAULT_AGENTS_DIR
+    return here
+
+
+def agents_folder(agents_dir: str | Path | None = None) -> Path:
+    """``agents_dir`` (absolute), else :func:`default_agents_dir`; ``FileNotFoundError`` in one line naming it and how
+    to point at the agents when it is not a folder."""
+    root = Path(agents_dir).expanduser().absolute() if agents_dir is not None else default_agents_dir()
+    if not root.is_dir():
+        how = ("agents_dir" if agents_dir is not None
+               else f"${AGENTS_DIR_ENV_VAR}" if os.environ.get(AGENTS_DIR_ENV_VAR)
+               else "the default: ./baselines/agents in the working directory, else the checkout footstep_gym "
+                    "is imported from")
+        raise FileNotFoundError(f"agents folder {root} does not exist ({how}); pass agents_dir, set "
+                                f"{AGENTS_DIR_ENV_VAR} or run from a checkout's root (its baselines/agents)")
+    return root
 
 
 def agent_entry(name: str) -> AgentEntry:
@@ -134,15 +159,21 @@ def agent_entry(name: str) -> AgentEntry:
 
 
 def agent_runs(name: str, env_id: str, agents_dir: str | Path | None = None) -> list[Path]:
-    """The shipped training runs of agent ``name`` for evaluation on ``env_id`` (sorted by seed; [] if none).
+    """The shipped training runs of agent ``name`` for evaluation on ``env_id`` (sorted by seed; [] if the agents
+    folder holds none).
 
-    ``agents_dir``: the agents folder; None: :func:`default_agents_dir`. A run is
-    ``<agents_dir>/<folder>/<EnvId>_<seed>/`` holding ``<EnvId>.zip``, where ``EnvId`` is
-    the env the agent was trained on (``trained_on``, else ``env_id``). The paths are
-    absolute (evaluation workers may run elsewhere).
+    ``env_id``: an env id or a scene's name (``door``). ``agents_dir``: the agents folder; None:
+    :func:`default_agents_dir`. A run is ``<agents_dir>/<folder>/<EnvId>_<seed>/`` holding ``<EnvId>.zip``, where
+    ``EnvId`` is the env the agent was trained on (``trained_on``, else ``env_id``). The paths are absolute
+    (evaluation workers may run elsewhere). Raises ``ValueError`` for an unknown agent or env id
+    (:class:`~footstep_gym.errors.ConfigError`) and ``FileNotFoundError`` when the agents folder does not exist
+    (:func:`agents_folder`), each in one line.
     """
+    from footstep_gym.scenarios import resolve_env_id
+
     entry = agent_entry(name)
-    root = Path(agents_dir).absolute() if agents_dir is not None else default_agents_dir()
+    env_id = resolve_env_id(env_id, mix=True)
+    root = agents_folder(agents_dir)
     trained_on = entry.trained_on or env_id
     folder = root / entry.folder
     runs = [p for p in folder.glob(f"{trained_on}_*") if p.is_dir() and (p / f"{trained_on}.zip").is_file()]

@@ -3,7 +3,7 @@
 ::
 
     from stable_baselines3 import PPO
-    from footstep_gym.jax.sb3 import FootstepSB3VecEnv
+    from footstep_gym.rl.sb3_jax import FootstepSB3VecEnv
 
     venv = FootstepSB3VecEnv(256, "door", tier="train")   # 256 envs stepped in one JAX call
     PPO("MlpPolicy", venv, n_steps=64, batch_size=4096).learn(1_000_000)

@@ -1,4 +1,4 @@
-""":class:`FootstepJaxEnv` behind Brax's env interface, for Brax's PPO trainer (:mod:`footstep_gym.jax.ppo`).
+""":class:`FootstepJaxEnv` behind Brax's env interface, for Brax's PPO trainer (:mod:`footstep_gym.rl.ppo_jax`).
 
 :class:`FootstepBraxEnv` is one env as Brax sees it (``brax.envs.base.Env``): ``reset(rng) -> State``,
 ``step(State, action) -> State``, the footstep state in ``State.pipeline_state``. Its action is the agent's,
@@ -9,10 +9,10 @@ in float32 (as SB3 clips a Box action), rescaled in float32, then read by the en
 which Brax's PPO does not treat as a terminal state; ``info["episode_metrics"]`` (return and length so far) and
 ``info["episode_done"]`` are what Brax's trainer logs, as its ``EpisodeWrapper`` keeps them.
 
-:func:`wrap_for_training` is the ``wrap_env_fn`` Brax's trainer takes: a batch of envs stepped by
-:meth:`FootstepJaxEnv.step_batch`'s chunks, each episode that ends replaced in the same step by a fresh one
-drawn from the env's own key (not Brax's ``AutoResetWrapper``, which restarts every env from the one start
-it drew first).
+:func:`wrap_for_training` is the ``wrap_env_fn`` Brax's trainer takes: a batch of envs stepped in chunks
+(:func:`footstep_gym.jax.env.chunked_vmap`), each episode that ends replaced in the same step by a fresh one
+drawn from the env's own key by the JAX env's one autoreset (:func:`footstep_gym.jax.autoreset.step_autoreset`;
+not Brax's ``AutoResetWrapper``, which restarts every env from the one start it drew first).
 """
 
 from __future__ import annotations
@@ -22,11 +22,13 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-from brax.envs.base import Env, State, Wrapper
 from gymnasium import spaces
 from gymnasium.wrappers.utils import rescale_box
 
+from footstep_gym.jax.autoreset import step_autoreset
 from footstep_gym.jax.env import FootstepJaxEnv, chunked_vmap
+from footstep_gym.rl import brax_import  # noqa: F401  (Brax, imported before the next line)
+from brax.envs.base import Env, State, Wrapper  # noqa: E402,I001
 
 #: The agent's action bounds (Gymnasium's ``RescaleAction(min_action, max_action)``, the SB3 agents' too).
 AGENT_BOUNDS = (-1.0, 1.0)
@@ -56,8 +58,7 @@ class FootstepBraxEnv(Env):
     """One footstep env (a :class:`FootstepJaxEnv`) as a Brax env; see the module doc.
 
     ``info``: ``truncation`` (1.0 on a truncation), ``is_success`` (1.0 on reaching the goal), ``termination``
-    (0 none, 1 goal, 2 collision, 3 fall), ``rng`` (the key the next fresh episode is drawn from),
-    ``episode_done`` and ``episode_metrics`` (``sum_reward``, ``length``: the episode's so far).
+    (0 none, 1 goal, 2 collision, 3 fall), ``episode_done`` and ``episode_metrics`` (``sum_reward``, ``length``: the episode's so far).
     """
 
     def __init__(self, env: FootstepJaxEnv) -> None:
@@ -78,10 +79,9 @@ class FootstepBraxEnv(Env):
 
     def reset(self, rng: jax.Array) -> State:
         """A new episode drawn from ``rng`` (:meth:`FootstepJaxEnv.reset`)."""
-        rng, key = jax.random.split(rng)
-        state, obs = self.env.reset(key)
+        state, obs = self.env.reset(rng)
         zero = jnp.zeros((), jnp.float32)
-        info = {"truncation": zero, "is_success": zero, "termination": jnp.zeros((), jnp.int32), "rng": rng,
+        info = {"truncation": zero, "is_success": zero, "termination": jnp.zeros((), jnp.int32),
                 "episode_done": zero, "episode_metrics": {"sum_reward": zero, "length": zero}}
         return State(pipeline_state=state, obs=obs, reward=zero, done=zero, metrics={}, info=info)
 
@@ -89,30 +89,29 @@ class FootstepBraxEnv(Env):
         """The float32 command of an agent's action (:func:`action_to_command`)."""
         return action_to_command(action, self.gradient, self.intercept)
 
-    def step(self, state: State, action: jax.Array) -> State:
-        """One footstep of the agent's action (in ``[-1, 1]``); ``done`` on a termination or truncation."""
-        s, obs, reward, terminated, truncated, info = self.env.step(state.pipeline_state, self.command(action))
+    @staticmethod
+    def _stepped(state: State, pipeline_state: Any, obs: jax.Array, reward: jax.Array, terminated: jax.Array,
+                 truncated: jax.Array, info: dict[str, Any]) -> State:
+        """The Brax state after a footstep from ``state`` (the footstep env's step's outputs)."""
         reward, done = reward.astype(jnp.float32), (terminated | truncated).astype(jnp.float32)
         keep = 1.0 - state.info["episode_done"]  # a new episode's sums start afresh
         totals = state.info["episode_metrics"]
         out = {"truncation": truncated.astype(jnp.float32), "is_success": info["is_success"].astype(jnp.float32),
-               "termination": info["termination"], "rng": state.info["rng"], "episode_done": done,
+               "termination": info["termination"], "episode_done": done,
                "episode_metrics": {"sum_reward": totals["sum_reward"] * keep + reward,
                                    "length": totals["length"] * keep + 1.0}}
-        return state.replace(pipeline_state=s, obs=obs, reward=reward, done=done, info=out)
+        return state.replace(pipeline_state=pipeline_state, obs=obs, reward=reward, done=done, info=out)
+
+    def step(self, state: State, action: jax.Array) -> State:
+        """One footstep of the agent's action (in ``[-1, 1]``); ``done`` on a termination or truncation."""
+        return self._stepped(state, *self.env.step(state.pipeline_state, self.command(action)))
 
     def step_and_reset(self, state: State, action: jax.Array) -> State:
-        """:meth:`step`, and where the episode ends a fresh one from the state's key in its place (the reward,
-        ``done`` and ``info`` of the step that ended it are kept; ``obs`` is the fresh episode's)."""
-        nxt = self.step(state, action)
-        fresh = self.reset(state.info["rng"])
-
-        def pick(a: jax.Array, b: jax.Array) -> jax.Array:
-            return jnp.where(nxt.done > 0, a, b)
-
-        info = dict(nxt.info, rng=fresh.info["rng"])
-        return nxt.replace(pipeline_state=jax.tree.map(pick, fresh.pipeline_state, nxt.pipeline_state),
-                           obs=pick(fresh.obs, nxt.obs), info=info)
+        """:meth:`step`, and where the episode ends a fresh one in its place, drawn from the footstep state's own
+        key (:func:`footstep_gym.jax.autoreset.step_autoreset`); the reward, ``done`` and ``info`` of the step
+        that ended it are kept, ``obs`` is the fresh episode's."""
+        out = step_autoreset(self.env, state.pipeline_state, self.command(action))
+        return self._stepped(state, out.state, out.obs, out.reward, out.terminated, out.truncated, out.info)
 
 
 class BatchedAutoReset(Wrapper):

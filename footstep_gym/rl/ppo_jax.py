@@ -1,7 +1,7 @@
 """``ppo-jax``: PPO end to end in JAX on the batched door, by Brax's PPO trainer (``brax.training.agents.ppo``).
 
 :func:`train` trains one seed on :class:`~footstep_gym.jax.env.FootstepJaxEnv` behind Brax's env interface
-(:mod:`footstep_gym.jax.brax_env`) with the hyperparameters of ``configs/rl/ppo-jax.yml`` (:func:`load_config`),
+(:mod:`footstep_gym.rl.brax_env`) with the hyperparameters of ``configs/rl/ppo-jax.yml`` (:func:`load_config`),
 and between training chunks measures the deterministic policy's success on the validation split's seeds in the
 **reference** env (``gym.make(env_id, **env_kwargs)``, pymunk): the learning curve, success against training
 wall time (jit included, the validation episodes left out, as :class:`footstep_gym.rl.callbacks.ValidationCallback`
@@ -17,15 +17,16 @@ the ``.zip`` with the part of SB3's model interface the loader uses (``load``, `
 
 from __future__ import annotations
 
-import contextlib
 import io
 import json
+import math
 import os
 import time
+import types
 import zipfile
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any, Callable
 
 import gymnasium as gym
 import jax
@@ -36,6 +37,7 @@ from gymnasium import spaces
 
 from footstep_gym.config import config_dir
 from footstep_gym.errors import ConfigError
+from footstep_gym.rl import brax_import  # noqa: F401  (Brax, quietly: every brax import below comes after it)
 
 #: The algorithm's name in a run's ``args.yml`` and the agents' manifests (:data:`footstep_gym.rl.agents.ALGORITHMS`).
 ALGO = "ppo_jax"
@@ -143,6 +145,33 @@ def parse_config(entry: Any, env_id: str, where: str = "ppo-jax config") -> PPOJ
         raise ConfigError(f"{where}: {env_id}.num_timesteps ({cfg.num_timesteps}) is less than one PPO update's "
                           f"env steps (batch_size * unroll_length * num_minibatches = {cfg.steps_per_update})")
     return cfg
+
+
+def planned(cfg: PPOJaxConfig, timesteps: int | None = None) -> PPOJaxConfig:
+    """``cfg`` (its ``num_timesteps`` replaced by ``timesteps`` if given) as Brax's trainer runs it.
+
+    Brax trains whole PPO updates (:attr:`PPOJaxConfig.steps_per_update` env steps) in ``num_evals - 1`` equal
+    chunks between validations, so it trains ``num_timesteps`` rounded up to a multiple of ``chunks x update``.
+    Here ``num_evals`` is lowered to one validation per update when there are fewer updates than chunks (a short
+    run is not rounded up to one update per chunk), and ``num_timesteps`` is the count Brax then trains: the
+    number printed, recorded (``config.yml``, ``args.yml``) and trained is one. Applied twice, it changes nothing.
+    """
+    if timesteps is not None:
+        if isinstance(timesteps, bool) or not isinstance(timesteps, int) or timesteps < 1:
+            raise ConfigError(f"ppo-jax: timesteps must be a whole number >= 1, got {timesteps!r}")
+        cfg = replace(cfg, num_timesteps=timesteps)
+    updates = math.ceil(cfg.num_timesteps / cfg.steps_per_update)
+    num_evals = min(cfg.num_evals, updates + 1)
+    chunks = max(num_evals - 1, 1)
+    return replace(cfg, num_evals=num_evals, num_timesteps=chunks * math.ceil(updates / chunks) * cfg.steps_per_update)
+
+
+def plan_line(asked: int, cfg: PPOJaxConfig) -> str:
+    """One line saying what a run of ``cfg`` (:func:`planned`) trains, ``asked`` env steps having been asked."""
+    rounded = "" if asked == cfg.num_timesteps else f" ({asked:,} asked, rounded up)"
+    return (f"{cfg.env_id}: {cfg.num_timesteps:,} env steps{rounded}: {cfg.num_timesteps // cfg.steps_per_update:,} "
+            f"PPO updates of {cfg.steps_per_update:,} env steps, {cfg.num_evals} validation points, "
+            f"{cfg.num_envs} envs")
 
 
 def load_config(env_id: str = "FootstepDoor-v0", path: str | Path | None = None) -> PPOJaxConfig:
@@ -279,24 +308,40 @@ def validation_success(model: BraxPPO, env: gym.Env, seeds: list[int]) -> float:
 
 
 # ---------------------------------------------------------------- training
-@contextlib.contextmanager
-def _device_put_replicated() -> Iterator[None]:
-    """``jax.device_put_replicated`` for Brax's trainer while it runs: Brax 0.14.2 calls it and JAX 0.10 removed it
-    (Brax's open issue 671). Stacked copies, one per device, as ``pmap`` lays them out; the attribute
-    is taken away again afterwards."""
+def _device_put_replicated(x: Any, devices: list[Any]) -> Any:
+    """What ``jax.device_put_replicated`` did: stacked copies of ``x``'s leaves, one per device, laid out as
+    ``pmap``'s own outputs (so Brax's pmapped update takes them without a second compilation)."""
+    copy = jax.pmap(lambda y: y, devices=devices)
+    return jax.tree.map(lambda y: copy(jnp.stack([y] * len(devices))), x)
+
+
+class _JaxWithReplicated:
+    """JAX's namespace (every attribute read from the ``jax`` module) plus :func:`_device_put_replicated`."""
+
+    device_put_replicated = staticmethod(_device_put_replicated)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(jax, name)
+
+
+def brax_ppo_train() -> Callable[..., Any]:
+    """Brax's PPO trainer, ``brax.training.agents.ppo.train.train``, runnable on this JAX.
+
+    Brax 0.14.2's trainer calls ``jax.device_put_replicated`` to lay its training state out over the devices
+    (on any number of them, one included), and JAX 0.10 removed that function (Brax's open issue 671). Returned
+    here: the same function (its code, defaults and closure) whose global name ``jax`` is a namespace that is
+    JAX's plus :func:`_device_put_replicated`. Neither JAX nor Brax's module is changed; on a JAX that still has
+    the function, Brax's own trainer is returned.
+    """
+    from brax.training.agents.ppo import train as brax_ppo
+
+    fn = brax_ppo.train
     if hasattr(jax, "device_put_replicated"):
-        yield
-        return
-
-    def replicated(x: Any, devices: list[Any]) -> Any:
-        copy = jax.pmap(lambda y: y, devices=devices)  # laid out as pmap's own outputs: no second compilation
-        return jax.tree.map(lambda y: copy(jnp.stack([y] * len(devices))), x)
-
-    jax.device_put_replicated = replicated
-    try:
-        yield
-    finally:
-        del jax.device_put_replicated
+        return fn
+    copy = types.FunctionType(fn.__code__, dict(fn.__globals__, jax=_JaxWithReplicated()), fn.__name__,
+                              fn.__defaults__, fn.__closure__)
+    copy.__kwdefaults__, copy.__doc__ = fn.__kwdefaults__, fn.__doc__
+    return copy
 
 
 @dataclass
@@ -326,10 +371,10 @@ class TrainResult:
 
 
 def make_env(cfg: PPOJaxConfig) -> Any:
-    """:class:`~footstep_gym.jax.brax_env.FootstepBraxEnv` of ``cfg``'s env (float32)."""
+    """:class:`~footstep_gym.rl.brax_env.FootstepBraxEnv` of ``cfg``'s env (float32)."""
     import footstep_gym
-    from footstep_gym.jax.brax_env import FootstepBraxEnv
     from footstep_gym.jax.env import FootstepJaxEnv
+    from footstep_gym.rl.brax_env import FootstepBraxEnv
 
     scenes = {v: k for k, v in footstep_gym.ENV_IDS.items()}
     if cfg.env_id not in scenes:
@@ -339,7 +384,8 @@ def make_env(cfg: PPOJaxConfig) -> Any:
 
 def train(cfg: PPOJaxConfig, seed: int, *, validation_seeds: list[int] | None = None,
           progress: Callable[[int, float, float], None] | None = None) -> TrainResult:
-    """Train one seed with Brax's PPO (``brax.training.agents.ppo.train.train``) on ``cfg``.
+    """Train one seed with Brax's PPO (``brax.training.agents.ppo.train.train``) on ``planned(cfg)`` (:func:`planned`:
+    the steps Brax trains; the result's ``config``).
 
     ``cfg.num_evals`` validation points (the first at 0 steps) split the training; at each, the deterministic
     policy plays ``validation_seeds`` (default: the validation split's first ``cfg.validation_episodes``) in the
@@ -348,13 +394,12 @@ def train(cfg: PPOJaxConfig, seed: int, *, validation_seeds: list[int] | None = 
     """
     import functools
 
-    from brax.training.agents.ppo import train as brax_ppo
-
     from footstep_gym.evaluation.splits import split_seeds
-    from footstep_gym.jax.brax_env import wrap_for_training
+    from footstep_gym.rl.brax_env import wrap_for_training
 
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"ppo-jax: a training seed is a whole number >= 0, got {seed!r}")
+    cfg = planned(cfg)
     seeds = validation_seeds if validation_seeds is not None else split_seeds("validation", cfg.validation_episodes)
     env = make_env(cfg)
     network = network_of(cfg, env.observation_size, env.action_size)
@@ -379,17 +424,16 @@ def train(cfg: PPOJaxConfig, seed: int, *, validation_seeds: list[int] | None = 
         if progress is not None:
             progress(int(step), wall, rate)
 
-    with _device_put_replicated():
-        _, params, _ = brax_ppo.train(
-            environment=env, num_timesteps=cfg.num_timesteps,
-            wrap_env_fn=functools.partial(wrap_for_training, chunk=cfg.chunk), num_envs=cfg.num_envs,
-            episode_length=1, learning_rate=cfg.learning_rate, entropy_cost=cfg.entropy_cost,
-            discounting=cfg.discounting, unroll_length=cfg.unroll_length, batch_size=cfg.batch_size,
-            num_minibatches=cfg.num_minibatches, num_updates_per_batch=cfg.num_updates_per_batch,
-            normalize_observations=cfg.normalize_observations, reward_scaling=cfg.reward_scaling,
-            clipping_epsilon=cfg.clipping_epsilon, gae_lambda=cfg.gae_lambda, max_grad_norm=cfg.max_grad_norm,
-            network_factory=_network_factory(network), seed=seed, num_evals=cfg.num_evals, num_eval_envs=1,
-            run_evals=False, policy_params_fn=on_params)
+    _, params, _ = brax_ppo_train()(
+        environment=env, num_timesteps=cfg.num_timesteps,
+        wrap_env_fn=functools.partial(wrap_for_training, chunk=cfg.chunk), num_envs=cfg.num_envs,
+        episode_length=1, learning_rate=cfg.learning_rate, entropy_cost=cfg.entropy_cost,
+        discounting=cfg.discounting, unroll_length=cfg.unroll_length, batch_size=cfg.batch_size,
+        num_minibatches=cfg.num_minibatches, num_updates_per_batch=cfg.num_updates_per_batch,
+        normalize_observations=cfg.normalize_observations, reward_scaling=cfg.reward_scaling,
+        clipping_epsilon=cfg.clipping_epsilon, gae_lambda=cfg.gae_lambda, max_grad_norm=cfg.max_grad_norm,
+        network_factory=_network_factory(network), seed=seed, num_evals=cfg.num_evals, num_eval_envs=1,
+        run_evals=False, policy_params_fn=on_params)
     wall = time.perf_counter() - start - clock["validating"]
     cpu = time.process_time() - cpu_start - clock["validating_cpu"]
     ref_env.close()
@@ -422,3 +466,54 @@ def write_run(result: TrainResult, folder: str | Path, command: str) -> Path:
         out.write(f"{steps},{wall:.1f},{rate:.4f},{cfg.validation_episodes},{cpu:.1f}\n")
     (run / "validation.csv").write_text(out.getvalue(), encoding="utf-8")
     return run
+
+
+# ---------------------------------------------------------------- shipping
+def versions() -> dict[str, str | None]:
+    """The installed versions of the packages a ``ppo-jax`` run depends on (None: not installed)."""
+    from importlib import metadata
+
+    def version(dist: str) -> str | None:
+        try:
+            return metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            return None
+
+    return {d: version(d) for d in ("footstep_gym", "jax", "jaxlib", "brax", "flax", "optax", "gymnasium")}
+
+
+def jax_devices() -> str:
+    """The devices JAX trains on, e.g. ``"2 x cpu"``."""
+    return f"{len(jax.devices())} x {jax.devices()[0].platform}"
+
+
+def ship(run: str | Path, result: TrainResult, agents_dir: str | Path, agent: str = "ppo-jax",
+         target: float = 0.95) -> Path:
+    """Ship ``run`` to ``<agents_dir>/<agent>/`` (:func:`footstep_gym.rl.training.ship`, replacing a shipped run:
+    the caller checked) with ``ppo-jax``'s figures added to its manifest: the devices, the validation time, the
+    load average, the CPU time, the wall and CPU times to ``target`` validation success, the versions."""
+    import platform
+
+    from footstep_gym.rl import training
+
+    dest = training.ship(Path(run), Path(agents_dir), result.wall_time_s, seed=result.seed, force=True, agent=agent)
+    path = dest / "manifest.json"
+    manifest = json.loads(path.read_text(encoding="utf-8"))
+    t, c = result.time_to(target), result.cpu_time_to(target)
+    manifest.update({
+        "library": "brax.training.agents.ppo (Brax's PPO trainer) on footstep_gym.jax (FootstepJaxEnv)",
+        "n_envs": result.config.num_envs,
+        "jax_devices": jax_devices(),
+        "torch_threads": None,
+        "wall_time_includes": "start-up and JAX compilation; not the validation episodes in the reference env",
+        "validation_time_s": round(result.validation_time_s, 1),
+        "load_average_start_end": [round(v, 2) for v in result.load_average],
+        "cpu_time_s": round(result.cpu_time_s, 1),
+        f"cpu_time_to_{target}_s": None if c is None else round(c, 1),
+        f"time_to_{target}_s": None if t is None else round(t, 1),
+        "versions": versions(),
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+    })
+    path.write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
+    return dest

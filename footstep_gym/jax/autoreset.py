@@ -1,0 +1,51 @@
+"""The one autoreset of the JAX env: a footstep, and where an episode ends a fresh one in its place.
+
+:func:`step_autoreset` is written for one env (``jax.vmap`` or :func:`footstep_gym.jax.env.chunked_vmap` make a
+batch) and serves both batched users: Gymnasium's vector env (:class:`footstep_gym.jax.vector.FootstepVectorEnv`,
+its ``SAME_STEP`` and ``NEXT_STEP`` modes) and Brax's trainer (:mod:`footstep_gym.rl.brax_env`).
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+
+class AutoresetStep(NamedTuple):
+    """What :func:`step_autoreset` returns. ``state`` and ``obs``: the fresh episode's where it was reset, the
+    stepped one's elsewhere; ``step_obs``, ``reward``, ``terminated``, ``truncated``, ``info``: the step's
+    (``step_obs`` is the last observation of an episode that ended)."""
+
+    state: Any
+    obs: jax.Array
+    step_obs: jax.Array
+    reward: jax.Array
+    terminated: jax.Array
+    truncated: jax.Array
+    info: dict[str, Any]
+
+
+def where(mask: jax.Array, a: Any, b: Any) -> Any:
+    """``a`` where ``mask`` (a scalar, or one flag per leading entry), else ``b``, leaf by leaf of two pytrees."""
+    return jax.tree.map(lambda x, y: jnp.where(jnp.reshape(mask, mask.shape + (1,) * (x.ndim - mask.ndim)), x, y),
+                        a, b)
+
+
+def step_autoreset(env: Any, state: Any, action: jax.Array, params: Any = None,
+                   reset: jax.Array | None = None) -> AutoresetStep:
+    """One footstep of ``env`` (a :class:`~footstep_gym.jax.env.FootstepJaxEnv`) from ``state``, then a fresh
+    episode in place of the stepped one where ``reset`` (default: where this step ended the episode, Gymnasium's
+    ``SAME_STEP``; a vector env in ``NEXT_STEP`` mode passes the envs whose episode ended at the step before).
+
+    The state's key is split in two: one half is the stepped episode's key (its sensing noise draws from it), the
+    other draws the fresh episode (:meth:`~footstep_gym.jax.env.FootstepJaxEnv.reset`), so an env's episodes come
+    from its own key, one after another.
+    """
+    key, k_fresh = jax.random.split(state.key)
+    stepped, obs, reward, terminated, truncated, info = env.step(state._replace(key=key), action, params)
+    fresh, fresh_obs = env.reset(k_fresh, params)
+    mask = (terminated | truncated) if reset is None else reset
+    return AutoresetStep(where(mask, fresh, stepped), where(mask, fresh_obs, obs), obs, reward, terminated,
+                         truncated, info)

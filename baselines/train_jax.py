@@ -1,4 +1,4 @@
-"""Train ``ppo-jax`` (Brax's PPO on a batched JAX scene, footstep_gym/rl/ppo_jax.py), several seeds in a row; ship them.
+"""Train ``ppo-jax`` (Brax's PPO on a batched JAX scene, footstep_gym/rl/ppo_jax.py), seed after seed; ship them.
 
 Usage::
 

@@ -140,8 +140,9 @@ def test_the_jax_backend_holds_the_env_and_imports_no_rl():
         tree = ast.parse(path.read_text(encoding="utf-8"))
         names = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)} | {
             a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+        rl = ("brax", "stable_baselines3", "flax", "torch")
         found += [f"{path.name}: {m}" for m in sorted(filter(None, names))
-                  if m.startswith("footstep_gym.rl") or m.split(".")[0] in ("brax", "stable_baselines3", "flax", "torch")]
+                  if m.startswith("footstep_gym.rl") or m.split(".")[0] in rl]
     assert not found, found
 
 

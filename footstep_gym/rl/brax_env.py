@@ -58,7 +58,8 @@ class FootstepBraxEnv(Env):
     """One footstep env (a :class:`FootstepJaxEnv`) as a Brax env; see the module doc.
 
     ``info``: ``truncation`` (1.0 on a truncation), ``is_success`` (1.0 on reaching the goal), ``termination``
-    (0 none, 1 goal, 2 collision, 3 fall), ``episode_done`` and ``episode_metrics`` (``sum_reward``, ``length``: the episode's so far).
+    (0 none, 1 goal, 2 collision, 3 fall), ``episode_done`` and ``episode_metrics`` (``sum_reward``, ``length``: the
+    episode's so far).
     """
 
     def __init__(self, env: FootstepJaxEnv) -> None:

@@ -38,11 +38,22 @@ def validation_seeds(n: int, offset: int) -> list[int]:
     return list(range(first + offset, first + offset + n))
 
 
+def robot_arg(text: str) -> object:
+    """A profile's name, or a JSON mapping of robot keys (``'{"profile": "op3", "t_ss": [0.3, 0.6]}'``)."""
+    return json.loads(text) if text.lstrip().startswith("{") else text
+
+
+def robot_label(robot: object) -> str:
+    if isinstance(robot, str):
+        return robot
+    return "-".join(f"{k}{v}" if k != "profile" else str(v) for k, v in robot.items()).replace(" ", "")
+
+
 def cmd_replay(args: argparse.Namespace) -> None:
     from footstep_gym.fullbody.replay import markdown_table, record_episodes, summary, table_rows, walk_episodes, \
         write_video
 
-    name = f"{args.env}_{args.tier}_{args.cell or 'all'}_{args.policy}_{args.robot}".replace("/", "-")
+    name = "_".join([args.env, args.tier, args.cell or "all", args.policy, robot_label(args.robot)]).replace("/", "-")
     path = _target(args.out / f"{name}.md", args.force)
     episodes = record_episodes(args.policy, args.env, validation_seeds(args.episodes, args.offset), args.tier,
                                args.cell, args.robot, args.run)
@@ -62,7 +73,7 @@ def cmd_nominal(args: argparse.Namespace) -> None:
     from footstep_gym.robot import load_robot
 
     robot = load_robot(args.robot)
-    path = _target(args.out / f"nominal_{args.robot}.json", args.force)
+    path = _target(args.out / f"nominal_{robot_label(args.robot)}.json", args.force)
     out = {}
     for label, stride in (("nominal", 0.0), ("stride_5cm", 0.05)):
         cmd = robot.nominal_command.copy()
@@ -85,22 +96,28 @@ def cmd_nominal(args: argparse.Namespace) -> None:
 def cmd_agreement(args: argparse.Namespace) -> None:
     from footstep_gym.fullbody.study import agreement_records, agreement_report
 
-    path = _target(args.out / f"agreement_{args.robot}_seed{args.seed}.json", args.force)
+    path = _target(args.out / f"agreement_{robot_label(args.robot)}_seed{args.seed}.json", args.force)
 
     def progress(i: int, rec: dict) -> None:
         print(f"{i:4d} {rec['family']:15s} env {rec['env_fall_at']} {rec['env_fall']}  OP3 fell {rec['body_fell_at']}"
               f"  fell or tipped {rec['body_failed_at']}  {rec['wall_time']:.1f} s", flush=True)
 
-    records = agreement_records(args.robot, args.sequences, args.seed, progress)
+    raw = args.out / f"agreement_{robot_label(args.robot)}_seed{args.seed}.records.json"
+    if args.report_only:  # the walks of an earlier run, reported again
+        records = json.loads(raw.read_text(encoding="utf-8"))
+    else:
+        records = agreement_records(args.robot, args.sequences, args.seed, progress)
+        _target(raw, args.force).write_text(json.dumps(records) + "\n", encoding="utf-8")
     report = agreement_report(records, args.robot)
     print(json.dumps({k: v for k, v in report.items()}, indent=1))
-    path.write_text(json.dumps({"robot": args.robot, "seed": args.seed, "sequences": args.sequences,
-                                "report": report, "records": records}, indent=1) + "\n", encoding="utf-8")
+    path.write_text(json.dumps({"robot": args.robot, "seed": args.seed, "sequences": len(records),
+                                "report": report}, indent=1) + "\n", encoding="utf-8")
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robot", default="op3", help="robot profile (configs/robots/)")
+    parser.add_argument("--robot", default="op3", type=robot_arg,
+                        help="robot profile (configs/robots/), or a JSON mapping of robot keys")
     parser.add_argument("--out", type=Path, default=OUT, help="output folder")
     parser.add_argument("--force", action="store_true", help="replace existing output files")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -118,6 +135,7 @@ def main(argv: list[str] | None = None) -> None:
     ag = sub.add_parser("agreement", help="the env's verdict against the OP3 on drawn sequences")
     ag.add_argument("--sequences", type=int, default=120)
     ag.add_argument("--seed", type=int, default=2026)
+    ag.add_argument("--report-only", action="store_true", help="report the walks saved by an earlier run")
     args = parser.parse_args(argv)
     {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement}[args.command](args)
 

@@ -137,10 +137,16 @@ def calibrate(records: Sequence[dict[str, Any]], robot: Robot, scales: Sequence[
     """``(zmp_region_scale, max_swing_speed)`` of the grid whose :func:`checked_failure` agrees most with the OP3
     (fell or not) on ``records``; ties go to the scale nearest the profile's own, then to the fastest swing."""
     best, best_key = None, None
+    swing = [swing_speeds(robot, rec["commands"]) for rec in records]
     for s in scales:
         r = dataclasses.replace(robot, zmp_region_scale=s)
+        env_at = [env_failure(rec["commands"], r)[0] for rec in records]  # the env's verdict: once per scale
         for v in speeds:
-            agree = sum((checked_failure(rec["commands"], r, v) is not None) == rec["body_fell"] for rec in records)
+            agree = 0
+            for rec, at, sp in zip(records, env_at, swing):
+                fast = np.flatnonzero(sp > v)
+                failed = at is not None or len(fast) > 0
+                agree += failed == rec["body_fell"]
             key = (agree, -abs(s - robot.zmp_region_scale), v)
             if best_key is None or key > best_key:
                 best, best_key = (float(s), float(v)), key

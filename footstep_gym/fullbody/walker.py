@@ -39,7 +39,7 @@ def _circular_mean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 @dataclass
 class JointPlan:
-    """Joint angles and feed-forward torques of a :class:`GaitPlan` (per plan sample)."""
+    """Joint angles and servo targets of a :class:`GaitPlan` (per plan sample)."""
 
     qpos: np.ndarray  # (n, nq) the whole configuration, torso included
     ctrl: np.ndarray  # (n, nu) the servo targets
@@ -117,7 +117,8 @@ class WalkResult:
     centre landed and where the command puts it relative to the support sole as it actually stands (so an error
     does not carry into the next footsteps'); ``yaw_error[k]`` the same for the yaw [rad]. ``cop_margin[k]``: the
     smallest margin [m] of the measured centre of pressure (from the support sole's contact forces) inside that
-    sole's rectangle during footstep ``k``'s single support, while that sole alone carries the robot (the other ``SWING_CLEAR`` up), negative outside (``nan`` where the sole never bore
+    sole's rectangle during footstep ``k``'s single support, while that sole alone carries the robot (the other
+    ``SWING_CLEAR`` up), negative outside (``nan`` where the sole never bore
     ``COP_MIN_LOAD`` of the weight). Footsteps after a fall are left out of all three.
     """
 

@@ -46,7 +46,10 @@ def robot_arg(text: str) -> object:
 def robot_label(robot: object) -> str:
     if isinstance(robot, str):
         return robot
-    return "-".join(f"{k}{v}" if k != "profile" else str(v) for k, v in robot.items()).replace(" ", "")
+    def text(v: object) -> str:
+        return "-".join(f"{x:g}" for x in v) if isinstance(v, (list, tuple)) else str(v)
+
+    return "-".join(text(v) if k == "profile" else f"{k}{text(v)}" for k, v in robot.items())
 
 
 def cmd_replay(args: argparse.Namespace) -> None:

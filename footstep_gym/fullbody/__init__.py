@@ -11,11 +11,15 @@ OP3's model (MuJoCo Menagerie's ``robotis_op3``).
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+import dataclasses
+from typing import TYPE_CHECKING, Any, Mapping
 
 import numpy as np
 
 from footstep_gym.robot import Robot, load_robot
+
+if TYPE_CHECKING:
+    from footstep_gym.env import FootstepEnv
 
 from footstep_gym.fullbody.model import model_path, shared_op3
 from footstep_gym.fullbody.plan import GaitTiming, gait_plan
@@ -51,7 +55,7 @@ def walk(commands: Any, robot: Robot | Mapping[str, Any] | str = "op3", seed: in
     return walk_plan(shared_op3(), gait_plan(rob, cmd, timing), cmd, seed)
 
 
-def env_for_verdict(robot: Robot | Mapping[str, Any] | str = "op3", max_steps: int = 10_000):
+def env_for_verdict(robot: Robot | Mapping[str, Any] | str = "op3", max_steps: int = 10_000) -> "FootstepEnv":
     """A ``FootstepEnv`` with nothing within reach: the crossing scene, its car crossing ``FAR`` metres ahead,
     the goal as far, no start jitter, no time limit within ``max_steps`` footsteps of the longest period."""
     from footstep_gym.env import FootstepEnv
@@ -64,7 +68,6 @@ def env_for_verdict(robot: Robot | Mapping[str, Any] | str = "op3", max_steps: i
 
 
 def _robot_keys(robot: Robot) -> dict[str, Any]:
-    import dataclasses
     return {f.name: getattr(robot, f.name) for f in dataclasses.fields(robot)}
 
 
@@ -72,8 +75,8 @@ def verdict(commands: Any, robot: Robot | Mapping[str, Any] | str = "op3") -> li
     """The env's verdict on each footstep of ``commands`` ``(n, 5)``: ``None`` (feasible) or its fall reason
     (``"zmp"``, ``"turn_limit"``, ``"overlap"``), by stepping :func:`env_for_verdict` from its start.
 
-    The env's episode ends at its first fall: the list stops there (it is shorter than ``commands`` exactly when
-    its last entry is a fall).
+    The env's episode ends at its first fall, and so does the list: it holds one entry per command up to and
+    including the first fall.
     """
     cmd = _commands(commands)
     env = env_for_verdict(robot, max_steps=max(len(cmd), 1))

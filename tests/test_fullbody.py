@@ -92,3 +92,23 @@ def test_verdict_is_the_env_stepping_the_same_commands():
         assert fullbody.verdict(commands, "op3") == expected
     with pytest.raises(ValueError, match="shape"):
         fullbody.verdict([[0.0, 0.1, 0.0]], "op3")
+
+
+def test_recorded_episodes_replay_in_the_env_and_tabulate():
+    """record_episodes keeps the commands the env applied: stepped again through a fresh env they end the episode
+    the same way; a walked prefix of one makes a table row (baselines/fullbody.py replay)."""
+    from footstep_gym.fullbody.replay import Episode, markdown_table, record_episodes, summary, table_rows
+
+    (ep,) = record_episodes("null-walk-10cm-0.4s", "FootstepCrossing-v0", [10000], robot="op3")
+    assert ep.commands.shape[1] == 5 and len(ep.commands) > 3 and ep.termination in ("goal", "collision", "fall")
+    env = gym.make("FootstepCrossing-v0", robot="op3")
+    env.reset(seed=10000)
+    for c in ep.commands:
+        _, _, terminated, truncated, info = env.step(c)
+    assert terminated and info["termination"] == ep.termination
+    env.close()
+    short = Episode(**{**ep.__dict__, "commands": ep.commands[:2]})
+    walked = fullbody.walk(short.commands, robot="op3")
+    rows = table_rows([(short, walked)])
+    assert rows[0]["footsteps"] == 2 and rows[0]["op3_fell"] is walked.fell and rows[0]["env_end"] == ep.termination
+    assert summary(rows)[0]["op3_no_fall"] == (0.0 if walked.fell else 1.0) and "| op3_fell |" in markdown_table(rows)

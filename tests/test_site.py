@@ -70,6 +70,11 @@ def test_site_has_every_committed_method_and_cell_and_only_local_assets(built: P
                 continue
             target = (page.parent / parsed.path).resolve()
             assert target.is_file(), f"{page.relative_to(built)}: {url} is not in the site"
+    protocol = (built / "protocol.html").read_text()
+    ids = set(re.findall(r'id="([^"]+)"', protocol))
+    internal = re.findall(r'href="(?:protocol\.html)?#([^"]+)"', protocol)
+    assert internal and not [a for a in internal if a not in ids]  # the document's own links find their headings
+    assert "<table>" in protocol and "<h2" in (built / "submit.html").read_text()
     for css in built.rglob("*.css"):
         assert not re.search(r"url\(|@import", css.read_text()), css
     total_video = sum(v["bytes"] for v in VIDEOS["videos"].values())

@@ -70,13 +70,14 @@ def _renderer(doc_dir: Path, out: Path) -> MarkdownIt:
 
 
 def render_protocol(path: Path, out: Path) -> tuple[str, str]:
-    """``(protocol, submit)``: the HTML of the whole document and of its "Submitting" section (the document's own
-    links to that section point at the submit page); images it shows are copied under ``out/assets/docs``."""
+    """``(protocol, submit)``: the HTML of the whole document and of its "Submitting" section (or, where it has none,
+    a pointer to the protocol page); images it shows are copied under ``out/assets/docs``."""
     text = path.read_text(encoding="utf-8")
     md = _renderer(path.parent, out)
     match = SUBMIT_HEADING.search(text)
-    if match is None:
-        raise ValueError(f"{path}: no '## N. Submitting ...' section for the submit page")
+    if match is None:  # the document was reorganised: the submit page sends the reader to it whole
+        return md.render(text), ('<p>How to submit a method is part of <a href="protocol.html">the protocol</a> '
+                                 f"(<code>docs/{path.name}</code>).</p>")
     nxt = re.search(r"^## ", text[match.end():], re.M)
     section = text[match.start(): match.end() + nxt.start()] if nxt else text[match.start():]
     return md.render(text), md.render(section)

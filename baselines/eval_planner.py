@@ -20,7 +20,8 @@ value; a scene without a sweep runs at its YAML's values.
 
 Each cell (env, setting, policy; for an agent, each training run) runs ``--episodes``
 episodes with the seeds of ``--split`` (disjoint ranges in ``configs/eval.yaml``: train,
-validation, test; the committed results come from test), starting ``--seed`` seeds into it.
+train and validation, default validation; the test split is the board's, run only by
+``--benchmark --release``; the committed protocol-2 results came from its test split), starting ``--seed`` seeds into it.
 Each episode seeds the env and the policy with its seed, so results do not depend on
 ``--workers`` or ``--backend``. Every setting is checked before anything runs (a bad value
 is one error line, exit status 2). The script prints a markdown table and writes to ``--out``
@@ -42,7 +43,8 @@ place only once it has finished: a run that fails or is interrupted leaves ``--o
 ``--agent [SCENE=]PATH`` repeated over the training runs of one method, named with ``--name``) on every
 cell of every tier of every scene
 (``footstep_gym.evaluation.benchmark``; docs/benchmark.md) with the first ``--episodes`` seeds of
-the test split (100, a leaderboard row's number), and writes ``benchmark.json`` (the protocol, one record per
+the validation split (100, a leaderboard row's number; ``--release``: of the test split, the board's row, from
+committed code and logged in the access log), and writes ``benchmark.json`` (the protocol, one record per
 scene x tier x cell x training run, the records over runs, per tier the IQM with its
 stratified-bootstrap interval over runs), ``benchmark.md`` (the leaderboard row and every cell),
 ``episodes.csv`` and ``run.json``, with the same checks and the same temporary folder as above.
@@ -123,7 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
                f"configs/planner.yaml off (the ablation's variants)\n  module:attr  a policy of your own: a "
                f"footstep_gym.policy.Policy subclass built as attr(robot, seed), or a factory returning one"
                f"\n\nWithout options: the quick default (all envs, every policy, "
-               f"{quick.episodes} seeds of the test split"
+               f"{quick.episodes} seeds of the validation split"
                + "".join(f", {describe_sweep(quick, e)}" for e in quick.envs if describe_sweep(quick, e) != e)
                + "). An agent with no run shipped for an env is skipped there with a warning.",
     )
@@ -153,9 +155,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="same as --profile ablation: period-aware with each addition of configs/planner.yaml "
                              "switched off in turn (period-aware-no-<switch>), and paper-period-aware")
     parser.add_argument("--episodes", type=_int_at_least(1), metavar="N", help="seeds per cell (default: profile's)")
-    parser.add_argument("--split", choices=sorted(SPLITS), default="test",
+    parser.add_argument("--split", choices=sorted(SPLITS), default="validation",
                         help="seed range (configs/eval.yaml): " + ", ".join(
-                            f"{k} {a}-{b - 1}" for k, (a, b) in SPLITS.items()) + " (default test)")
+                            f"{k} {a}-{b - 1}" for k, (a, b) in SPLITS.items()) + " (default validation; the test "
+                            "split is the board's: --benchmark --release only)")
     parser.add_argument("--seed", type=_int_at_least(0), default=0, metavar="K",
                         help="start K seeds into the split (default 0)")
     for key, owners in sweep_axes().items():  # one flag per sweep axis of the scenarios (--door-speed, ...)
@@ -178,8 +181,11 @@ def build_parser() -> argparse.ArgumentParser:
         "benchmark", "--benchmark: one policy on every tier of every scene, one leaderboard row (docs/benchmark.md)")
     bench.add_argument("--benchmark", action="store_true",
                        help=f"run the benchmark: --policy NAME (or --agent PATH per training run), --episodes N "
-                            f"(default {benchmark.EPISODES}) seeds of the test split per cell; writes benchmark.json "
-                            "and benchmark.md")
+                            f"(default {benchmark.EPISODES}) seeds of the validation split per cell (--release: of "
+                            "the test split); writes benchmark.json and benchmark.md")
+    bench.add_argument("--release", action="store_true",
+                       help="with --benchmark: the board's row, on the test split: every cell, committed code only, "
+                            "logged in baselines/results/access_log.csv before the first episode (docs/benchmark.md §6)")
     bench.add_argument("--tier", action="append", metavar="TIER",
                        help="with --benchmark: only this tier of configs/benchmark.yaml (paper, train, shifted, "
                             "structure, noise); repeatable; a partial run (so is --env)")
@@ -211,15 +217,16 @@ def parse_settings(argv: Sequence[str] | None = None) -> Settings | BenchmarkSet
             if args.seed:
                 clash.append("--seed")
             if clash:
-                parser.error(f"--benchmark runs the protocol's cells and test seeds: {', '.join(clash)} "
+                parser.error(f"--benchmark runs the protocol's cells and seeds: {', '.join(clash)} "
                              f"{'does' if len(clash) == 1 else 'do'} not apply")
             return benchmark.benchmark_settings(
                 policies=args.policy, agents=args.agent, name=args.name, episodes=args.episodes,
                 envs=args.env, tiers=args.tier, out=args.out, workers=args.workers, backend=args.backend,
                 ray_address=args.ray_address, agents_dir=args.agents_dir, algo=args.algo,
-                vecnormalize=args.vecnormalize, trained_on_tier=args.trained_on_tier)
+                vecnormalize=args.vecnormalize, trained_on_tier=args.trained_on_tier, release=args.release)
         given = [flag for flag, value in (("--tier", args.tier), ("--name", args.name),
-                                          ("--trained-on-tier", args.trained_on_tier)) if value]
+                                          ("--trained-on-tier", args.trained_on_tier),
+                                          ("--release", args.release)) if value]
         if given:
             parser.error(f"{', '.join(given)} {'goes' if len(given) == 1 else 'go'} with --benchmark only")
         chosen = {name for flag, name in ((args.paper, "paper"), (args.ablation, "ablation")) if flag}

@@ -143,7 +143,7 @@ def test_evaluation_of_an_agent_uses_the_planners_seeds(trained, tmp_path):
     assert [r["policy"] for r in records] == ["fixed-period", "agent:FootstepDoor-v0_7"]
     from footstep_gym.evaluation.splits import split_seeds
 
-    assert records[0]["seeds"] == records[1]["seeds"] == split_seeds("test", 2)  # the test split's first seeds
+    assert records[0]["seeds"] == records[1]["seeds"] == split_seeds("validation", 2)  # the default split's first
     assert records[1]["plan_ms_median"] > 0  # the agent's inference time per footstep
 
 

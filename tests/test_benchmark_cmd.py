@@ -58,8 +58,8 @@ def run_cli(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
 
 
 def check_document(doc: dict, episodes: int, labels: list[str]) -> None:
-    assert doc["benchmark"] == "footstep_gym" and doc["protocol"]["split"] == "test"
-    assert doc["protocol"]["seeds"] == split_seeds("test", episodes)
+    assert doc["benchmark"] == "footstep_gym" and doc["protocol"]["split"] == "validation"  # no --release
+    assert doc["protocol"]["seeds"] == split_seeds("validation", episodes)
     assert [f"{c['scene']}/{c['tier']}/{c['cell']}" for c in doc["protocol"]["cells"]] == labels
     assert [f"{r['scene']}/{r['tier']}/{r['cell']}" for r in doc["records"]] == labels  # a planner: one run
     for r in doc["records"]:
@@ -67,7 +67,7 @@ def check_document(doc: dict, episodes: int, labels: list[str]) -> None:
             assert isinstance(r[key], kind), (key, r[key])
         assert r["params"] == {"tier": r["tier"], "tier_cell": r["cell"]}
         assert r["env_kwargs"] == tiers.plain(tiers.cells(r["scene"], r["tier"], r["cell"])[0].kwargs)
-        assert r["episodes"] == episodes and r["seeds"] == split_seeds("test", episodes)
+        assert r["episodes"] == episodes and r["seeds"] == split_seeds("validation", episodes)
         assert sum(r[k] for k in ("success_rate", "collision_rate", "fall_rate", "timeout_rate")) == pytest.approx(1)
         lo, hi = r["success_ci95"]
         assert 0 <= lo <= r["success_rate"] <= hi <= 1
@@ -199,7 +199,9 @@ def test_the_ray_backend_gives_the_same_records(tmp_path):
     (["--policy", FAST, "--paper"], "--paper does not apply"),
     (["--policy", FAST, "--paper", "--video"], "--paper, --video do not apply"),
     (["--policy", FAST, "--door-speed", "8"], "--door-speed"),
-    (["--policy", FAST, "--split", "validation"], "--split validation"),
+    (["--policy", FAST, "--split", "train"], "--split train"),
+    (["--policy", FAST, "--release", "--tier", "paper"], "--release runs a whole row"),
+    (["--policy", FAST, "--release", "--episodes", "3"], "--release runs 100 episodes per cell"),
     (["--policy", FAST, "--tier", "impossible"], "unknown benchmark tier"),
     (["--policy", "teleport"], "unknown policy 'teleport'"),
     (["--policy", FAST, "--name", "x"], "--name names an --agent"),

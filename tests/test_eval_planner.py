@@ -27,7 +27,7 @@ from script_helpers import load_script
 
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "baselines" / "eval_planner.py"
-FIRST_TEST_SEED = split_seeds("test", 1)[0]  # configs/eval.yaml: the test split's first seed
+FIRST_SEED = split_seeds("validation", 1)[0]  # configs/eval.yaml: the validation split's first seed (the default)
 
 FASTEST_POLICY = "fixed-period"  # no period search; the quickest of the three per footstep
 REQUIRED_KEYS = {
@@ -206,7 +206,7 @@ def test_cli_one_episode_per_env(tmp_path):
         ("FootstepDoor-v0", {"door_speed": 17.0}), ("FootstepCrossing-v0", {}), ("FootstepCrowd-v0", {})]
     for r in records:
         check_record(r)
-        assert r["policy"] == FASTEST_POLICY and r["seeds"] == [FIRST_TEST_SEED]
+        assert r["policy"] == FASTEST_POLICY and r["seeds"] == [FIRST_SEED]
 
     with (out / "results.csv").open() as f:
         rows = list(csv.DictReader(f))
@@ -220,12 +220,12 @@ def test_cli_one_episode_per_env(tmp_path):
         png = out / "figures" / f"{name}.png"
         assert png.exists() and png.stat().st_size > 20_000, name
     tables = sorted(p.name for p in (out / "tables").glob("*.md"))
-    assert tables == [f"crowd_{FASTEST_POLICY}_seed{FIRST_TEST_SEED}.md",
-                      f"door_17_{FASTEST_POLICY}_seed{FIRST_TEST_SEED}.md"]
+    assert tables == [f"crowd_{FASTEST_POLICY}_seed{FIRST_SEED}.md",
+                      f"door_17_{FASTEST_POLICY}_seed{FIRST_SEED}.md"]
     assert "| Steps | S (cm) |" in (out / "tables" / tables[1]).read_text()
     summary = (out / "summary.md").read_text()
     assert "results.json" in summary and "figures/door_17.png" in summary
-    assert json.loads((out / "run.json").read_text())["seeds"] == [FIRST_TEST_SEED]
+    assert json.loads((out / "run.json").read_text())["seeds"] == [FIRST_SEED]
 
 
 def test_ablation_end_to_end(tmp_path):
@@ -263,7 +263,7 @@ def test_workers_do_not_change_results(tmp_path):
         proc = run_cli(*common, "--out", str(out), "--workers", workers)
         assert proc.returncode == 0, proc.stderr
         outs.append(json.loads((out / "results.json").read_text()))
-    assert outs[0][0]["seeds"] == [FIRST_TEST_SEED + 7, FIRST_TEST_SEED + 8]
+    assert outs[0][0]["seeds"] == [FIRST_SEED + 7, FIRST_SEED + 8]
     assert _without_timing(outs[0]) == _without_timing(outs[1])
 
 
@@ -299,8 +299,10 @@ def test_seed_splits_are_disjoint_and_bounded():
     assert all(a1 <= b0 for (_, a1), (b0, _) in zip(ranges, ranges[1:]))
     assert {"train", "validation", "test"} <= set(SPLITS)
     first, end = SPLITS["test"]
-    assert split_seeds("test", 3) == [first, first + 1, first + 2]
-    assert split_seeds("test", 2, offset=5) == [first + 5, first + 6]
+    assert split_seeds("test", 3, release=True) == [first, first + 1, first + 2]
+    assert split_seeds("test", 2, offset=5, release=True) == [first + 5, first + 6]
+    with pytest.raises(ValueError, match="runs only as eval_planner.py --benchmark --release"):
+        split_seeds("test", 1)  # the board's split: a release run's only
     with pytest.raises(ValueError, match="goes past its end"):
         split_seeds("validation", 2, offset=SPLITS["validation"][1] - SPLITS["validation"][0] - 1)
     with pytest.raises(ValueError, match="unknown split"):
@@ -349,7 +351,7 @@ def test_crowd_speed_cells_and_a_clean_output_folder(tmp_path):
     assert [r["params"] for r in records] == [{"crowd_speed": 0.2}, {"crowd_speed": 0.12}]
     assert not (out / "figures" / "stale.png").exists()  # an earlier run's figures are not left behind
     assert (out / "figures" / "crowd_0.2.png").is_file()
-    assert sorted(p.name for p in (out / "tables").iterdir())[0] == f"crowd_0.12_fixed-period_seed{FIRST_TEST_SEED}.md"
+    assert sorted(p.name for p in (out / "tables").iterdir())[0] == f"crowd_0.12_fixed-period_seed{FIRST_SEED}.md"
     run = json.loads((out / "run.json").read_text())  # a list per sweep axis, named as ever
     assert run["crowd_speeds"] == [0.2, 0.12] and run["door_speeds"] == [17.0]  # the quick profile's door
     assert list(run)[list(run).index("seeds") + 1:][:2] == ["door_speeds", "crowd_speeds"]
@@ -367,7 +369,7 @@ def test_ray_backend_gives_the_local_results(tmp_path):
     from footstep_gym.evaluation.runner import run_tasks
 
     cells = [Cell("FootstepCrossing-v0", "crossing", FASTEST_POLICY), Cell("FootstepCrowd-v0", "crowd", FASTEST_POLICY)]
-    tasks = [Task(i, c, s) for i, c in enumerate(cells) for s in (FIRST_TEST_SEED, FIRST_TEST_SEED + 1)]
+    tasks = [Task(i, c, s) for i, c in enumerate(cells) for s in (FIRST_SEED, FIRST_SEED + 1)]
     local = run_tasks(tasks, workers=1, progress=False)
     remote = run_tasks(tasks, workers=2, backend="ray", progress=False)
     strip = lambda rs: [(r.cell_index, r.seed, r.outcome, r.steps, r.time, r.path_length, r.min_clearance)  # noqa: E731
@@ -431,7 +433,7 @@ def test_a_run_that_fails_midway_leaves_out_as_it_was(tmp_path, monkeypatch, cap
     real = registry.PolicyEntry.make
 
     def failing(entry, robot=None, seed=None, **kwargs):  # the entry the cell carries builds each episode's policy
-        if seed == FIRST_TEST_SEED + 1:
+        if seed == FIRST_SEED + 1:
             raise RuntimeError("simulated failure")
         return real(entry, robot, seed, **kwargs)
 

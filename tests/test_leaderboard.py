@@ -19,7 +19,8 @@ from script_helpers import load_script
 
 from footstep_gym.evaluation import leaderboard as lb
 from footstep_gym.evaluation.records import cell_record
-from footstep_gym.evaluation.splits import PROTOCOL_VERSION, split_seeds
+from footstep_gym.evaluation import protocol
+from footstep_gym.evaluation.splits import PROTOCOL_VERSION
 from footstep_gym.evaluation.stats import EpisodeResult, iqm_over_tasks, wilson_interval
 
 REPS = 20  # few bootstrap resamples: the tests check the plumbing, not the intervals' precision
@@ -49,9 +50,10 @@ def squash(table: str) -> list[str]:
 
 
 def document(policy: str, wins: dict[tuple[str, str], list[int]], upper_bound: bool = False, sha: str = SHA,
-             episodes: int = EPISODES, version: int = PROTOCOL_VERSION) -> dict:
+             episodes: int = EPISODES, version: int = 2) -> dict:
     """A benchmark.json of ``policy``: ``wins[(scene, cell)]`` lists the successes of each training run (one
-    entry: a planner). The cells it has no entry for are left out (a partial run)."""
+    entry: a planner). The cells it has no entry for are left out (a partial run). Protocol 2's by default (no
+    fingerprint, no access log: :func:`release_document` makes a protocol-3 row)."""
     cells = [c for c in CELLS if (c[0], c[2]) in wins]
     agent = any(len(w) > 1 for w in wins.values())
     records = [record(policy, s, t, c, f"{ENV_IDS[s]}_{k + 1}" if agent else None, w, upper_bound)
@@ -60,7 +62,7 @@ def document(policy: str, wins: dict[tuple[str, str], list[int]], upper_bound: b
     return {
         "benchmark": "footstep_gym", "protocol_version": version, "footstep_gym": "0.1.0", "policy": policy,
         "label": label, "upper_bound": upper_bound, "description": "a fake", "complete": len(cells) == len(CELLS),
-        "protocol": {"split": "test", "episodes_per_cell": episodes, "seeds": split_seeds("test", episodes),
+        "protocol": {"split": "test", "episodes_per_cell": episodes, "seeds": list(range(30000, 30000 + episodes)),
                      "tiers": list(dict.fromkeys(t for _, t, _ in cells)),
                      "scenes": list(dict.fromkeys(s for s, _, _ in cells)),
                      "cells": [{"scene": s, "tier": t, "cell": c, "env_id": ENV_IDS[s], "env_kwargs": {}}
@@ -365,3 +367,66 @@ def test_a_mix_of_episodes_per_cell_is_refused_in_one_short_line(tmp_path):
     assert "\n" not in text and len(text) < 200 + 2 * len(str(mine)), text
     assert f"{mine}: 2 episodes per cell; the board (" in text and f"and 30 more): {EPISODES};" in text, text
     assert "--allow-mixed" in text
+
+
+# ---------------------------------------------------------------- protocol 3: fingerprint, split, access log
+FP = "f0" * 32
+
+
+def release_document(policy: str, wins: dict[tuple[str, str], list[int]], fingerprint: str = FP,
+                     split: str = "test") -> tuple[dict, protocol.Access]:
+    """A protocol-3 row of ``policy`` with its fingerprint and split, and the access-log line of its release."""
+    doc = document(policy, wins, version=PROTOCOL_VERSION)
+    doc["protocol"].update(fingerprint=fingerprint, split=split)
+    access = protocol.Access("2026-11-28T01:00:00Z", "a" * 40, policy, 5, EPISODES, fingerprint)
+    if split == "test":
+        doc["run"]["release"] = access.to_dict()
+    return doc, access
+
+
+def test_a_protocol_3_board_needs_its_fingerprint_and_logged_releases(tmp_path):
+    (agent, a_log), (planner, p_log) = release_document("agent", AGENT), release_document("planner", PLANNER)
+    log = tmp_path / "access_log.csv"
+    for access in (a_log, p_log):
+        protocol.append_access(log, access)
+    bench = write_fakes(tmp_path / "bench", [agent, planner])
+    board = lb.leaderboard([bench], reps=REPS, fingerprint=FP, access_log=log)
+    assert board["protocol_version"] == PROTOCOL_VERSION and board["protocol"]["fingerprint"] == FP
+    assert f"Protocol {PROTOCOL_VERSION}, fingerprint `{FP}`." in lb.markdown(board)
+    # Another fingerprint: one line, the row's and the board's.
+    with pytest.raises(lb.LeaderboardError, match=rf"planner/benchmark.json: fingerprint {'f0' * 6} \(yours\) / "
+                                                  rf"{'0e' * 6} \(the board's\)"):
+        lb.leaderboard([bench / "planner"], reps=REPS, fingerprint="0e" * 32, access_log=log)
+    # A test-split run that the log does not hold (or whose line differs) is refused.
+    protocol.append_access(tmp_path / "other.csv", a_log)
+    with pytest.raises(lb.LeaderboardError, match=r"planner/benchmark.json: its test-split run is not in the access "
+                                                  r"log \(baselines/results/access_log.csv\)"):
+        lb.leaderboard([bench], reps=REPS, fingerprint=FP, access_log=tmp_path / "other.csv")
+    forged, _ = release_document("forged", PLANNER)
+    forged["run"]["release"]["commit"] = "b" * 40
+    with pytest.raises(lb.LeaderboardError, match="not in the access log"):
+        lb.leaderboard([write_fakes(tmp_path / "forged", [forged])], reps=REPS, fingerprint=FP, access_log=log)
+    # --allow-mixed lifts neither.
+    with pytest.raises(lb.LeaderboardError, match="not in the access log"):
+        lb.leaderboard([bench], allow_mixed=True, reps=REPS, fingerprint=FP, access_log=tmp_path / "none.csv")
+
+
+def test_a_board_is_of_one_protocol_and_one_split(tmp_path):
+    v3, _ = release_document("agent", AGENT, split="validation")
+    mixed = write_fakes(tmp_path / "mixed", [v3, document("planner", PLANNER)])
+    with pytest.raises(lb.LeaderboardError, match=r"the files are of protocols 3 and 2: .*agent/benchmark.json \(3\)"):
+        lb.leaderboard([mixed], allow_mixed=True, reps=REPS, fingerprint=FP)
+    test_row, access = release_document("planner", PLANNER)
+    protocol.append_access(tmp_path / "log.csv", access)
+    splits = write_fakes(tmp_path / "splits", [v3, test_row])
+    with pytest.raises(lb.LeaderboardError, match="the files mix the validation and test splits"):
+        lb.leaderboard([splits], reps=REPS, fingerprint=FP, access_log=tmp_path / "log.csv")
+    # Validation rows make a development board, labelled so; no access log is read.
+    board = lb.leaderboard([splits / "agent"], reps=REPS, fingerprint=FP, access_log=tmp_path / "none.csv")
+    assert "**Development board**: validation seeds" in lb.markdown(board)
+
+
+def test_the_committed_protocol_2_board_still_builds_labelled_protocol_2():
+    board = lb.leaderboard([Path(__file__).resolve().parent.parent / "baselines" / "results" / "benchmark"], reps=REPS)
+    assert board["protocol_version"] == 2 and len(board["policies"]) > 20
+    assert lb.markdown(board).splitlines()[2].startswith("Protocol 2 (before the fingerprint")

@@ -8,7 +8,10 @@ thin front-end to this module:
   runs as ``gymnasium.make(env_id, tier=TIER, tier_cell=CELL)``;
 * :func:`runner_cells` and :func:`tasks`: the evaluation runner's cells (one per benchmark cell and
   training run) and episodes, the same seeds for every cell: the first ``episodes`` seeds of the
-  test split (:data:`EPISODES`, a leaderboard row's number), run by :func:`~footstep_gym.evaluation.runner.run_tasks` locally or on Ray;
+  validation split, or with ``release`` (``--release``: the board's row) of the test split
+  (:data:`EPISODES`, a leaderboard row's number), run by :func:`~footstep_gym.evaluation.runner.run_tasks` locally
+  or on Ray; a release run is refused from uncommitted code and logged first (:func:`release_problem`,
+  :func:`start_release`, :mod:`footstep_gym.evaluation.protocol`);
 * :func:`cell_records`: one record per scene x tier x cell x policy (x training run), the
   evaluation's record (:func:`~footstep_gym.evaluation.stats.cell_record`: success with its Wilson
   95 % interval, collision, fall and timeout rates, time to goal and path length over the
@@ -46,19 +49,21 @@ import footstep_gym
 from footstep_gym import registry
 from footstep_gym.evaluation import report
 from footstep_gym.evaluation.outfolder import check_out, run_into
-from footstep_gym.evaluation.outputs import command_line
 from footstep_gym.evaluation.profiles import OptionError, unique, usable_cores
 from footstep_gym.evaluation.runner import (WARMUP_ACTS, Cell, PolicyFactory, Task, check_cells, default_factory,
                                             run_tasks)
 from footstep_gym.evaluation.submission import AgentArg, CallableFactory, SubmissionError, parse_agents, runs_by_env
-from footstep_gym.evaluation.splits import PROTOCOL_VERSION, split_seeds
+from footstep_gym.evaluation import protocol as row_protocol
+from footstep_gym.evaluation.splits import PROTOCOL_VERSION, TEST, split_seeds
 from footstep_gym.evaluation.records import CellRecord, cell_record, over_runs
 from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, iqm_over_tasks, score_matrix
 from footstep_gym.evaluation.tables import interval, markdown as markdown_table, mm, num, plural, runs as runs_text
 from footstep_gym.scenarios import resolve_env_id, scene_of
 
-#: The seeds of every cell: the test split's first ones (configs/eval.yaml).
-SPLIT = "test"
+#: The seeds of every cell: the validation split's first ones (a development run, no board row), or with
+#: ``--release`` the test split's (:data:`RELEASE_SPLIT`: the board; configs/eval.yaml).
+SPLIT = "validation"
+RELEASE_SPLIT = TEST
 #: Episodes per cell: every leaderboard row's number (make_leaderboard.py refuses a mix of numbers), the default.
 EPISODES = 100
 # PROTOCOL_VERSION (imported above): the protocol's version written into benchmark.json, configs/eval.yaml's.
@@ -191,14 +196,16 @@ def runner_cells(cells: Sequence[BenchmarkCell], entry: registry.PolicyEntry, ru
     return out, owners
 
 
-def seeds(episodes: int, split: str = SPLIT) -> list[int]:
-    """The seeds of every cell: the first ``episodes`` of the test split (of ``split``: a try on validation seeds)."""
-    return split_seeds(split, episodes)
+def seeds(episodes: int, split: str = SPLIT, release: bool = False) -> list[int]:
+    """The seeds of every cell: the first ``episodes`` of ``split`` (the validation split: a development run); the
+    test split's only for a ``release`` run (:func:`~footstep_gym.evaluation.splits.split_seeds` refuses it
+    otherwise)."""
+    return split_seeds(split, episodes, release=release)
 
 
-def tasks(cells: Sequence[Cell], episodes: int, split: str = SPLIT) -> list[Task]:
+def tasks(cells: Sequence[Cell], episodes: int, split: str = SPLIT, release: bool = False) -> list[Task]:
     """Every episode: each cell at each of :func:`seeds` (nothing recorded for figures)."""
-    return [Task(i, c, s) for i, c in enumerate(cells) for s in seeds(episodes, split)]
+    return [Task(i, c, s) for i, c in enumerate(cells) for s in seeds(episodes, split, release)]
 
 
 # ---------------------------------------------------------------- records and aggregates
@@ -296,23 +303,25 @@ def source_commit() -> str | None:
 
 def benchmark_document(entry: registry.PolicyEntry, cells: Sequence[BenchmarkCell], records: Sequence[CellRecord],
                        episodes: int, run_info: Mapping[str, Any], trained_on_tier: str | None = None,
-                       split: str = SPLIT) -> dict[str, Any]:
+                       split: str = SPLIT, release: bool = False) -> dict[str, Any]:
     """What ``benchmark.json`` holds: the protocol, the per-run records, their summary over runs, the aggregates;
     ``track`` and ``trained_on_tier`` say which track the row is on (:data:`GENERALISATION`: ``trained_on_tier``
-    None). A run on another split than the test split (a try on validation seeds) is never complete: no row."""
+    None); ``split``: the seeds' (the test split only with ``release``: the board's row; else a development run).
+    ``protocol.fingerprint``
+    is :func:`~footstep_gym.evaluation.protocol.fingerprint` (the configs and the simulator's source)."""
     return {
         "benchmark": "footstep_gym", "protocol_version": PROTOCOL_VERSION, "footstep_gym": footstep_gym.__version__,
         "policy": entry.name, "label": entry.label, "upper_bound": entry.reads_truth,
         "description": entry.description,
         "track": IN_DISTRIBUTION if trained_on_tier else GENERALISATION, "trained_on_tier": trained_on_tier,
-        "complete": is_complete(cells, trained_on_tier) and split == SPLIT,
+        "complete": is_complete(cells, trained_on_tier),
         "protocol": {
-            "split": split, "episodes_per_cell": episodes, "seeds": seeds(episodes, split),
+            "split": split, "episodes_per_cell": episodes, "seeds": seeds(episodes, split, release),
             "tiers": list(dict.fromkeys(c.tier for c in cells)), "scenes": list(dict.fromkeys(c.scene for c in cells)),
             "cells": [{"scene": c.scene, "tier": c.tier, "cell": c.name, "env_id": c.env_id,
                        "env_kwargs": dict(c.env_kwargs)} for c in cells],
             "warmup_acts": WARMUP_ACTS, "timing_fields": list(TIMING_FIELDS),
-            "env_configs_sha256": env_configs_sha256(),
+            "env_configs_sha256": env_configs_sha256(), "fingerprint": row_protocol.fingerprint(),
         },
         "aggregates": tier_aggregates(records),
         "records": [r.to_dict() for r in records],
@@ -352,21 +361,21 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
     label = doc["label"]
     aggregates = doc["aggregates"]
     seeds_ = protocol["seeds"]
-    split = protocol.get("split", SPLIT)
     tiers = protocol["tiers"]
     lines = [f"# Benchmark: {label}", ""]
     if command:
         lines += [f"`{command}`", ""]
     n = protocol["episodes_per_cell"]
     lines.append(f"{len(protocol['cells'])} cells (tiers {', '.join(tiers)}; scenes {', '.join(protocol['scenes'])}), "
-                 f"{n} episode{'s' if n != 1 else ''} per cell, {split} seeds {seeds_[0]}..{seeds_[-1]}.")
+                 f"{n} episode{'s' if n != 1 else ''} per cell, {protocol['split']} seeds {seeds_[0]}..{seeds_[-1]}.")
+    if protocol["split"] != RELEASE_SPLIT:
+        lines += ["", f"**Development run** ({protocol['split']} seeds, no `--release`): not a board row (rows run "
+                      f"on the {RELEASE_SPLIT} split, once)."]
     trained_on = doc.get("trained_on_tier")
     if trained_on:
         lines += ["", f"**In-distribution track**: trained on the {trained_on} tier's cells (train-split seeds), "
                       f"tested on its test seeds only."]
-    if split != SPLIT:
-        lines += ["", f"**A try on the {split} split**: not a leaderboard row (rows run on the {SPLIT} split)."]
-    elif not doc["complete"]:
+    if not doc["complete"]:
         lines += ["", "**Partial run** (some tiers or scenes left out): not a leaderboard row."]
     by_tier = {a["tier"]: a for a in aggregates}
     row = pd.DataFrame([[label, *(_iqm_text(by_tier[t]) if t in by_tier else "–" for t in tiers)]],
@@ -389,9 +398,8 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
     head = ["tier", "scene", "cell", "n", "success [95% CI]", "collision", "fall", "timeout", "time to goal (s)*",
             "path (m)*", "clearance mm", "ZMP margin mm", "act ms median / p99"]
     lines.append(markdown_table(pd.DataFrame(rows, columns=head), left=3).rstrip("\n"))
-    lines += ["", DEFINITIONS.format(episodes=protocol["episodes_per_cell"], split=split, first=seeds_[0],
-                                     last=seeds_[-1],
-                                     warmup=protocol["warmup_acts"])]
+    lines += ["", DEFINITIONS.format(episodes=protocol["episodes_per_cell"], first=seeds_[0], last=seeds_[-1],
+                                     warmup=protocol["warmup_acts"], split=protocol["split"])]
     return "\n".join(lines)
 
 
@@ -413,7 +421,8 @@ class BenchmarkSettings:
     ray_address: str | None
     factory: PolicyFactory = default_factory
     trained_on_tier: str | None = None  # the in-distribution track's tier; None: the generalisation track
-    split: str = SPLIT  # the seeds' split: the test split for a row; validation for a try
+    split: str = SPLIT  # the seeds' split: validation for a development run, the test split for a release
+    release: bool = False  # a run of the test split (the board's): committed code, logged
 
     @property
     def policy(self) -> str:
@@ -429,14 +438,16 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str |
                        out: Path, workers: int | None, backend: str, ray_address: str | None,
                        agents_dir: Path | None, algo: str | None = None,
                        vecnormalize: Sequence[str] | None = None,
-                       trained_on_tier: str | None = None) -> BenchmarkSettings:
+                       trained_on_tier: str | None = None, release: bool = False) -> BenchmarkSettings:
     """A run's settings from its options, checked: the first bad one raises
     :class:`~footstep_gym.evaluation.profiles.OptionError` (one line; nothing is run or written).
 
     ``agents``: ``--agent`` values, ``PATH`` or ``SCENE=PATH`` (:func:`~footstep_gym.evaluation.submission.
     parse_agents`; ``algo`` and ``vecnormalize`` for plain ``.zip`` files). ``trained_on_tier``
     (``--trained-on-tier``): the method trained on that tier's cells, the in-distribution track: it runs on
-    that tier only (a shipped agent registered with a ``tier`` is on that track by itself)."""
+    that tier only (a shipped agent registered with a ``tier`` is on that track by itself). ``release``
+    (``--release``): the test split, refused from a tree with uncommitted changes and for a partial run
+    (:func:`release_problem`)."""
     named = list(policies or [])
     if bool(named) == bool(agents) or len(named) > 1:
         raise OptionError("--benchmark evaluates one method: give one --policy NAME, or --agent [SCENE=]PATH "
@@ -468,9 +479,12 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str |
         tiers = track_tier(trained_on_tier, unique(tiers) if tiers else None,
                            f"--trained-on-tier {trained_on_tier}" if trained_on_tier else "--tier")
         cells = benchmark_cells(scenes, tiers)
-        split_seeds(SPLIT, episodes)
+        seeds(episodes, RELEASE_SPLIT if release else SPLIT, release)
     except ValueError as exc:
         raise OptionError(str(exc)) from None
+    problem = release_problem(cells, episodes, trained_on_tier) if release else None
+    if problem:
+        raise OptionError(problem)
     if ray_address and backend != "ray":
         raise OptionError("--ray-address needs --backend ray")
     env_ids = list(dict.fromkeys(c.env_id for c in cells))
@@ -498,27 +512,57 @@ def benchmark_settings(*, policies: Sequence[str] | None, agents: Sequence[str |
                                   "row needs every scene (--env restricts it: a partial run)")
     return BenchmarkSettings(entry=entry, runs=runs, scenes=scenes, tiers=tiers, episodes=episodes, out=out,
                              workers=workers or usable_cores(), backend=backend, ray_address=ray_address,
-                             trained_on_tier=trained_on_tier)
+                             trained_on_tier=trained_on_tier, split=RELEASE_SPLIT if release else SPLIT,
+                             release=release)
+
+
+def release_problem(cells: Sequence[BenchmarkCell], episodes: int, trained_on_tier: str | None = None,
+                    state: row_protocol.TreeState | None = None) -> str | None:
+    """Why a release run (the test split) of ``cells`` may not start, one line, or None: a row comes from committed
+    code (``state``, default the package's checkout: :func:`~footstep_gym.evaluation.protocol.dirty_refusal`),
+    covers its track's every cell, and runs :data:`EPISODES` seeds per cell (every row's number)."""
+    if not is_complete(cells, trained_on_tier):
+        return "--release runs a whole row: every cell of the benchmark (of its tier, in-distribution); drop --env/--tier"
+    if episodes != EPISODES:
+        return f"--release runs {EPISODES} episodes per cell (every row's number), not {episodes}"
+    return row_protocol.dirty_refusal(state if state is not None else row_protocol.tree_state())
+
+
+def start_release(settings: BenchmarkSettings, log: Path | None = None) -> dict[str, Any]:
+    """Log a release run before its first episode: one line of the access log (``log``, default the repository's
+    :data:`~footstep_gym.evaluation.protocol.ACCESS_LOG`); returns it as the row's ``run.release``."""
+    state = row_protocol.tree_state()
+    access = row_protocol.new_access(state.commit or "", settings.policy, len(settings.cells), settings.episodes,
+                                     row_protocol.fingerprint())
+    row_protocol.append_access(log if log is not None else row_protocol.access_log_path(), access)
+    return access.to_dict()
 
 
 def write_benchmark(folder: Path, settings: BenchmarkSettings, cells: list[Cell],
                     owners: list[BenchmarkCell], results: list[EpisodeResult], wall_s: float,
-                    argv: Sequence[str], command: str | None = None) -> tuple[str, list[Path]]:
+                    argv: Sequence[str], command: str | None = None, release: Mapping[str, Any] | None = None
+                    ) -> tuple[str, list[Path]]:
     """``benchmark.json``, ``benchmark.md``, ``episodes.csv`` and ``run.json`` of a finished run, into ``folder``
-    (``command``: how it was run, default ``eval_planner.py`` with ``argv``)."""
-    command = command or command_line(argv)
+    (``command``: how it was run, default ``eval_planner.py`` with ``argv``; ``release``: the access log's line of a
+    release run). Paths are recorded relative to the repository
+    (:func:`~footstep_gym.evaluation.protocol.repo_path`)."""
+    command = command or row_protocol.repo_command(argv)
     run_info = {"command": command, "mode": "benchmark", "policy": settings.policy,
-                "episodes": settings.episodes, "split": settings.split, "workers": settings.workers,
+                "episodes": settings.episodes, "split": settings.split,
+                "workers": settings.workers,
                 "backend": settings.backend, "wall_time_s": round(wall_s, 2), "cpu_count": os.cpu_count(),
-                "agent_runs": sorted({c.run for c in cells if c.run})}
+                "agent_runs": sorted({row_protocol.repo_path(c.run) for c in cells if c.run})}
+    if release is not None:
+        run_info["release"] = dict(release)
     source = settings.entry.source
     if source is not None:  # a policy of one's own: where it came from, and which version of it
-        run_info["policy_source"] = {"import_path": source.path, "file": source.file, "sha256": source.sha256}
+        run_info["policy_source"] = {"import_path": source.path, "file": row_protocol.repo_path(source.file),
+                                     "sha256": source.sha256}
     if isinstance(settings.factory, CallableFactory):
         run_info["policy_source"] = {"callable": settings.factory.name, "pickle_sha256": settings.factory.key}
     records = cell_records(cells, owners, results, settings.entry.reads_truth)
     doc = benchmark_document(settings.entry, settings.cells, records, settings.episodes, run_info,
-                             settings.trained_on_tier, settings.split)
+                             settings.trained_on_tier, settings.split, settings.release)
     text = markdown(doc, command)
     files = [folder / "benchmark.json", folder / "benchmark.md", folder / "episodes.csv", folder / "run.json"]
     files[0].write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
@@ -540,19 +584,20 @@ def run_benchmark(settings: BenchmarkSettings, argv: Sequence[str], refuse: Call
     problem = check_cells(cells, factory=settings.factory) or check_out(settings.out)
     if problem:
         refuse(problem)
-    all_tasks = tasks(cells, settings.episodes, settings.split)
+    all_tasks = tasks(cells, settings.episodes, settings.split, settings.release)
     workers = max(1, min(settings.workers, len(all_tasks)))
     per_run = f" ({len(cells)} with the training runs)" if len(cells) != len(settings.cells) else ""
     print(f"benchmark of {settings.policy}: {plural(len(settings.cells), 'cell')}{per_run} x "
           f"{plural(settings.episodes, 'seed')} = {plural(len(all_tasks), 'episode')} on {workers} worker(s) "
           f"({settings.backend}) -> {settings.out}", file=sys.stderr)
+    release = start_release(settings) if settings.release else None  # logged before the first test episode
 
     def work(folder: Path) -> tuple[str, list[Path], str]:
         t0 = time.perf_counter()
         results = run_tasks(all_tasks, workers, backend=settings.backend, address=settings.ray_address,
                             factory=settings.factory)
         wall = time.perf_counter() - t0
-        row, files = write_benchmark(folder, settings, cells, owners, results, wall, argv)
+        row, files = write_benchmark(folder, settings, cells, owners, results, wall, argv, release=release)
         return row, files, f"{len(results)} episodes in {wall:.1f} s"
 
     return run_into(settings.out, "the benchmark", "benchmark.md: every cell", work)
@@ -583,7 +628,7 @@ def _check_factory(make_policy_fn: Any) -> None:
 def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str | Path, snapshot: bool = False,
              episodes: int = EPISODES, scenes: Sequence[str] | None = None, tiers: Sequence[str] | None = None,
              workers: int | None = None, backend: str = "local", ray_address: str | None = None,
-             trained_on_tier: str | None = None, split: str = SPLIT) -> dict[str, Any]:
+             trained_on_tier: str | None = None, split: str = SPLIT, release: bool = False) -> dict[str, Any]:
     """Run the benchmark for any policy and write ``benchmark.json`` (and ``benchmark.md``, ``episodes.csv``,
     ``run.json``) to ``out``, as ``eval_planner.py --benchmark`` does; returns the ``benchmark.json`` document.
 
@@ -602,8 +647,10 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
         workers, backend, ray_address: as ``eval_planner.py``'s ``--workers``, ``--backend``, ``--ray-address``.
         trained_on_tier: the method trained on this tier's cells (train-split seeds): the in-distribution
             track, run on that tier only; ``None``: the generalisation track (trained on ``train``).
-        split: the seeds' split (``configs/eval.yaml``): ``"test"`` for a leaderboard row; ``"validation"`` to try
-            a method while developing it (the document is then never ``complete``: no row).
+        split: the seeds' split (``configs/eval.yaml``) of a development run: ``"validation"`` (the default) to try
+            a method out; never a board row.
+        release: run the test split instead (the board's row: committed code, every cell, logged in the access
+            log; ``split="test"`` without it is refused).
 
     Raises ``ValueError`` (one line) before anything runs for a bad option or a policy that cannot be built
     or returns no 5-number command on the first cell's first observation;
@@ -626,9 +673,14 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
     try:
         tiers = track_tier(trained_on_tier, tiers, "trained_on_tier")
         cells = benchmark_cells(scenes, tiers)
-        split_seeds(split, episodes)
+        if release:
+            split = RELEASE_SPLIT
+        seeds(episodes, split, release)
     except ValueError as exc:
         raise ValueError(f"evaluate: {exc}") from None
+    problem = release_problem(cells, episodes, trained_on_tier) if release else None
+    if problem:
+        raise ValueError(f"evaluate: {problem}")
     if backend == "local" and ray_address is not None:
         raise ValueError("evaluate: ray_address needs backend='ray'")
     factory = CallableFactory(make_policy_fn, name, snapshot)
@@ -637,12 +689,13 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
     settings = BenchmarkSettings(entry=entry, runs=None, scenes=tuple(scenes) if scenes else None,
                                  tiers=tuple(tiers) if tiers else None, episodes=episodes, out=out,
                                  workers=workers or usable_cores(), backend=backend, ray_address=ray_address,
-                                 factory=factory, trained_on_tier=trained_on_tier, split=split)
+                                 factory=factory, trained_on_tier=trained_on_tier, split=split, release=release)
     runner, owners = runner_cells(cells, entry)
     problem = check_cells(runner, factory=factory) or check_out(out)
     if problem:
         raise ValueError(f"evaluate: {problem}")
-    all_tasks = tasks(runner, episodes, split)
+    all_tasks = tasks(runner, episodes, split, release)
+    logged = start_release(settings) if release else None
     folder = new_run_folder(out)
     try:
         t0 = time.perf_counter()
@@ -650,7 +703,8 @@ def evaluate(make_policy_fn: Callable[[str, int], Any], *, name: str, out: str |
                             address=ray_address, factory=factory)
         write_benchmark(folder, settings, runner, owners, results, time.perf_counter() - t0, [],
                         command=f"footstep_gym.benchmark.evaluate(make_policy_fn, name={name!r}, episodes={episodes}"
-                                + (f", split={split!r})" if split != SPLIT else ")"))
+                                + (", release=True)" if release else f", split={split!r})" if split != SPLIT else ")"),
+                        release=logged)
     except BaseException:
         import shutil
 

@@ -48,13 +48,18 @@ import numpy as np
 import pandas as pd
 
 from footstep_gym.evaluation.benchmark import GENERALISATION, IN_DISTRIBUTION
+from footstep_gym.evaluation import protocol as row_protocol
 from footstep_gym.evaluation.outfolder import new_run_folder
 from footstep_gym.evaluation.records import CellRecord
+from footstep_gym.evaluation.scores import board_scores
 from footstep_gym.evaluation.splits import PROTOCOL_VERSION  # the version benchmark.json files must carry
 from footstep_gym.evaluation.stats import REPS, SEED, interval_estimates, score_matrix, seeded_bootstrap as seeded
 from footstep_gym.evaluation.stats import wilson_interval
 from footstep_gym.evaluation.tables import DASH, interval, markdown as markdown_table, plural
 
+#: The protocol versions this leaderboard reads: protocol 2's rows (no fingerprint, no access log; their board is
+#: labelled "protocol 2") and the present protocol's.
+VERSIONS = (2, PROTOCOL_VERSION)
 #: The protocol fields that files must share (``--allow-mixed`` lifts this; the rows that differ are marked).
 PROTOCOL_KEYS = ("env_configs_sha256", "episodes_per_cell")
 #: The optimality gap's threshold: a success rate of 1 is optimal (rliable's ``gamma``).
@@ -102,17 +107,17 @@ def find_benchmarks(paths: Sequence[Path]) -> list[Path]:
 
 
 def load_benchmark(path: Path) -> dict[str, Any]:
-    """One ``benchmark.json``, checked to be a footstep_gym benchmark file of :data:`PROTOCOL_VERSION` with its
-    records."""
+    """One ``benchmark.json``, checked to be a footstep_gym benchmark file of a version in :data:`VERSIONS` with its
+    records (from protocol 3 on, with its ``protocol.fingerprint`` and ``protocol.split``)."""
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise LeaderboardError(f"{path}: not a readable JSON file ({exc})") from None
     if not isinstance(doc, dict) or doc.get("benchmark") != "footstep_gym":
         raise LeaderboardError(f"{path}: not a footstep_gym benchmark.json (no \"benchmark\": \"footstep_gym\")")
-    if doc.get("protocol_version") != PROTOCOL_VERSION:
+    if doc.get("protocol_version") not in VERSIONS:
         raise LeaderboardError(f"{path}: protocol_version {doc.get('protocol_version')!r}, this leaderboard reads "
-                               f"{PROTOCOL_VERSION}")
+                               f"{' and '.join(map(str, VERSIONS))}")
     protocol = doc.get("protocol")
     records = doc.get("records")
     if (not isinstance(protocol, dict) or not isinstance(records, list) or not records
@@ -124,7 +129,10 @@ def load_benchmark(path: Path) -> dict[str, Any]:
         raise LeaderboardError(f"{path}: {exc}") from None
     if any(r.scene is None or r.tier is None or r.cell is None for r in loaded):
         raise LeaderboardError(f"{path}: a record lacks its benchmark cell (scene, tier, cell)")
-    for key in ("env_configs_sha256", "episodes_per_cell", "tiers", "scenes", "cells"):
+    needed = ("env_configs_sha256", "episodes_per_cell", "tiers", "scenes", "cells")
+    if doc["protocol_version"] >= 3:
+        needed += ("fingerprint", "split")
+    for key in needed:
         if key not in protocol:
             raise LeaderboardError(f"{path}: protocol lacks {key!r}")
     return {**doc, "records": loaded}
@@ -161,6 +169,42 @@ def check_compatible(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path], a
 def _files(paths: Sequence[Path]) -> str:
     """The first of ``paths``, and how many more: ``a/benchmark.json`` or ``a/benchmark.json and 30 more``."""
     return str(paths[0]) + (f" and {len(paths) - 1} more" if len(paths) > 1 else "")
+
+
+def check_rows(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path], fingerprint: str | None = None,
+               access_log: Path | None = None) -> None:
+    """Raise :class:`LeaderboardError` (one line) unless the files make one board: of one protocol version; from
+    protocol 3 on, every row of the board's fingerprint (``fingerprint``, default this checkout's
+    :func:`~footstep_gym.evaluation.protocol.fingerprint`), all of one split, and a test-split row's release a line
+    of the access log (``access_log``, default the repository's). ``--allow-mixed`` lifts none of this."""
+    versions = _ordered([doc["protocol_version"] for doc in docs])
+    if len(versions) > 1:
+        which = ", ".join(f"{p} ({d['protocol_version']})" for d, p in zip(docs, paths))
+        raise LeaderboardError(f"the files are of protocols {' and '.join(map(str, versions))}: {which}; a board is "
+                               "of one protocol")
+    if versions[0] < 3:
+        return
+    board = fingerprint if fingerprint is not None else row_protocol.fingerprint()
+    for doc, path in zip(docs, paths):
+        mine = str(doc["protocol"]["fingerprint"])
+        if mine != board:
+            raise LeaderboardError(f"{path}: fingerprint {mine[:12]} (yours) / {board[:12]} (the board's): another "
+                                   "simulator or configs made it; rerun it on this checkout")
+    splits = _ordered([doc["protocol"]["split"] for doc in docs])
+    if len(splits) > 1:
+        raise LeaderboardError(f"the files mix the {' and '.join(splits)} splits; a board is of one (test: the "
+                               "release rows; validation: a development board)")
+    if splits[0] != row_protocol.TEST_SPLIT:
+        return
+    log_path = access_log if access_log is not None else row_protocol.access_log_path()
+    try:
+        log = row_protocol.read_access_log(log_path)
+    except ValueError as exc:
+        raise LeaderboardError(str(exc)) from None
+    for doc, path in zip(docs, paths):
+        if not row_protocol.logged((doc.get("run") or {}).get("release"), log):
+            raise LeaderboardError(f"{path}: its test-split run is not in the access log ({row_protocol.ACCESS_LOG}); "
+                                   "a board row is made by eval_planner.py --benchmark --release")
 
 
 # ---------------------------------------------------------------- scores
@@ -298,21 +342,29 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
         iqms = [a["iqm"] for a in aggregates if a["policy"] == p["policy"]]
         return (p["upper_bound"], not p["complete"], -float(np.mean(iqms)) if iqms else 0.0, p["policy"])
 
-    policies.sort(key=rank)
+    generalisation = {p["policy"] for p in policies}
+    scores = board_scores([(d["policy"], bool(d.get("upper_bound")), _records(d)) for d in docs
+                           if d["policy"] in generalisation], cells, reps, seed)
+    version = docs[0].get("protocol_version", PROTOCOL_VERSION)
+    if version >= 3:  # protocol 3 ranks by the scene-balanced success over the ranked tiers
+        place = {r["policy"]: i for i, r in enumerate(scores["ranking"])}
+        policies.sort(key=lambda p: (p["policy"] not in place, place.get(p["policy"], 0), *rank(p)))
+    else:
+        policies.sort(key=rank)
     in_distribution.sort(key=lambda p: (tiers.index(p["trained_on_tier"]), *rank(p)))
     order = {p["policy"]: i for i, p in enumerate(policies + in_distribution)}
     aggregates.sort(key=lambda a: (tiers.index(a["tier"]), order[a["policy"]]))
     scene_rows.sort(key=lambda a: (tiers.index(a["tier"]), scenes.index(a["scene"]), order[a["policy"]]))
     protocol: dict[str, Any] = {}
-    for key in ("env_configs_sha256", "episodes_per_cell", "split"):
+    for key in ("env_configs_sha256", "episodes_per_cell", "split", "fingerprint"):
         values = _ordered([d["protocol"].get(key) for d in docs])
         protocol[key] = values[0] if len(values) == 1 else values  # a list: mixed files (--allow-mixed)
     return {
-        "leaderboard": "footstep_gym", "protocol_version": PROTOCOL_VERSION, "protocol": protocol,
+        "leaderboard": "footstep_gym", "protocol_version": version, "protocol": protocol,
         "tiers": tiers, "scenes": scenes, "tier_cells": cells,
         "bootstrap": {"reps": reps, "seed": seed, "confidence": 0.95, "gamma": GAMMA},
         "policies": policies, "in_distribution": in_distribution, "aggregates": aggregates,
-        "per_scene": scene_rows,
+        "per_scene": scene_rows, "scores": scores,
     }
 
 
@@ -442,6 +494,95 @@ def in_distribution_notes(board: Mapping[str, Any]) -> list[str]:
     return notes
 
 
+def _ranked_order(board: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """The board's generalisation rows, the ranked ones first in rank order (protocol 3's score), then the others in
+    the board's order."""
+    place = {r["policy"]: i for i, r in enumerate(board["scores"]["ranking"])}
+    return sorted(board["policies"], key=lambda p: (p["policy"] not in place, place.get(p["policy"], 0)))
+
+
+def _score(value: float | None, ci: Sequence[float] | None = None) -> str:
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return DASH
+    return interval(value, ci) if ci is not None else f"{value:.2f}"
+
+
+def scores_markdown(board: Mapping[str, Any]) -> str:
+    """Protocol 3's table: a row per policy (the ranked rows best first, then the others, the privileged last), per
+    tier the scene-balanced success [hierarchical 95 % CI], then the rank score over the ranked tiers, the safe
+    success's, and the probability of improvement over the next ranked row."""
+    s = board["scores"]
+    labels = {p["policy"]: p["label"] for p in board["policies"]}
+    by = {(r["policy"], r["tier"]): r for r in s["tiers"]}
+    ranked = {r["policy"]: r for r in s["ranking"]}
+    rows = []
+    for p in _ranked_order(board):
+        name = p["policy"]
+        r = ranked.get(name)
+        label = f"*{labels[name]}*" if p["upper_bound"] else labels[name]
+        rows.append([label, *(_score(by[(name, t)]["success"], by[(name, t)]["success_ci95"]) if (name, t) in by
+                              else DASH for t in board["tiers"]),
+                     _score(r["score"]) if r else DASH, _score(r["safe_score"]) if r else DASH,
+                     _score(r["p_improvement"]) if r else DASH])
+    head = ["policy", *(f"{t}{' (not ranked)' if t not in s['ranked_tiers'] else ''}" for t in board["tiers"]),
+            "score", "safe score", "P(> next)"]
+    return markdown_table(pd.DataFrame(rows, columns=head)).rstrip("\n")
+
+
+def safety_markdown(board: Mapping[str, Any]) -> str:
+    """Per policy and tier: safe success [hierarchical 95 % CI] / time to goal over the successes [s] / the
+    normalised score; and the IQM over runs where a row has enough runs."""
+    s = board["scores"]
+    by = {(r["policy"], r["tier"]): r for r in s["tiers"]}
+    rows = []
+    for p in _ranked_order(board):
+        cells = []
+        for t in board["tiers"]:
+            r = by.get((p["policy"], t))
+            cells.append(DASH if r is None else
+                         f"{_score(r['safe_success'], r['safe_success_ci95'])} / "
+                         f"{DASH if r['time_to_goal'] is None else format(r['time_to_goal'], '.1f')} / "
+                         f"{_score(r['normalised'])}" + ("" if r["iqm"] is None else f" / IQM {r['iqm']:.2f}"))
+        rows.append([f"*{p['label']}*" if p["upper_bound"] else p["label"], *cells])
+    return markdown_table(pd.DataFrame(rows, columns=["policy", *board["tiers"]])).rstrip("\n")
+
+
+def cells_markdown(board: Mapping[str, Any]) -> str:
+    """Every cell (rows) and policy (columns): the success (mean over runs) and its normalised score."""
+    s = board["scores"]
+    by = {(r["policy"], r["tier"], r["cell"]): r for r in s["cells"]}
+    policies = board["policies"]
+    rows = []
+    for tier, cells in board["tier_cells"].items():
+        for cell in cells:
+            row = []
+            for p in policies:
+                r = by.get((p["policy"], tier, cell))
+                row.append(DASH if r is None else f"{r['success']:.2f}"
+                           + ("" if r["normalised"] is None or np.isnan(r["normalised"]) else f" ({r['normalised']:+.2f})"))
+            rows.append([tier, cell, *row])
+    return markdown_table(pd.DataFrame(rows, columns=["tier", "cell", *(p["label"] for p in policies)]),
+                          left=2).rstrip("\n")
+
+
+def scores_notes(board: Mapping[str, Any]) -> list[str]:
+    """What the protocol-3 tables' figures are."""
+    s, b = board["scores"], board["bootstrap"]
+    t = s["safety_thresholds"]
+    return [f"Per tier: the scene-balanced mean of its cells' success (each scene the same weight, each cell within "
+            f"a scene the same; a cell's success the mean over training runs) [95 % hierarchical bootstrap interval: "
+            f"training runs, then the episodes of each run and cell, {b['reps']} resamples, seed {b['seed']}]. "
+            f"score: the mean over the ranked tiers ({', '.join(s['ranked_tiers'])}; paper is reported, not ranked), "
+            "which orders the rows; safe score likewise of safe success; P(> next): rliable's probability of "
+            "improvement of the row over the next ranked row, over the ranked cells.",
+            f"Safe success: the goal reached with the episode's smallest clearance >= {t['min_clearance'] * 1000:.0f} "
+            f"mm and smallest ZMP margin >= {t['min_zmp_margin'] * 1000:.0f} mm (configs/eval.yaml says why); time to "
+            "goal [s] over the successes (scene-balanced over the cells with one); normalised: (method - reactive) / "
+            f"(privileged - reactive) on the tier's balanced means, the anchors per cell the best of "
+            f"{', '.join(s['reactive_baselines'])} and the best privileged row (– without both); IQM: over runs x "
+            "cells, where a row has at least 5 runs."]
+
+
 def scene_markdown(board: Mapping[str, Any]) -> str:
     """Per tier and scene (rows) and policy (columns): the mean success over the scene's cells [pooled Wilson
     95 % CI]."""
@@ -474,7 +615,14 @@ def markdown(board: Mapping[str, Any]) -> str:
     n = usual.get("episodes_per_cell", board["protocol"].get("episodes_per_cell"))
     sha = usual.get("env_configs_sha256", board["protocol"].get("env_configs_sha256"))
     mixed = " (rows marked ‡: another protocol)" if any(_other_protocol(board, p) for p in board["policies"]) else ""
-    lines = ["# Leaderboard", "",
+    version = board.get("protocol_version", PROTOCOL_VERSION)
+    fp = board["protocol"].get("fingerprint")
+    stated = [f"Protocol {version}" + (f", fingerprint `{fp}`" if isinstance(fp, str) else
+                                      " (before the fingerprint: its rows were not checked against the simulator's "
+                                      "source)" if version < 3 else "") + "."]
+    if version >= 3 and board["protocol"].get("split") != row_protocol.TEST_SPLIT:
+        stated.append("**Development board**: validation seeds, no release: not the board.")
+    lines = ["# Leaderboard", "", " ".join(stated), "",
              f"{plural(len(board['policies']), 'policy')} on "
              f"{plural(sum(len(c) for c in board['tier_cells'].values()), 'cell')} "
              f"(tiers {', '.join(board['tiers'])}; scenes {', '.join(board['scenes'])}), {n} episodes per cell, "
@@ -482,6 +630,15 @@ def markdown(board: Mapping[str, Any]) -> str:
              "`python baselines/make_leaderboard.py` (docs/benchmark.md §4).", "",
              "## IQM success per tier", "", headline_markdown(board), ""]
     lines += [note + "\n" for note in headline_notes(board)]
+    protocol3 = ["## Scene-balanced success per tier", "", scores_markdown(board), "",
+                 "## Safe success / time to goal / normalised score per tier", "", safety_markdown(board), ""]
+    protocol3 += [note + "\n" for note in scores_notes(board)]
+    protocol3 += ["## Every cell: success (normalised)", "", cells_markdown(board), ""]
+    if version >= 3:  # the headline is protocol 3's; the IQM table follows as protocol 2's figure
+        at = lines.index("## IQM success per tier")
+        lines[at:at] = protocol3
+    else:
+        lines += protocol3
     if board.get("in_distribution"):
         lines += ["## In-distribution track", "", in_distribution_markdown(board), ""]
         lines += [note + "\n" for note in in_distribution_notes(board)]
@@ -740,15 +897,17 @@ def write_leaderboard(board: Mapping[str, Any], out: Path) -> list[Path]:
     return [out / name for name in names]
 
 
-def leaderboard(paths: Sequence[Path], allow_mixed: bool = False, reps: int = REPS, seed: int = SEED
-                ) -> dict[str, Any]:
+def leaderboard(paths: Sequence[Path], allow_mixed: bool = False, reps: int = REPS, seed: int = SEED,
+                fingerprint: str | None = None, access_log: Path | None = None) -> dict[str, Any]:
     """The checked leaderboard of the files ``paths`` name (:func:`find_benchmarks`); raises
-    :class:`LeaderboardError` on bad input."""
+    :class:`LeaderboardError` on bad input (:func:`check_compatible`, :func:`check_rows`: ``fingerprint`` and
+    ``access_log`` default to this checkout's)."""
     files = find_benchmarks(paths)
     if not files:
         raise LeaderboardError("no benchmark.json found in " + ", ".join(map(str, paths)))
     docs = [load_benchmark(p) for p in files]
     check_compatible(docs, files, allow_mixed)
+    check_rows(docs, files, fingerprint, access_log)
     return build(docs, files, reps=reps, seed=seed)
 
 
@@ -758,6 +917,6 @@ def main_summary(board: Mapping[str, Any], files: Sequence[Path], out: Path) -> 
                       f"wrote {len(files)} files to {out}/ (leaderboard.md)"])
 
 
-__all__ = ["LeaderboardError", "build", "check_compatible", "find_benchmarks", "headline_markdown", "in_figure",
+__all__ = ["LeaderboardError", "VERSIONS", "build", "check_compatible", "check_rows", "find_benchmarks", "headline_markdown", "in_figure",
            "interval_estimates", "iqm_and_gap", "leaderboard", "load_benchmark", "markdown", "per_scene", "profile",
            "scene_markdown", "score_matrix", "tier_cells", "write_figures", "write_leaderboard"]

@@ -15,6 +15,9 @@ its episodes (:func:`cell_record`). Definitions:
 * ``min_clearance_median`` / ``_min`` [m]: median and smallest over the episodes of an episode's smallest gap
   between the body circle and any obstacle (``None`` where nothing came within reach); ``min_zmp_margin_*`` [m]
   likewise for the ZMP's distance to the stable region's edge (negative: an infeasible step).
+* ``safe_successes`` / ``safe_success_rate``: the episodes (the share of them) that reached the goal with their
+  smallest clearance and smallest ZMP margin at least ``configs/eval.yaml``'s ``safe_success`` thresholds
+  (:func:`~footstep_gym.evaluation.scores.safe_success`; absent from records written before they were kept).
 * ``plan_ms_median`` / ``_p95`` / ``_p99`` / ``_max``: wall clock of ``policy.act`` per footstep [ms], pooled over
   the cell's footsteps: the only fields that depend on the machine
   (:data:`~footstep_gym.evaluation.stats.TIMING_FIELDS`).
@@ -38,6 +41,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from footstep_gym.evaluation.scores import safe_success
 from footstep_gym.evaluation.stats import OUTCOMES, RATE_FIELDS, EpisodeResult, iqm_over_tasks, wilson_interval
 
 #: How a field pools over the training runs of one cell (the ``pool`` of :func:`pooled`).
@@ -114,6 +118,9 @@ class CellRecord:
     cell: str | None = pooled("key", optional=True)
     env_kwargs: dict[str, Any] | None = pooled("key", optional=True)
     upper_bound: bool | None = pooled("key", optional=True)
+    # Safe success (footstep_gym.evaluation.scores): kept since protocol 3.
+    safe_successes: int | None = pooled("sum", optional=True)
+    safe_success_rate: float | None = pooled("mean", "episodes", optional=True)
     # A record pooled over training runs (over_runs).
     runs: list[str] | None = pooled("over_runs", optional=True)
     run_success_rates: list[float] | None = pooled("over_runs", optional=True)
@@ -214,6 +221,7 @@ def cell_record(env_id: str, scenario: str, policy: str, params: Mapping[str, An
     plan = np.array([t for e in episodes for t in e.plan_ms], dtype=float)
     periods = [p for e in episodes for p in e.periods]
     pso = [bool(x) for e in episodes for x in e.pso_ran if x is not None]
+    safe = sum(safe_success(e.outcome, e.min_clearance, e.min_zmp_margin) for e in episodes)
     clearance = _quantiles([e.min_clearance for e in episodes])
     zmp_margin = _quantiles([e.min_zmp_margin for e in episodes])
     return CellRecord(
@@ -229,7 +237,7 @@ def cell_record(env_id: str, scenario: str, policy: str, params: Mapping[str, An
         pso_step_rate=(sum(pso) / len(pso)) if pso else None,
         min_clearance_median=clearance[0], min_clearance_min=clearance[1],
         min_zmp_margin_median=zmp_margin[0], min_zmp_margin_min=zmp_margin[1],
-        plan_ms_median=_percentile(plan, 50), plan_ms_p95=_percentile(plan, 95), plan_ms_p99=_percentile(plan, 99),
+        safe_successes=safe, safe_success_rate=safe / n, plan_ms_median=_percentile(plan, 50), plan_ms_p95=_percentile(plan, 95), plan_ms_p99=_percentile(plan, 99),
         plan_ms_max=float(plan.max()) if plan.size else None,
         seeds=[e.seed for e in episodes], outcomes=[e.outcome for e in episodes], **where)
 
@@ -258,7 +266,7 @@ def pool_runs(group: Sequence[CellRecord]) -> CellRecord:
                                  f"{f.name}: {got}")
             values[f.name] = got[0]
         elif pool == "sum":
-            values[f.name] = sum(got)
+            values[f.name] = sum(got) if len(measured) == len(got) else None
         elif pool == "mean":
             pairs = [(v, w) for v, w in zip(got, weights[f.metadata["weight"]]) if v is not None]
             total = sum(w for _, w in pairs)

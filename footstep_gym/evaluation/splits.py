@@ -1,8 +1,10 @@
 """Disjoint seed ranges for training, validation (tuning) and the reported test (``configs/eval.yaml``).
 
 As CrowdNav keeps validation and test cases apart, an evaluation names its split and the
-episodes take the split's seeds in order: ``split_seeds("test", 20)`` is the first 20 test
-seeds, ``split_seeds("test", 20, offset=20)`` the next 20. The splits are the same for every
+episodes take the split's seeds in order: ``split_seeds("validation", 20)`` is the first 20
+validation seeds, ``split_seeds("validation", 20, offset=20)`` the next 20. The ``test`` split is the board's: its seeds are
+given only to a release run (``split_seeds("test", n, release=True)``: ``eval_planner.py --benchmark --release``,
+docs/benchmark.md §5), so no development run can touch it by mistake. The splits are the same for every
 tier: a trainer on tier T (the in-distribution track) resets ``gym.make(id, tier=T)`` with
 ``train`` seeds (:func:`train_seed_stream`), is tuned on ``validation`` and reported on ``test``.
 :data:`PROTOCOL_VERSION` is the file's ``protocol_version``, written into every ``benchmark.json``.
@@ -43,15 +45,21 @@ def _load() -> tuple[dict[str, tuple[int, int]], int]:
 
 
 SPLITS: dict[str, tuple[int, int]]
-#: The benchmark protocol's version (``configs/eval.yaml``): 2 since the fresh test split.
+#: The split of the board's results, run only by a release (:func:`split_seeds` ``release=True``).
+TEST = "test"
+#: The benchmark protocol's version (``configs/eval.yaml``): 3 since protocol 3's fresh test split.
 PROTOCOL_VERSION: int
 SPLITS, PROTOCOL_VERSION = _load()
 
 
-def split_seeds(split: str, n: int, offset: int = 0) -> list[int]:
-    """``n`` seeds of ``split``, from its ``offset``-th seed on."""
+def split_seeds(split: str, n: int, offset: int = 0, *, release: bool = False) -> list[int]:
+    """``n`` seeds of ``split``, from its ``offset``-th seed on. The :data:`TEST` split's only with ``release``
+    (a release run of the board): ``ValueError`` otherwise."""
     if split not in SPLITS:
         raise ValueError(f"unknown split {split!r}; choose one of {sorted(SPLITS)}")
+    if split == TEST and not release:
+        raise ValueError("the test split is the board's: it runs only as eval_planner.py --benchmark --release "
+                         "(committed code, logged); develop on the validation split")
     first, end = SPLITS[split]
     if n < 1 or offset < 0:
         raise ValueError(f"need n >= 1 and offset >= 0, got n={n} offset={offset}")

@@ -13,12 +13,14 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+from footstep_gym.planners.classical import CLASSICAL_POLICIES
 from footstep_gym.planners.null import NULL_POLICIES
 from footstep_gym.planners.oracle import DESCRIPTION as ORACLE_DESCRIPTION
 from footstep_gym.planners.lattice import LatticePlanner
 from footstep_gym.planners.lookahead import LookaheadPlanner
 from footstep_gym.planners.oracle import OraclePlanner
 from footstep_gym.planners.params import AdditionsParams, PlannerConfig, load_planner_config
+from footstep_gym.planners.reactive import REACTIVE_POLICIES
 from footstep_gym.planners.staged import FixedPeriodPlanner, PeriodAwarePlanner, PSOOnlyPlanner, SnapshotPlanner
 from footstep_gym.policy import Policy
 from footstep_gym.robot import Robot
@@ -115,6 +117,10 @@ POLICIES: dict[str, PolicySpec] = {
     # It reads the noise-free truth: nothing to track.
     "oracle": PolicySpec(OraclePlanner, additions={"tracking": False}, readings={"kernels": {"compiled": False}},
                          description=ORACLE_DESCRIPTION),
+    # Baselines that sense but do not plan (footstep_gym.planners.reactive: the normalised score's lower anchor) and
+    # classical crowd-navigation methods made to walk (footstep_gym.planners.classical): configs/baselines.yaml.
+    **{name: PolicySpec(cls, description=cls.description)  # type: ignore[arg-type]
+       for name, cls in {**REACTIVE_POLICIES, **CLASSICAL_POLICIES}.items()},
     # The floor, not planners: blind policies (footstep_gym.planners.null) no benchmark cell may let succeed.
     **{name: PolicySpec(cls, description=cls.description)  # type: ignore[arg-type]
        for name, cls in NULL_POLICIES.items()},

@@ -1,4 +1,4 @@
-"""Calibrate the benchmark's cells on validation seeds: the best null baseline's and the oracle's success per cell.
+"""Calibrate the benchmark's cells on validation seeds: the best null baseline's and the privileged solvers' success.
 
 Usage::
 
@@ -6,12 +6,16 @@ Usage::
     python baselines/calibrate.py --episodes 30 --no-oracle --out runs/calib-null  # the null baselines only (fast)
     python baselines/calibrate.py --oracle-episodes 20 --no-null --out runs/calib-oracle   # the oracle only
     python baselines/calibrate.py --tier structure --env crowd --out runs/calib-crowd --workers 2
+    python baselines/calibrate.py --no-null --privileged oracle-lookahead --oracle-episodes 100 \
+        --out runs/calib-certify                   # protocol 3: certify solvability on 100 validation seeds per cell
 
 A cell outside the ``paper`` tier stays in the benchmark only if the best null baseline succeeds in
-at most 0.1 of its validation episodes and the oracle in at least 0.9 (configs/benchmark.yaml's
+at most 0.1 of its validation episodes and the best privileged solver (``--privileged``: ``oracle``,
+``oracle-lookahead``) in at least 0.9, certified on at least 100 episodes (configs/benchmark.yaml's
 header; docs/benchmark.md, "How the cells are chosen"). The script writes ``calibration.json`` (every
-policy's successes per cell) and ``calibration.md`` (the table docs/benchmark.md quotes) into
-``--out`` and prints the table; it exits with status 1 if a cell breaks the rule.
+policy's successes per cell, and each policy's cost: wall seconds per episode) and ``calibration.md``
+(the table docs/benchmark.md quotes) into ``--out`` and prints the table; it exits with status 1 if a
+cell breaks the rule.
 """
 
 from __future__ import annotations
@@ -33,9 +37,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--episodes", type=int, default=30, help="validation seeds per cell and policy (30)")
     parser.add_argument("--offset", type=int, default=0, help="start this many seeds into the validation split")
     parser.add_argument("--oracle-episodes", type=int, default=None,
-                        help="the oracle's seeds per cell (default: --episodes); it is the slow one")
-    parser.add_argument("--no-oracle", action="store_true", help="the null baselines only")
-    parser.add_argument("--no-null", action="store_true", help="the oracle only")
+                        help="the privileged solvers' seeds per cell (default: --episodes; 100 certify a cell)")
+    parser.add_argument("--privileged", action="append", choices=cal.PRIVILEGED,
+                        help="the privileged solvers to run (repeat; default oracle)")
+    parser.add_argument("--no-oracle", action="store_true", help="the null baselines only (no privileged solver)")
+    parser.add_argument("--no-null", action="store_true", help="the privileged solvers only")
     parser.add_argument("--tier", action="append", help="only these tiers (repeat)")
     parser.add_argument("--env", action="append", help="only these scenes or env ids (repeat)")
     parser.add_argument("--workers", type=int, default=1, help="worker processes (1)")
@@ -56,13 +62,23 @@ def main(argv: list[str] | None = None) -> int:
     if args.out.exists() and not args.out.is_dir():
         parser.exit(2, f"calibrate.py: error: --out {args.out} is a file\n")
     t0 = time.perf_counter()
-    scores = [] if args.no_null else cal.score(cells, cal.null_policies(), args.episodes, args.offset, args.workers)
+    cost = {}
+    runs = [] if args.no_null else [(cal.null_policies(), args.episodes)]
     if not args.no_oracle:
-        scores += cal.score(cells, ["oracle"], oracle_n, args.offset, args.workers)
+        runs += [([p], oracle_n) for p in dict.fromkeys(args.privileged or ["oracle"])]
+    scores = []
+    for policies, n in runs:
+        t1 = time.perf_counter()
+        scores += cal.score(cells, policies, n, args.offset, args.workers)
+        spent = time.perf_counter() - t1
+        episodes = len(policies) * len(cells) * n
+        cost[policies[0] if len(policies) == 1 else "null baselines"] = {
+            "episodes": episodes, "wall_s": round(spent, 1), "s_per_episode": round(spent / episodes, 2)}
     wall = time.perf_counter() - t0
     table = cal.markdown_table(scores)
     args.out.mkdir(parents=True, exist_ok=True)
     doc = {"split": cal.SPLIT, "offset": args.offset, "wall_time_s": round(wall, 1), "workers": args.workers,
+           "cost": cost,
            "command": " ".join(["python", "baselines/calibrate.py", *(argv if argv is not None else sys.argv[1:])]),
            "scores": [{"scene": s.cell.scene, "tier": s.cell.tier, "cell": s.cell.name, "policy": s.policy,
                        "successes": s.successes, "episodes": s.episodes} for s in scores],
@@ -71,6 +87,9 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "calibration.md").write_text(table + "\n", encoding="utf-8")
     print(table)
     print(f"\n{len(scores)} policy x cell scores in {wall:.0f} s -> {args.out}", file=sys.stderr)
+    for name, c in cost.items():
+        print(f"{name}: {c['episodes']} episodes, {c['wall_s']} s, {c['s_per_episode']} s per episode "
+              f"({args.workers} worker(s))", file=sys.stderr)
     for line in doc["broken"]:
         print(f"rule broken: {line}", file=sys.stderr)
     return 1 if doc["broken"] else 0

@@ -53,7 +53,7 @@ def test_the_oracle_is_registered_as_an_upper_bound_and_alone_in_reading_the_tru
     assert resolve("oracle").description == spec.description and resolve("oracle").reads_truth
     assert spec.readings["kernels"] == {"compiled": False}  # numpy: the compiled kernels assume constant velocity
     readers = [name for name, s in POLICIES.items() if getattr(s.planner, "reads_truth", False)]
-    assert readers == ["oracle"]
+    assert readers == ["oracle", "oracle-lookahead"]  # the two privileged solvers (protocol 3)
     assert not any(resolve(name).reads_truth for name in AGENTS)
     assert not hasattr(Policy, "reads_truth") and not hasattr(ZooAgent, "reads_truth")
     assert not resolve("period-aware-no-fallback").reads_truth and not resolve("agent:mine").reads_truth

@@ -132,6 +132,8 @@ class LookaheadPlanner(SnapshotPlanner):
     """``lookahead``: cross-entropy optimisation of K footsteps with their periods, replanned every footstep."""
 
     name = "lookahead"
+    #: The greedy planner whose plan seeds every population (``greedy_seed``).
+    greedy_class: type[PeriodAwarePlanner] = PeriodAwarePlanner
 
     def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None, name: str | None = None) -> None:
         super().__init__(robot, config, seed, name)
@@ -143,7 +145,7 @@ class LookaheadPlanner(SnapshotPlanner):
         self.speed = centre_speed_bound(robot, box)
         self.repair = CommandRepair(robot, config.pso, vary_period=True, rescue=True)
         # The greedy planner's choice seeds every population: the lookahead keeps it unless K steps show better.
-        self.greedy = PeriodAwarePlanner(robot, config, seed, name) if self.params.greedy_seed else None
+        self.greedy = self.greedy_class(robot, config, seed, name) if self.params.greedy_seed else None
         self._plan_ahead: np.ndarray | None = None
 
     def reset(self, seed: int | None = None) -> None:
@@ -206,13 +208,18 @@ class LookaheadPlanner(SnapshotPlanner):
             out.append(self._greedy_plan(snapshot))
         return np.clip(np.stack(out), self.low, self.high)
 
+    def _rollout_predictor(self, snapshot: Snapshot) -> ObstaclePredictor:
+        """What the rollouts check the body against: with the greedy planner, its prediction (unsteady horizons,
+        sensed accelerations; it has just planned on ``snapshot``); else constant velocity."""
+        if self.greedy is not None:
+            return self.greedy.predictor
+        return ObstaclePredictor(snapshot, horizon=self.config.prediction.horizon_s)
+
     def _plan(self, snapshot: Snapshot) -> tuple[np.ndarray, dict[str, Any]]:
         p, cfg = self.params, self.config
         side = int(snapshot.support_side)
         seeds = self._seeds(snapshot)
-        # With the greedy planner: its prediction (unsteady horizons, sensed accelerations); else constant velocity.
-        predictor = (self.greedy.predictor if self.greedy is not None
-                     else ObstaclePredictor(snapshot, horizon=cfg.prediction.horizon_s))
+        predictor = self._rollout_predictor(snapshot)
         mean = seeds[-1].copy()
         std = np.broadcast_to(p.initial_std * (self.high - self.low), mean.shape).copy()
         best_x, best_cost = None, np.inf

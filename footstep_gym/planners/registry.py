@@ -19,6 +19,9 @@ from footstep_gym.planners.oracle import DESCRIPTION as ORACLE_DESCRIPTION
 from footstep_gym.planners.lattice import LatticePlanner
 from footstep_gym.planners.lookahead import LookaheadPlanner
 from footstep_gym.planners.oracle import OraclePlanner
+from footstep_gym.planners.oracle_lookahead import BUDGET as ORACLE_LOOKAHEAD_BUDGET
+from footstep_gym.planners.oracle_lookahead import DESCRIPTION as ORACLE_LOOKAHEAD_DESCRIPTION
+from footstep_gym.planners.oracle_lookahead import OracleLookaheadPlanner
 from footstep_gym.planners.params import AdditionsParams, PlannerConfig, load_planner_config
 from footstep_gym.planners.reactive import REACTIVE_POLICIES
 from footstep_gym.planners.staged import FixedPeriodPlanner, PeriodAwarePlanner, PSOOnlyPlanner, SnapshotPlanner
@@ -117,6 +120,10 @@ POLICIES: dict[str, PolicySpec] = {
     # It reads the noise-free truth: nothing to track.
     "oracle": PolicySpec(OraclePlanner, additions={"tracking": False}, readings={"kernels": {"compiled": False}},
                          description=ORACLE_DESCRIPTION),
+    # The solvability reference (protocol 3): lookahead told the truth, seeded by the oracle, a larger budget.
+    "oracle-lookahead": PolicySpec(OracleLookaheadPlanner, additions={"tracking": False},
+                                   readings={"kernels": {"compiled": False}, "lookahead": ORACLE_LOOKAHEAD_BUDGET},
+                                   description=ORACLE_LOOKAHEAD_DESCRIPTION),
     # Baselines that sense but do not plan (footstep_gym.planners.reactive: the normalised score's lower anchor) and
     # classical crowd-navigation methods made to walk (footstep_gym.planners.classical): configs/baselines.yaml.
     **{name: PolicySpec(cls, description=cls.description)  # type: ignore[arg-type]

@@ -1,0 +1,99 @@
+"""``oracle-lookahead`` (the solvability reference of protocol 3) and the calibration that certifies cells with it.
+
+Its rollouts' truth is checked against independent forms of the future: the constant-velocity prediction where
+the scenario's motion is constant (the door's rod), the scripted crowd's own schedule at the grid's instants; it is
+an upper bound registered as one, refuses to act unbound, and acts once bound. The calibration's rules (best
+privileged solver, certification on 100 episodes) on hand-made scores.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from footstep_gym import make_policy
+from footstep_gym.evaluation import calibration as cal
+from footstep_gym.evaluation.benchmark import benchmark_cells
+from footstep_gym.evaluation.runner import bind_truth
+from footstep_gym.planners import POLICIES
+from footstep_gym.planners.oracle import TruthModel, true_snapshot
+from footstep_gym.planners.oracle_lookahead import TRUTH_STEP_S, OracleLookaheadPlanner, ScheduleTruth
+from footstep_gym.planners.prediction import ObstaclePredictor
+from footstep_gym.registry import resolve
+
+
+def test_registered_as_an_upper_bound_that_acts_only_bound():
+    spec = POLICIES["oracle-lookahead"]
+    assert spec.planner is OracleLookaheadPlanner and resolve("oracle-lookahead").reads_truth
+    assert spec.description.startswith("UPPER BOUND, not a baseline") and resolve("oracle-lookahead").label == \
+        "oracle-lookahead (upper bound)"
+    env = gym.make("FootstepCrossing-v0", tier="train", tier_cell="train")
+    obs, _ = env.reset(seed=10000)
+    policy = make_policy("oracle-lookahead", env.unwrapped.robot, seed=10000)
+    policy.reset(seed=10000)
+    assert policy.config.lookahead.horizon_steps > POLICIES["lookahead"].build("lookahead", policy.robot).params \
+        .horizon_steps  # a larger budget than lookahead's
+    with pytest.raises(RuntimeError, match="acts only once bound"):
+        policy.act(obs, env.unwrapped.sensing())
+    assert bind_truth(policy, env) and policy.bound and policy.greedy.bound
+    for _ in range(2):
+        command = policy.act(obs, None)  # reads the true snapshot off the env
+        assert command.shape == (5,) and np.all(np.isfinite(command))
+        obs, _, terminated, truncated, _ = env.step(command)
+        assert not (terminated or truncated)
+
+
+def _points(n: int = 40, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return rng.uniform(-1.0, 1.0, (n, 2)), TRUTH_STEP_S * rng.integers(0, 60, n)
+
+
+def test_the_truth_of_constant_motion_is_the_constant_velocity_prediction():
+    env = gym.make("FootstepDoor-v0")  # the rod turns at door_speed for ever: its truth is constant motion
+    env.reset(seed=10000)
+    u = env.unwrapped
+    snap = true_snapshot(u)
+    truth = ScheduleTruth(snap, TruthModel(u, snap.obstacles, 30.0), 30.0)
+    points, times = _points()
+    np.testing.assert_allclose(truth.clearance(points, times), ObstaclePredictor(snap, 30.0).clearance(points, times),
+                               rtol=0, atol=1e-12)
+
+
+def test_the_truth_of_the_scripted_crowd_is_its_schedule_on_the_grid():
+    env = gym.make("FootstepCrowd-v0")
+    env.reset(seed=10000)
+    u = env.unwrapped
+    for _ in range(3):
+        env.step(u.robot.nominal_command)
+    snap = true_snapshot(u)
+    truth = ScheduleTruth(snap, TruthModel(u, snap.obstacles, 30.0), 30.0)
+    points, times = _points(seed=1)
+    got = truth.clearance(points, times)
+    radius = {o.name: o.radius for o in snap.obstacles}
+    names = [o.name for o in u.scenario.members]
+    for p, t, g in zip(points, times, got):
+        places = np.asarray(u.scenario.positions(u.time + t), dtype=float)
+        expected = min(np.hypot(*(p - c)) - radius[n] for n, c in zip(names, places))
+        assert g == pytest.approx(expected, abs=1e-9)
+
+
+def _score(label: str, policy: str, wins: int, n: int) -> cal.CellScore:
+    cell = next(c for c in benchmark_cells() if c.label == label)
+    return cal.CellScore(cell, policy, wins, n)
+
+
+def test_the_calibration_takes_the_best_privileged_solver_and_certifies_on_100_episodes():
+    cell = "crossing/structure/wide_cars"
+    scores = [_score(cell, "oracle", 80, 100), _score(cell, "oracle-lookahead", 95, 100),
+              _score(cell, "null-stand", 0, 30)]
+    best = cal.best_privileged(scores)[cell]
+    assert (best.policy, best.rate) == ("oracle-lookahead", 0.95) and cal.certified(best)
+    assert not cal.broken(scores)
+    assert not cal.certified(_score(cell, "oracle-lookahead", 19, 20))  # 0.95, but on 20 episodes
+    failing = [_score(cell, "oracle", 80, 100), _score(cell, "oracle-lookahead", 85, 100)]
+    assert cal.broken(failing) == [f"{cell}: the best privileged solver (oracle-lookahead) succeeds in 85/100 < 0.9"]
+    table = cal.markdown_table(scores + [_score("door/structure/two_doors", "oracle-lookahead", 19, 20)])
+    assert "| oracle (validation) | oracle-lookahead (validation) | rule kept | certified |" in table
+    assert "| 0.80 (80/100) | 0.95 (95/100) | yes | yes |" in table
+    assert "no (20 < 100 episodes)" in table

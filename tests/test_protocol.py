@@ -95,9 +95,11 @@ def test_release_settings_take_the_test_split_only_from_a_clean_tree(monkeypatch
     monkeypatch.setattr(protocol, "tree_state", lambda root=None: protocol.TreeState("c" * 40, ()))
     settings = _settings(release=True)  # nothing is run: the settings only
     first = SPLITS["test"][0]
-    assert settings.release and benchmark.seeds(settings.episodes, release=True)[:2] == [first, first + 1]
+    assert settings.release and settings.split == "test"
+    assert benchmark.seeds(settings.episodes, settings.split, settings.release)[:2] == [first, first + 1]
     development = _settings()
-    assert not development.release and benchmark.seeds(3) == [SPLITS["validation"][0] + k for k in range(3)]
+    assert not development.release and development.split == "validation"
+    assert benchmark.seeds(3) == [SPLITS["validation"][0] + k for k in range(3)]
     with pytest.raises(ValueError, match="runs only as eval_planner.py --benchmark --release"):
         benchmark.split_seeds("test", 3)
 

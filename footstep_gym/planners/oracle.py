@@ -316,27 +316,17 @@ class TruthBody(BodyModel):
         return self.predictor.clearance_at(pts, times, period) - needed
 
 
-class OraclePlanner(PeriodAwarePlanner):
-    """``period-aware`` told the truth (the module's doc): an upper bound, labelled so in every table.
+class TruthBound:
+    """The one labelled door to the truth, shared by the privileged planners (``oracle``, ``oracle-lookahead``):
+    ``reads_truth``, :meth:`bind_truth` (the evaluation runner's call), and an :meth:`act` that refuses to act
+    unbound and otherwise plans on the bound env's true snapshot (:func:`true_snapshot`), ignoring the one given.
+    Mixed in before the planner class it wraps."""
 
-    ``reads_truth``: the evaluation runner binds it to the env (:meth:`bind_truth`) before its first act;
-    no other registered policy declares it. Unbound, :meth:`act` raises ``RuntimeError``. The snapshot
-    passed to :meth:`act` is ignored: the oracle reads the true one off the bound env.
-    """
-
-    name = "oracle"
     reads_truth = True
-
-    def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None, name: str | None = None) -> None:
-        if config.kernels.compiled:
-            raise ValueError("the oracle plans with the numpy kernels: kernels.compiled must be false (its registry "
-                             "entry sets it; the compiled kernels assume constant velocities)")
-        super().__init__(robot, config, seed, name)
-        self._env: Any = None
-        self.orca_horizon = ORCA_HORIZON_S
+    _env: Any = None
 
     def bind_truth(self, env: Any) -> None:
-        """Let the oracle read the truth of ``env`` (a ``FootstepEnv``, or a wrapper of one): the one door."""
+        """Let the planner read the truth of ``env`` (a ``FootstepEnv``, or a wrapper of one): the one door."""
         self._env = getattr(env, "unwrapped", env)
 
     @property
@@ -348,7 +338,26 @@ class OraclePlanner(PeriodAwarePlanner):
             raise RuntimeError(f"{self.name} is an upper bound that reads the true future: it acts only once bound "
                                "to its env with bind_truth(env), which the evaluation runner does for policies "
                                "with reads_truth = True")
-        return super().act(observation, true_snapshot(self._env))
+        return super().act(observation, true_snapshot(self._env))  # type: ignore[misc]
+
+
+class OraclePlanner(TruthBound, PeriodAwarePlanner):
+    """``period-aware`` told the truth (the module's doc): an upper bound, labelled so in every table.
+
+    ``reads_truth``: the evaluation runner binds it to the env (:meth:`bind_truth`) before its first act;
+    no other registered policy declares it. Unbound, :meth:`act` raises ``RuntimeError``. The snapshot
+    passed to :meth:`act` is ignored: the oracle reads the true one off the bound env.
+    """
+
+    name = "oracle"
+
+    def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None, name: str | None = None) -> None:
+        if config.kernels.compiled:
+            raise ValueError("the oracle plans with the numpy kernels: kernels.compiled must be false (its registry "
+                             "entry sets it; the compiled kernels assume constant velocities)")
+        super().__init__(robot, config, seed, name)
+        self._env: Any = None
+        self.orca_horizon = ORCA_HORIZON_S
 
     def _predict(self, snapshot: Snapshot, start: WalkStart) -> tuple[BodyModel, BodyModel, int]:
         """The body checks of the RRT and of the period search over the true future of the obstacles."""

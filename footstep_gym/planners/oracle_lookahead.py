@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from footstep_gym.planners.lookahead import LookaheadPlanner
-from footstep_gym.planners.oracle import ORCA_HORIZON_S, OraclePlanner, TruthModel, TruthPredictor, true_snapshot
+from footstep_gym.planners.oracle import ORCA_HORIZON_S, OraclePlanner, TruthBound, TruthModel, TruthPredictor
 from footstep_gym.planners.params import PlannerConfig
 from footstep_gym.planners.prediction import ObstaclePredictor
 from footstep_gym.robot import Robot
@@ -58,11 +58,11 @@ class ScheduleTruth(TruthPredictor):
         return self.free_at(points, times, safe_distance, TRUTH_STEP_S)
 
 
-class OracleLookaheadPlanner(LookaheadPlanner):
-    """``lookahead`` told the truth (the module's doc): an upper bound, labelled so in every table."""
+class OracleLookaheadPlanner(TruthBound, LookaheadPlanner):
+    """``lookahead`` told the truth (the module's doc): an upper bound, labelled so in every table. Bound to its env
+    (:meth:`bind_truth`), it binds its greedy oracle too; unbound, :meth:`act` raises ``RuntimeError``."""
 
     name = "oracle-lookahead"
-    reads_truth = True
     greedy_class = OraclePlanner
 
     def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None, name: str | None = None) -> None:
@@ -72,20 +72,9 @@ class OracleLookaheadPlanner(LookaheadPlanner):
         self._env: Any = None
 
     def bind_truth(self, env: Any) -> None:
-        """Let the planner (and its greedy oracle) read the truth of ``env``: the one door."""
-        self._env = getattr(env, "unwrapped", env)
-        self.greedy.bind_truth(self._env)
-
-    @property
-    def bound(self) -> bool:
-        return self._env is not None
-
-    def act(self, observation: Any, snapshot: Snapshot | None) -> np.ndarray:
-        if self._env is None:
-            raise RuntimeError(f"{self.name} is an upper bound that reads the true future: it acts only once bound "
-                               "to its env with bind_truth(env), which the evaluation runner does for policies "
-                               "with reads_truth = True")
-        return super().act(observation, true_snapshot(self._env))
+        """Let the planner read the truth of ``env``, and its greedy oracle with it (the same door: the runner
+        binds the planner, the planner shares it with the part of itself that plans on it)."""
+        self._env = self.greedy._env = getattr(env, "unwrapped", env)
 
     def _rollout_predictor(self, snapshot: Snapshot) -> ObstaclePredictor:
         horizon = self.config.prediction.horizon_s

@@ -40,7 +40,7 @@ def test_the_cleanrl_example_trains_saves_loads_and_submits_on_validation_seeds(
     assert doc["protocol"]["split"] == "validation" and doc["protocol"]["seeds"] == split_seeds("validation", 2)
     assert {r["tier"] for r in doc["records"]} == {"paper"} and {r["scene"] for r in doc["records"]} == {"door"}
     assert sum(r["episodes"] for r in doc["records"]) == 2
-    assert "A try on the validation split" in (tmp_path / "out" / "bench" / "benchmark.md").read_text("utf-8")
+    assert "**Development run** (validation seeds" in (tmp_path / "out" / "bench" / "benchmark.md").read_text("utf-8")
 
 
 def test_the_loaded_policy_maps_its_action_into_the_command_box(tmp_path):

@@ -21,7 +21,8 @@ It trains on the scene's ``train`` tier (``gym.make(id, tier="train")``, train-s
 ``OUT/model.pt`` (the network, the observation statistics, the command box), loads it again into a fresh network
 and submits it through :func:`footstep_gym.benchmark.evaluate` on the scene's ``paper`` tier with **validation**
 seeds: a try while developing, never a leaderboard row. For a row: one model per scene (``make_policy_fn`` is told
-the scene), every tier, ``split="test"`` and the committed rows' episodes per cell.
+the scene), every tier, ``release=True`` (the test split, from committed code, logged) and the committed rows'
+episodes per cell.
 """
 
 from __future__ import annotations

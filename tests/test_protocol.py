@@ -83,7 +83,7 @@ def test_a_release_is_refused_from_uncommitted_code(tmp_path):
 
 
 def _settings(**kw):
-    return benchmark.benchmark_settings(policies=["null-stand"], agents=None, name=None, full=False, episodes=None,
+    return benchmark.benchmark_settings(policies=["null-stand"], agents=None, name=None, episodes=None,
                                         envs=None, tiers=None, out=Path("x"), workers=1, backend="local",
                                         ray_address=None, agents_dir=None, **kw)
 

@@ -118,7 +118,6 @@ class OrcaRobot(SensingBaseline):
         speed = math.hypot(vx, vy)
         period = self.period_for(speed)
         if speed <= 1e-9:
-            direction, _ = goal_direction(snapshot)
             return self.wait_command(snapshot), {"orca_velocity": (vx, vy), "period": period}
         direction = math.atan2(vy, vx)
         off = footstep.wrap_angle(direction - snapshot.heading)

@@ -78,3 +78,38 @@ def test_safe_success_needs_the_goal_clearance_and_zmp_margin():
                 _episode(4, "timeout", 0.5, 0.02)]
     r = cell_record("FootstepDoor-v0", "door", "p", {}, episodes)
     assert (r.successes, r.safe_successes, r.safe_success_rate) == (3, 2, 0.5)
+
+
+def _records(policy: str, tier: str, rates: dict[str, list[int]], upper: bool = False) -> list:
+    """Benchmark records of ``policy`` on ``tier``: ``rates[scene/cell]`` lists each training run's successes of 10."""
+    out = []
+    for label, wins in rates.items():
+        scene, cell = label.split("/")
+        for k, w in enumerate(wins):
+            eps = [_episode(s, "goal" if s < w else "collision", 0.05, 0.01) for s in range(10)]
+            out.append(cell_record("FootstepDoor-v0", scene, policy, {}, eps, run=f"r{k}" if len(wins) > 1 else None,
+                                   scene=scene, tier=tier, cell=cell, upper_bound=upper))
+    return out
+
+
+def test_the_board_scores_normalise_between_the_anchors_and_rank_without_paper():
+    cells = {"paper": ["door/p"], "train": ["door/a", "crowd/b", "crowd/c"]}
+    reactive = _records("wait-until-clear", "train", {"door/a": [2], "crowd/b": [0], "crowd/c": [4]}) + \
+        _records("wait-until-clear", "paper", {"door/p": [10]})
+    privileged = _records("oracle", "train", {"door/a": [10], "crowd/b": [8], "crowd/c": [10]}, upper=True) + \
+        _records("oracle", "paper", {"door/p": [10]}, upper=True)
+    method = _records("mine", "train", {"door/a": [6, 8], "crowd/b": [4, 6], "crowd/c": [7, 7]}) + \
+        _records("mine", "paper", {"door/p": [0, 0]})
+    board = scores.board_scores([("wait-until-clear", False, reactive), ("oracle", True, privileged),
+                                 ("mine", False, method)], cells, reps=50)
+    mine = next(r for r in board["tiers"] if r["policy"] == "mine" and r["tier"] == "train")
+    # Balanced means: mine (0.7 + (0.5 + 0.7) / 2) / 2 = 0.65; reactive (0.2 + 0.2) / 2 = 0.2; privileged
+    # (1.0 + 0.9) / 2 = 0.95: normalised (0.65 - 0.2) / (0.95 - 0.2) = 0.6.
+    assert mine["success"] == pytest.approx(0.65) and mine["normalised"] == pytest.approx(0.6)
+    a = next(r for r in board["cells"] if r["policy"] == "mine" and r["cell"] == "door/a")
+    assert a["success"] == pytest.approx(0.7) and a["normalised"] == pytest.approx((0.7 - 0.2) / 0.8)
+    # paper is not ranked (mine scores 0 there, the reactive 1); the privileged row is not ranked at all.
+    assert [r["policy"] for r in board["ranking"]] == ["mine", "wait-until-clear"] and board["ranked_tiers"] == ["train"]
+    assert board["ranking"][0]["score"] == pytest.approx(0.65) and board["ranking"][0]["safe_score"] == pytest.approx(0.65)
+    # P(mine > reactive) over the ranked cells, two runs against one: cells a, b, c all better in both runs.
+    assert board["ranking"][0]["p_improvement"] == pytest.approx(1.0) and board["ranking"][1]["p_improvement"] is None

@@ -90,3 +90,13 @@ def test_the_jittery_walker_and_the_make_vec_figure():
     plain = speed.rollout_fn(env, 4, 2, "jitter", chunk=2)(state, keys)[2]
     seen = speed.rollout_fn(env, 4, 2, "jitter", chunk=2, observe=True)(state, keys)[2]
     assert float(seen[0]) != float(plain[0])
+
+
+def test_the_orca_figure_times_reference_crowds_and_their_array_twins():
+    """baselines/orca_speed.py's engine: the reference env's ORCA crowds of a cell, timed in pyrvo and in JAX."""
+    crowds = speed.orca_crowds("closing_in", 2)
+    assert len(crowds) == 2 and len(crowds[0].radii) == 6 and crowds[0].positions != crowds[1].positions
+    ref, rate = speed.orca_rates(crowds, 4, 2, 1)
+    assert ref > 0.0 and rate.n == 4 and rate.steps_per_s > 0.0
+    with pytest.raises(ValueError, match="is not an ORCA crowd"):
+        speed.orca_crowds("dense", 1)

@@ -234,3 +234,58 @@ def reference_rate(steps: int, workload: str, env_kwargs: dict, seed: int = 0, e
     rate = steps / (time.perf_counter() - t0)
     env.close()
     return rate
+
+
+def orca_crowds(cell: str, count: int, tier: str = "structure", seed: int = 0) -> list:
+    """``count`` reference ORCA crowds (:class:`~footstep_gym.scenarios.orca.OrcaCrowd`) of ``tier``'s ``cell``, the
+    episodes of seeds ``seed``, ``seed + 1``, ... as the reference env draws them."""
+    env = gym.make("FootstepCrowd-v0", tier=tier, tier_cell=cell).unwrapped
+    crowds = []
+    for s in range(seed, seed + count):
+        env.reset(seed=s)
+        if env.scenario.orca is None:
+            raise ValueError(f"orca_crowds: cell {cell!r} of tier {tier!r} is not an ORCA crowd")
+        crowds.append(env.scenario.orca)
+    env.close()
+    return crowds
+
+
+def orca_rates(crowds: list, n: int, steps: int, repeats: int, duration: float = 0.8) -> tuple[float, Rate]:
+    """Crowd footsteps/s of ``duration`` [s]: one reference crowd after another (pyrvo, ``OrcaCrowd.advance``) and
+    ``n`` crowds at once in JAX (:func:`footstep_gym.scenes.orca.advance` under ``jit(vmap)``, the ``crowds``
+    repeated to ``n``; median of ``repeats`` runs of ``steps`` footsteps, compile apart)."""
+    import copy
+
+    from footstep_gym.scenes import orca
+
+    ref = [copy.deepcopy(c) for c in crowds]
+    t0 = time.perf_counter()
+    for i in range(steps):
+        ref[i % len(ref)].advance(duration)
+    ref_rate = steps / (time.perf_counter() - t0)
+    c0, p = crowds[0], crowds[0].params
+    if any(c.robot_radius is not None for c in crowds):
+        raise ValueError("orca_rates: crowds that see the robot are not timed here")
+
+    def crowd_of(c: Any) -> Any:
+        return orca.crowd_of(c.positions, c.goals, c.radii, c.speeds, p.neighbor_dist, p.max_neighbors,
+                             p.time_horizon, p.safety_space, None, xp=np, dtype=np.float32)
+
+    one = [crowd_of(c) for c in crowds]
+    batch = jax.tree.map(lambda *x: jnp.asarray(np.stack([x[i % len(x)] for i in range(n)])), *one)
+    k = orca.neighbor_slots(one[0].agents.max_neighbors, len(c0.radii))
+    subs = int(orca.substeps(duration, p.time_step))
+    step = jax.jit(jax.vmap(lambda c: orca.advance(c, jnp.asarray(duration, jnp.float32), p.time_step, subs, None, k,
+                                                   jnp)))
+    t0 = time.perf_counter()
+    out = step(batch)
+    jax.block_until_ready(out)
+    compile_s = time.perf_counter() - t0
+    rates = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            batch = step(batch)[0]
+        jax.block_until_ready(batch)
+        rates.append(n * steps / (time.perf_counter() - t0))
+    return ref_rate, Rate(n, statistics.median(rates), compile_s, rates, 0)

@@ -3,7 +3,8 @@
     python baselines/orca_speed.py                        # each ORCA cell of the crowd's structure tier, N = 4096
     python baselines/orca_speed.py --sizes 256,4096 --steps 20
 
-Per cell: one reference crowd's footsteps of 0.8 s (8 ORCA steps, pyrvo through OrcaCrowd.advance) per second,
+Per cell: one reference crowd's footsteps of 0.8 s (8 ORCA steps, pyrvo through OrcaCrowd.advance, 4 footsteps of each
+of the 64 crowds after one of warm-up) per second,
 and N crowds stepped at once under jit(vmap) (the cell's first 64 episodes repeated), the median of the repeats,
 its ratio to the reference and the compile time. Engine: footstep_gym/jax/speed.py (orca_crowds, orca_rates). Quote
 the figures with the load average this prints.

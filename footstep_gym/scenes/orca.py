@@ -68,7 +68,9 @@ def _fori(xp: Any, lower: Any, upper: Any, body: Callable, init: Any) -> Any:
         return init
     import jax
 
-    return jax.lax.fori_loop(lower, upper, body, init)
+    if isinstance(lower, int) and isinstance(upper, int):
+        return jax.lax.fori_loop(lower, upper, body, init)
+    return jax.lax.fori_loop(xp.asarray(lower, xp.int32), xp.asarray(upper, xp.int32), body, init)
 
 
 def _argsort(xp: Any, a: Any) -> Any:
@@ -171,7 +173,8 @@ def linear_program2(lines: tuple, valid: Any, radius: Any, opt: tuple, direction
         now = violated & ~ok
         return failed | now, xp.where(now, i, fail_line), x, y
 
-    return _fori(xp, 0, k, body, (failed, fail_line, x, y))
+    # Lines past every agent's last are not there: the loop stops at the last one (under vmap, the batch's).
+    return _fori(xp, 0, xp.max(xp.sum(valid, axis=1), initial=0), body, (failed, fail_line, x, y))
 
 
 def linear_program3(lines: tuple, valid: Any, begin: Any, radius: Any, x: Any, y: Any,
@@ -203,7 +206,10 @@ def linear_program3(lines: tuple, valid: Any, begin: Any, radius: Any, x: Any, y
         distance = xp.where(violated, m(dix[:, 0], piy[:, 0] - y) - m(diy[:, 0], pix[:, 0] - x), distance)
         return distance, x, y
 
-    _, x, y = _fori(xp, 0, k, body, (xp.zeros(x.shape, dtype=xp.float32), x, y))
+    # From the first line any agent starts at (none: no iteration) to the last line any agent has.
+    lower = xp.minimum(xp.min(begin, initial=k), k)
+    upper = xp.max(xp.sum(valid, axis=1), initial=0)
+    _, x, y = _fori(xp, lower, xp.maximum(lower, upper), body, (xp.zeros(x.shape, dtype=xp.float32), x, y))
     return x, y
 
 

@@ -31,7 +31,8 @@ __all__ = ["walk", "verdict", "WalkResult", "GaitTiming", "model_path", "env_for
 FAR = 1000.0
 
 
-def _robot(robot: Robot | Mapping[str, Any] | str) -> Robot:
+def as_robot(robot: Robot | Mapping[str, Any] | str) -> Robot:
+    """``robot`` as a :class:`Robot` (a profile name or a mapping of keys is loaded)."""
     return robot if isinstance(robot, Robot) else load_robot(robot)
 
 
@@ -51,7 +52,7 @@ def walk(commands: Any, robot: Robot | Mapping[str, Any] | str = "op3", seed: in
     by up to ±0.01 rad, drawn from it. Commands must lie in the robot's box (the env would clip them).
     """
     cmd = _commands(commands)
-    rob = _robot(robot)
+    rob = as_robot(robot)
     return walk_plan(shared_op3(), gait_plan(rob, cmd, timing), cmd, seed)
 
 
@@ -60,7 +61,7 @@ def env_for_verdict(robot: Robot | Mapping[str, Any] | str = "op3", max_steps: i
     the goal as far, no start jitter, no time limit within ``max_steps`` footsteps of the longest period."""
     from footstep_gym.env import FootstepEnv
 
-    rob = _robot(robot)
+    rob = as_robot(robot)
     longest = float(rob.command_high[3] + rob.command_high[4])
     return FootstepEnv("crossing", robot=robot if not isinstance(robot, Robot) else _robot_keys(robot),
                        crossing_x=FAR, goal=[FAR, 0.0], start=[0.0, 0.0], start_yaw=0.0, start_jitter=0.0,

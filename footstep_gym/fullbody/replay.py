@@ -40,14 +40,14 @@ def record_episodes(policy: str, env_id: str, seeds: Sequence[int], tier: str = 
     """Run ``policy`` (a name of :func:`footstep_gym.make_policy`; ``run`` for an agent) on ``env_id``'s ``cell``
     of ``tier`` with ``robot``, one episode per seed, and keep what each did."""
     from footstep_gym import make_policy
+    from footstep_gym.evaluation.runner import bind_truth
 
     env = gym.make(env_id, robot=robot, tier=tier, tier_cell=cell)
     out = []
     try:
         for seed in seeds:
             pol = make_policy(policy, env.unwrapped.robot, seed=seed, run=run)
-            if getattr(pol, "reads_truth", False) is True:  # the oracle (privileged): it reads the env itself
-                pol.bind_truth(env.unwrapped)
+            bind_truth(pol, env)  # the privileged planners read the env itself; the others get nothing
             obs, _ = env.reset(seed=seed)
             pol.reset(seed=seed)
             commands, info = [], {}
@@ -123,11 +123,11 @@ def write_video(commands: np.ndarray, path: str | Path, robot: Any = "op3", fps:
     from footstep_gym.fullbody.model import shared_op3
     from footstep_gym.fullbody.plan import gait_plan
     from footstep_gym.fullbody.walker import walk_plan
-    from footstep_gym.fullbody import _robot
+    from footstep_gym.fullbody import as_robot
 
     op3 = shared_op3()
     cmd = np.atleast_2d(np.asarray(commands, dtype=float))
-    plan = gait_plan(_robot(robot), cmd)
+    plan = gait_plan(as_robot(robot), cmd)
     every = max(1, int(round(1.0 / (fps * (plan.t[1] - plan.t[0])))))
     with mujoco.Renderer(op3.model, height=size[1], width=size[0]) as renderer:
         result = walk_plan(op3, plan, cmd, render=renderer, render_every=every)

@@ -35,7 +35,7 @@ import numpy as np
 
 import footstep_gym  # noqa: F401
 from footstep_gym.jax.autoreset import step_autoreset
-from footstep_gym.jax.env import FootstepJaxEnv, chunked_vmap
+from footstep_gym.jax.env import FootstepJaxEnv
 
 WORKLOADS = ("random", "walk", "jitter")
 WALK = (0.05, 0.08, 0.0, 0.6, 0.2)
@@ -90,7 +90,7 @@ def rollout_fn(env: FootstepJaxEnv, n: int, steps: int, workload: str, chunk: in
             actions = jnp.clip(walk + jitter * jax.random.normal(k_act, (local, 5), jnp.float32), low, high)
         else:
             actions = jnp.broadcast_to(walk, (local, 5))
-        out = chunked_vmap(functools.partial(step_autoreset, env), state, actions, chunk)
+        out = step_autoreset(env, state, actions, chunk)
         if observe:
             total = total + jnp.sum(out.obs).astype(total.dtype)
         return (out.state, key, total + jnp.sum(out.reward)), None

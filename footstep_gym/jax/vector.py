@@ -19,7 +19,7 @@ from gymnasium.vector.utils import batch_space
 
 from footstep_gym.errors import ActionError, ConfigError
 from footstep_gym.jax import autoreset, shapes, speed
-from footstep_gym.jax.env import REWARD_TERMS, TERMINATION_CODES, FootstepJaxEnv, chunked_vmap, termination_name
+from footstep_gym.jax.env import REWARD_TERMS, TERMINATION_CODES, FootstepJaxEnv, termination_name
 
 #: ``info`` keys returned per step (arrays of ``num_envs``), each with Gymnasium's ``_key`` mask.
 INFO_KEYS = ("is_success", "termination", "feasible", "collision", "clipped", "time", "period", "steps",
@@ -115,11 +115,7 @@ class FootstepVectorEnv(VectorEnv):
     def _step_batch(self, state: Any, actions: jax.Array, reset_mask: jax.Array, same_step: bool) -> tuple:
         env = self.jax_env
 
-        def one(state_mask: tuple, action: jax.Array) -> autoreset.AutoresetStep:
-            s, m = state_mask
-            return autoreset.step_autoreset(env, s, action, reset=None if same_step else m)
-
-        out = chunked_vmap(one, (state, reset_mask), actions, self.chunk)
+        out = autoreset.step_autoreset(env, state, actions, self.chunk, reset=None if same_step else reset_mask)
         info = self._host_info(out.info)  # the rest is not computed
         if same_step:
             return out.state, out.obs, out.step_obs, out.reward, out.terminated, out.truncated, info

@@ -26,7 +26,7 @@ from gymnasium import spaces
 from gymnasium.wrappers.utils import rescale_box
 
 from footstep_gym.jax.autoreset import step_autoreset
-from footstep_gym.jax.env import FootstepJaxEnv, chunked_vmap
+from footstep_gym.jax.env import FootstepJaxEnv
 from footstep_gym.rl import brax_import  # noqa: F401  (Brax, imported before the next line)
 from brax.envs.base import Env, State, Wrapper  # noqa: E402,I001
 
@@ -91,9 +91,10 @@ class FootstepBraxEnv(Env):
         return action_to_command(action, self.gradient, self.intercept)
 
     @staticmethod
-    def _stepped(state: State, pipeline_state: Any, obs: jax.Array, reward: jax.Array, terminated: jax.Array,
+    def stepped(state: State, pipeline_state: Any, obs: jax.Array, reward: jax.Array, terminated: jax.Array,
                  truncated: jax.Array, info: dict[str, Any]) -> State:
-        """The Brax state after a footstep from ``state`` (the footstep env's step's outputs)."""
+        """The Brax state after a footstep from ``state`` (the footstep env's step's outputs; one env, or a batch
+        whose leaves lead with the env axis)."""
         reward, done = reward.astype(jnp.float32), (terminated | truncated).astype(jnp.float32)
         keep = 1.0 - state.info["episode_done"]  # a new episode's sums start afresh
         totals = state.info["episode_metrics"]
@@ -105,19 +106,14 @@ class FootstepBraxEnv(Env):
 
     def step(self, state: State, action: jax.Array) -> State:
         """One footstep of the agent's action (in ``[-1, 1]``); ``done`` on a termination or truncation."""
-        return self._stepped(state, *self.env.step(state.pipeline_state, self.command(action)))
-
-    def step_and_reset(self, state: State, action: jax.Array) -> State:
-        """:meth:`step`, and where the episode ends a fresh one in its place, drawn from the footstep state's own
-        key (:func:`footstep_gym.jax.autoreset.step_autoreset`); the reward, ``done`` and ``info`` of the step
-        that ended it are kept, ``obs`` is the fresh episode's."""
-        out = step_autoreset(self.env, state.pipeline_state, self.command(action))
-        return self._stepped(state, out.state, out.obs, out.reward, out.terminated, out.truncated, out.info)
+        return self.stepped(state, *self.env.step(state.pipeline_state, self.command(action)))
 
 
 class BatchedAutoReset(Wrapper):
-    """A batch of :class:`FootstepBraxEnv` (leaves lead with the env axis), stepped ``chunk`` envs at a time with
-    same-step resets (:meth:`FootstepBraxEnv.step_and_reset`); what :func:`wrap_for_training` returns."""
+    """A batch of :class:`FootstepBraxEnv` (leaves lead with the env axis), stepped ``chunk`` envs at a time, each
+    episode that ends replaced in the same step by a fresh one drawn from the footstep state's own key (the JAX
+    env's autoreset, :func:`footstep_gym.jax.autoreset.step_autoreset`): the reward, ``done`` and ``info`` of the
+    step that ended it are kept, ``obs`` is the fresh episode's. What :func:`wrap_for_training` returns."""
 
     def __init__(self, env: FootstepBraxEnv, chunk: int = 64) -> None:
         super().__init__(env)
@@ -130,7 +126,8 @@ class BatchedAutoReset(Wrapper):
         return jax.vmap(self.env.reset)(rng)
 
     def step(self, state: State, action: jax.Array) -> State:
-        return chunked_vmap(self.env.step_and_reset, state, action, self.chunk)
+        out = step_autoreset(self.env.env, state.pipeline_state, self.env.command(action), self.chunk)
+        return self.env.stepped(state, out.state, out.obs, out.reward, out.terminated, out.truncated, out.info)
 
 
 def wrap_for_training(env: FootstepBraxEnv, episode_length: int | None = None, action_repeat: int = 1,

@@ -44,11 +44,11 @@ from __future__ import annotations
 import cmath
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from footstep_gym import footstep
+from footstep_gym import footstep, scalars
 from footstep_gym.robot import Robot
 
 
@@ -225,96 +225,124 @@ def steady_state(robot: Robot, command: Any, support_side: int) -> tuple[complex
 
 
 # ------------------------------------------------------------------ trajectory within a step
+class ComPath(NamedTuple):
+    """The CoM's path through one step (:func:`com_path`): the closed forms' constants, complex ones complex.
+
+    Fields: ``w`` = omega [1/s]; ``t_ss`` [s] and ``end`` = ``t_ss + t_ds`` [s]; ``p`` the single-support ZMP
+    [m] and ``pd`` the double-support ZMP's velocity [m/s] (support foot's frame), ``pdw`` = ``pd / w`` [m];
+    ``a_xi``, ``a_eta`` = ``xi0 - p``, ``eta0 - p`` and ``b_xi``, ``b_eta`` = ``xi1 - p - pdw``,
+    ``eta1 - p + pdw`` [m] (``xi1``, ``eta1``: the state at the end of single support); ``origin`` [m] and the
+    unit ``rot``: the support foot in the world. The fields are scalars or arrays of one array library
+    (a JAX pytree), as the ``xp`` of the functions that read it.
+    """
+
+    w: Any
+    t_ss: Any
+    end: Any
+    p: Any
+    pd: Any
+    pdw: Any
+    a_xi: Any
+    a_eta: Any
+    b_xi: Any
+    b_eta: Any
+    origin: Any
+    rot: Any
+
+
+def com_path(xp: Any, omega: float, xi0: Any, eta0: Any, p: Any, q: Any, t_ss: Any, t_ds: Any,
+             origin: Any = 0j, rot: Any = 1 + 0j) -> ComPath:
+    """The path of a step from the start state ``xi0, eta0`` (relative to the support foot ``F``): single support
+    for ``t_ss`` [s] with the ZMP at ``p``, then the ramp to ``q`` in ``t_ds`` [s] (complex, ``F``'s frame)."""
+    xi1 = p + (xi0 - p) * xp.exp(omega * t_ss)
+    eta1 = p + (eta0 - p) * xp.exp(-omega * t_ss)
+    pd = (q - p) / t_ds
+    pdw = pd / omega
+    return ComPath(omega, t_ss, t_ss + t_ds, p, pd, pdw, xi0 - p, eta0 - p, xi1 - p - pdw, eta1 - p + pdw, origin, rot)
+
+
+def com_state(xp: Any, path: ComPath, t: Any) -> tuple[Any, Any]:
+    """CoM ``(position, velocity)`` [m, m/s] (complex, the support foot's frame) at ``t`` [s] after the step's
+    start (held at the end after ``path.end``); ``xp``: :mod:`footstep_gym.scalars`, ``numpy`` or
+    ``jax.numpy`` (``t`` of any shape there)."""
+    w, p = path.w, path.p
+    single = t <= path.t_ss
+    tau = xp.where(path.end < t, path.end, t) - path.t_ss
+    s = xp.where(single, t, tau)
+    e_up, e_down = xp.exp(w * s), xp.exp((-w) * s)
+    pt = p + path.pd * tau
+    xi = xp.where(single, p + path.a_xi * e_up, pt + path.pdw + path.b_xi * e_up)
+    eta = xp.where(single, p + path.a_eta * e_down, pt - path.pdw + path.b_eta * e_down)
+    return 0.5 * (xi + eta), 0.5 * w * (xi - eta)
+
+
+def com_world(xp: Any, path: ComPath, t: Any) -> tuple[Any, Any]:
+    """The CoM's world ``(x, y)`` [m] at ``t`` [s]: ``origin + position * rot`` of :func:`com_state`."""
+    c, _ = com_state(xp, path, t)
+    z = path.origin + c * path.rot
+    return z.real, z.imag
+
+
+def com_speed_bound(xp: Any, path: ComPath, t_ds: Any) -> Any:
+    """An upper bound of the CoM speed [m/s] over the whole step (``t_ds`` [s]: its double support).
+
+    In single support ``v = omega/2 ((xi - p) - (eta - p))`` with ``|xi - p|`` growing and ``|eta - p|``
+    shrinking monotonically; the ramp adds ``pd``.
+    """
+    w = path.w
+    ss = 0.5 * w * (xp.abs(path.a_xi) * xp.exp(w * path.t_ss) + xp.abs(path.a_eta))
+    ds = xp.abs(path.pd) + 0.5 * w * (xp.abs(path.b_xi) * xp.exp(w * t_ds) + xp.abs(path.b_eta))
+    return xp.maximum(ss, ds)
+
+
 class StepTrajectory:
     """CoM path ``c(t)`` through one step, in the support foot's frame (complex), for ``0 <= t <= T``.
 
     Single support with the ZMP at ``p``, then the ramp from ``p`` to ``q``; closed forms
-    only. :meth:`speed_bound` is a rigorous upper bound of ``|v(t)|`` over the step.
+    only (:func:`com_path`, :func:`com_state` on Python numbers). :meth:`speed_bound` is a rigorous
+    upper bound of ``|v(t)|`` over the step.
     """
 
-    __slots__ = ("omega", "p", "q", "t_ss", "t_ds", "xi0", "eta0", "xi1", "eta1", "pdot")
+    __slots__ = ("t_ss", "t_ds", "path")
 
     def __init__(self, omega: float, com: complex, vel: complex, p: complex, q: complex,
                  t_ss: float, t_ds: float) -> None:
-        self.omega, self.p, self.q, self.t_ss, self.t_ds = omega, p, q, t_ss, t_ds
-        self.xi0, self.eta0 = to_dcm(com, vel, omega)
-        self.xi1 = p + (self.xi0 - p) * math.exp(omega * t_ss)
-        self.eta1 = p + (self.eta0 - p) * math.exp(-omega * t_ss)
-        self.pdot = (q - p) / t_ds
+        self.t_ss, self.t_ds = t_ss, t_ds
+        xi0, eta0 = to_dcm(com, vel, omega)
+        self.path = com_path(scalars, omega, xi0, eta0, p, q, t_ss, t_ds)
 
     def state(self, t: float) -> tuple[complex, complex]:
         """``(c, v)`` at time ``t`` [s] after the start of the step."""
-        w, p = self.omega, self.p
-        if t <= self.t_ss:
-            xi = p + (self.xi0 - p) * math.exp(w * t)
-            eta = p + (self.eta0 - p) * math.exp(-w * t)
-        else:
-            tau = min(t, self.t_ss + self.t_ds) - self.t_ss
-            pd = self.pdot
-            pt = p + pd * tau
-            xi = pt + pd / w + (self.xi1 - p - pd / w) * math.exp(w * tau)
-            eta = pt - pd / w + (self.eta1 - p + pd / w) * math.exp(-w * tau)
-        return 0.5 * (xi + eta), 0.5 * w * (xi - eta)
+        return com_state(scalars, self.path, t)
 
     def world_path(self, origin: complex, rot: complex) -> "WorldPath":
         """The CoM's path in the world, ``t -> (x, y)``, for a support foot at ``origin`` turned by ``rot``."""
-        return WorldPath(self, origin, rot)
+        return WorldPath(ComPath._make(self.path[:10] + (origin, rot)))
 
     def speed_bound(self) -> float:
-        """An upper bound of the CoM speed over the whole step [m/s].
-
-        In single support ``v = omega/2 ((xi - p) - (eta - p))`` with ``|xi - p|`` growing
-        and ``|eta - p|`` shrinking monotonically; the ramp adds ``pdot``.
-        """
-        w, p, pd = self.omega, self.p, self.pdot
-        ss = 0.5 * w * (abs(self.xi0 - p) * math.exp(w * self.t_ss) + abs(self.eta0 - p))
-        ds = abs(pd) + 0.5 * w * (abs(self.xi1 - p - pd / w) * math.exp(w * self.t_ds)
-                                  + abs(self.eta1 - p + pd / w))
-        return max(ss, ds)
+        """An upper bound of the CoM speed over the whole step [m/s] (:func:`com_speed_bound`)."""
+        return com_speed_bound(scalars, self.path, self.t_ds)
 
 
 class WorldPath:
-    """``t -> (x, y)``: a :class:`StepTrajectory`'s CoM position in the world (support foot at ``origin``,
-    turned by the unit complex ``rot``).
+    """``t -> (x, y)``: a step's CoM position in the world (:func:`com_world` of its :class:`ComPath`).
 
-    The same floating-point operations as ``origin + trajectory.state(t)[0] * rot`` (so the same
-    bits), with the step's constants computed once. :attr:`sweep_params` hands them to the
-    compiled collision sweep (:mod:`footstep_gym.kernels.sweep`), which evaluates the same
-    expressions.
+    :attr:`sweep_params` hands the path's constants to the compiled collision sweep
+    (:mod:`footstep_gym.kernels.sweep`), which evaluates the same function compiled.
     """
 
-    __slots__ = ("w", "nw", "p", "t_ss", "end", "pd", "pdw", "a_xi", "a_eta", "b_xi", "b_eta", "origin", "rot")
+    __slots__ = ("path",)
 
-    def __init__(self, traj: StepTrajectory, origin: complex, rot: complex) -> None:
-        self.w, self.p, self.t_ss, self.pd = traj.omega, traj.p, traj.t_ss, traj.pdot
-        self.end = traj.t_ss + traj.t_ds
-        self.nw = -traj.omega
-        self.pdw = self.pd / self.w
-        self.a_xi, self.a_eta = traj.xi0 - self.p, traj.eta0 - self.p
-        self.b_xi, self.b_eta = traj.xi1 - self.p - self.pdw, traj.eta1 - self.p + self.pdw
-        self.origin, self.rot = origin, rot
+    def __init__(self, path: ComPath) -> None:
+        self.path = path
 
     def __call__(self, t: float) -> tuple[float, float]:
-        p, w, exp = self.p, self.w, math.exp
-        if t <= self.t_ss:
-            xi = p + self.a_xi * exp(w * t)
-            eta = p + self.a_eta * exp(self.nw * t)
-        else:
-            end = self.end
-            tau = (end if end < t else t) - self.t_ss
-            pd, pdw = self.pd, self.pdw
-            pt = p + pd * tau
-            xi = pt + pdw + self.b_xi * exp(w * tau)
-            eta = pt - pdw + self.b_eta * exp(self.nw * tau)
-        z = self.origin + 0.5 * (xi + eta) * self.rot
-        return (z.real, z.imag)
+        return com_world(scalars, self.path, t)
 
     @property
     def sweep_params(self) -> list[float]:
-        """``[w, t_ss, end, p, pd, pd / w, a_xi, a_eta, b_xi, b_eta, origin, rot]``, complex ones as two floats
+        """``[w, t_ss, end, p, pd, pdw, a_xi, a_eta, b_xi, b_eta, origin, rot]``, complex ones as two floats
         (the layout of :mod:`footstep_gym.kernels.sweep`'s parameters)."""
-        p, pd, pdw, a_xi, a_eta, b_xi, b_eta, o, r = (self.p, self.pd, self.pdw, self.a_xi, self.a_eta, self.b_xi,
-                                                     self.b_eta, self.origin, self.rot)
-        return [self.w, self.t_ss, self.end, p.real, p.imag, pd.real, pd.imag, pdw.real, pdw.imag, a_xi.real,
-                a_xi.imag, a_eta.real, a_eta.imag, b_xi.real, b_xi.imag, b_eta.real, b_eta.imag, o.real, o.imag,
-                r.real, r.imag]
+        w, t_ss, end, p, pd, pdw, a_xi, a_eta, b_xi, b_eta, o, r = self.path
+        return [w, t_ss, end, p.real, p.imag, pd.real, pd.imag, pdw.real, pdw.imag, a_xi.real, a_xi.imag, a_eta.real,
+                a_eta.imag, b_xi.real, b_xi.imag, b_eta.real, b_eta.imag, o.real, o.imag, r.real, r.imag]

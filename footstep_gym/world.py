@@ -50,6 +50,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 import pymunk
 
+from footstep_gym import collision, scalars
 from footstep_gym.sensing import ObstacleView, nearest_on_segment
 
 _ROBOT = 0b01
@@ -89,7 +90,7 @@ class Obstacle:
     static: bool = False  # on the space's static body (never moves)
 
     def __post_init__(self) -> None:
-        self._reach = max(math.hypot(*self.local_a), math.hypot(*self.local_b)) + self.radius
+        self._reach = collision.shape_reach(scalars, *self.local_a, *self.local_b, self.radius)
 
     @property
     def body(self) -> pymunk.Body:
@@ -223,7 +224,7 @@ class World:
         best = 0.0
         for o in self._moving:
             v = o.body.velocity
-            best = max(best, math.hypot(v.x, v.y) + abs(o.body.angular_velocity) * o._reach)
+            best = max(best, collision.body_speed(scalars, v.x, v.y, o.body.angular_velocity, o._reach))
         return best
 
     def clearance(self, point: tuple[float, float], horizon: float) -> tuple[float, Obstacle | None]:
@@ -339,8 +340,8 @@ class World:
                     if o.kind != "segment":
                         raise ValueError(f"World: static obstacle {o.name!r} of kind {o.kind!r}; only static "
                                          "segments are supported")
-                    dx, dy = ax - bx, ay - by  # the static body's frame is the world's
-                    rows.append((kernel.STATIC_SEGMENT, -1, ax, ay, bx, by, dx, dy, dx * dx + dy * dy, o.radius))
+                    dx, dy, l2 = collision.segment_frame(ax, ay, bx, by)  # the static body's frame is the world's
+                    rows.append((kernel.STATIC_SEGMENT, -1, ax, ay, bx, by, dx, dy, l2, o.radius))
                 elif o.kind == "segment":
                     rows.append((kernel.MOVING_SEGMENT, index[id(o)], ax, ay, bx, by, o.radius, 0.0, 0.0, 0.0))
                 else:  # a circle on its body's origin (add_circle)
@@ -397,7 +398,7 @@ class World:
             (px, py), (vx, vy) = body.position, body.velocity
             w = body.angular_velocity
             states.append([px, py, body.angle, vx + 0.0, vy + 0.0, w + 0.0, 0.0])
-            obstacle_speed = max(obstacle_speed, math.hypot(vx, vy) + abs(w) * o._reach)
+            obstacle_speed = max(obstacle_speed, collision.body_speed(scalars, vx, vy, w, o._reach))
         speed, fine, capped = self._spacing(duration, robot_speed_bound, obstacle_speed)
         cached = self._cached_states
         # Pymunk's shapes sit where their bodies are (else the first check asks pymunk, which sees the cached places).
@@ -432,7 +433,7 @@ class World:
             t, px, py = fval[0], fval[4], fval[5]
             if ival[3]:
                 self._write_back(st_arr.tolist(), states)
-            dist, hit = self.clearance((float(px), float(py)), radius + speed * (duration - t) + 1e-9)
+            dist, hit = self.clearance((float(px), float(py)), collision.horizon(radius, speed, duration, t))
             ival[4], ival[2], fval[3] = 1, -1 if hit is None else row_of[hit.shape], dist
         t, nearest, self.time, dist, px, py = fval.tolist()
         final = st_arr.tolist()
@@ -456,21 +457,17 @@ class World:
         if not math.isfinite(speed):
             raise ValueError(f"sweep: robot speed bound {robot_speed_bound!r} m/s + obstacles' "
                              f"{obstacle_speed!r} m/s is not finite")
-        fine = self.max_check_interval
-        if speed > 0:
-            fine = min(fine, self.motion_fraction * radius / speed)
-        floor = duration / self.max_checks * (1.0 + 1e-9)  # the slack absorbs rounding in the sum of the steps
-        capped = fine < floor
+        fine, capped = collision.check_spacing(scalars, duration, speed, self.max_check_interval, self.motion_fraction,
+                                               radius, self.max_checks)
         if capped:
             if not self._warned_cap:
                 self._warned_cap = True
                 warnings.warn(
                     f"World.sweep: a {duration:.3g} s footstep with things moving up to {speed:.3g} m/s (body "
-                    f"radius {radius:g} m) needs checks {fine:.3g} s apart, more than max_sweep_checks="
-                    f"{self.max_checks}; they are spaced {floor:.3g} s apart instead, so a contact may be found "
+                    f"radius {radius:g} m) needs checks closer than max_sweep_checks={self.max_checks} allows; "
+                    f"they are spaced {fine:.3g} s apart instead, so a contact may be found "
                     "late or missed. Keep speeds within the scenario's max_* bounds for exact collisions.",
                     RuntimeWarning, stacklevel=3)
-            fine = floor
         return speed, fine, capped
 
     def sweep_pymunk(self, path: Callable[[float], tuple[float, float]], duration: float,
@@ -483,19 +480,16 @@ class World:
         t, checks, nearest = 0.0, 0, math.inf
         while True:
             point = path(t)
-            horizon = radius + speed * (duration - t) + 1e-9
-            dist, hit = self.clearance(point, horizon)
+            dist, hit = self.clearance(point, collision.horizon(radius, speed, duration, t))
             checks += 1
-            if hit is not None:
-                nearest = min(nearest, dist)
-            if hit is not None and dist < radius:
+            verdict, nearest, dt, t_next = collision.after_check(scalars, t, dist, hit is not None, nearest, duration,
+                                                                 radius, speed, fine)
+            if verdict == collision.CONTACT:
                 self.robot_body.position = point
                 return SweepResult(True, t, hit.name, checks, dist - radius, capped)
-            if t >= duration:
+            if verdict == collision.END:
                 break
-            remaining = duration - t
-            dt = remaining if speed <= 0 else min(remaining, max(fine, (dist - radius) / speed))
             self.advance(dt)
-            t = duration if dt >= remaining else t + dt
+            t = t_next
         self.robot_body.position = path(duration)
         return SweepResult(False, duration, None, checks, nearest - radius, capped)

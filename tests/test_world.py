@@ -435,8 +435,9 @@ def test_compiled_sweep_covers_contacts_and_far_footsteps():
 
 
 def test_shape_distance_is_pymunks_point_query_bit_for_bit():
-    """The kernel's distance to a static segment, a turned and moved segment and a circle, at random points
-    (and at points on the segment's line and ends), against pymunk's ``Shape.point_query``."""
+    """The distance to a static segment, a turned and moved segment and a circle (``footstep_gym.collision``, compiled
+    in the kernel and run on Python numbers), at random points (and at points on the segment's line and ends),
+    against pymunk's ``Shape.point_query``."""
     from footstep_gym.kernels import sweep as kernel
 
     rng = np.random.default_rng(7)
@@ -450,9 +451,10 @@ def test_shape_distance_is_pymunks_point_query_bit_for_bit():
     points += [(x, 0.3) for x in (-1.0, -0.5, 0.0, 1.0, 1.5)] + [(-1.0, 0.31), (1.0, 0.3 + 1e-17)]
     for j, o in enumerate(world.obstacles):
         for q in points:
-            got = kernel._shape_distance(j, q[0], q[1], table, states)
             want = o.shape.point_query(q).distance
-            assert got == want or (math.isnan(got) and math.isnan(want)), (o.name, q, got, want)
+            for got in (kernel._shape_distance(j, q[0], q[1], table, states),
+                        kernel._shape_distance_py(j, q[0], q[1], table, states)):
+                assert got == want or (math.isnan(got) and math.isnan(want)), (o.name, q, got, want)
 
 
 def test_world_path_is_the_trajectory_bit_for_bit():
@@ -465,9 +467,10 @@ def test_world_path_is_the_trajectory_bit_for_bit():
         prm = np.zeros(kernel.N_PARAMS)
         prm[:21] = path.sweep_params
         for t in [0.0, traj.t_ss, traj.t_ss + traj.t_ds, 2.0, *rng.uniform(0, traj.t_ss + traj.t_ds, 20)]:
-            z = path.origin + traj.state(t)[0] * path.rot
+            z = path.path.origin + traj.state(t)[0] * path.path.rot
             assert path(t) == (z.real, z.imag)
             assert kernel._path(t, prm) == (z.real, z.imag)
+            assert kernel._path_py(t, prm) == (z.real, z.imag)
 
 
 # ------------------------------------------------------------------ the compiled sweep switched off in the env

@@ -1,13 +1,13 @@
 """The world's shapes as arrays, their distances, the collision sweep and the nearest shapes (pure JAX).
 
-The batched twin of :mod:`footstep_gym.world` and :mod:`footstep_gym.sweep_kernel` for one env (``jax.vmap``
-batches it): static walls are thick segments in world coordinates (:class:`Walls`), each moving obstacle a
-thick segment on a kinematic body (:class:`Rods`: its pose, velocity and turn rate; a circle on its body's
-origin is a segment of zero length, whose Chipmunk distance is the circle's). Distances use the
-operations of Chipmunk's point queries (the compiled sweep's), the observation's nearest shapes those of
-``World.nearest``, and the sweep is the reference's conservative advancement check for check (docs/model.md
-§4.1): the same instants, the same first contact, the same bodies' poses, up to the last bits of libm's
-``exp``/``sin``/``cos`` (XLA's differ from the C library's by an ulp here and there).
+The batched form of :mod:`footstep_gym.world`'s sweep for one env (``jax.vmap`` batches it): static walls are
+thick segments in world coordinates (:class:`Walls`), each moving obstacle a thick segment on a kinematic body
+(:class:`Rods`: its pose, velocity and turn rate; a circle on its body's origin is a segment of zero length,
+whose Chipmunk distance is the circle's). Each check is :mod:`footstep_gym.collision`'s arithmetic run with
+``jax.numpy`` (Chipmunk's point queries, conservative advancement: the reference's and the compiled sweep's,
+written once; docs/model.md §4.1), so the sweep is the reference's check for check: the same instants, the same
+first contact, the same bodies' poses, up to the last bits of libm's ``exp``/``sin``/``cos`` (XLA's differ from
+the C library's by an ulp here and there). The observation's nearest shapes use ``World.nearest``'s arithmetic.
 
 **How the sweep runs.** The reference takes one check at a time, each check's distance setting the interval to
 the next. Here a ``lax.while_loop`` runs until the sweep ends, each of its iterations taking ``block`` checks one
@@ -25,11 +25,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from footstep_gym import collision
+
 #: Collision checks per iteration of the sweep's loop (:func:`sweep`'s ``block``): speed only, never the answers.
 DEFAULT_BLOCK = 2
-
-#: [m] added to the sweep's horizon (the reference's ``radius + speed * (duration - t) + 1e-9``).
-HORIZON_SLACK = 1e-9
 
 
 class Walls(NamedTuple):
@@ -55,49 +54,35 @@ class Rods(NamedTuple):
 
     def reach(self) -> jax.Array:
         """Farthest distance of each rod's surface from its body's origin [m] (``Obstacle.reach``)."""
-        return jnp.maximum(jnp.hypot(self.a[:, 0], self.a[:, 1]), jnp.hypot(self.b[:, 0], self.b[:, 1])) + self.r
+        return collision.shape_reach(jnp, self.a[:, 0], self.a[:, 1], self.b[:, 0], self.b[:, 1], self.r)
 
     def max_speed(self) -> jax.Array:
         """Largest speed [m/s] of any point of any rod (``World.max_obstacle_speed``; 0 with no rods)."""
-        v = jnp.hypot(self.velocity[:, 0], self.velocity[:, 1]) + jnp.abs(self.angular_velocity) * self.reach()
+        v = collision.body_speed(jnp, self.velocity[:, 0], self.velocity[:, 1], self.angular_velocity, self.reach())
         return jnp.max(v, initial=0.0)
 
     def moved(self, dt: Any) -> "Rods":
         """The rods ``dt`` [s] later (pymunk's kinematic update: ``p += v dt``, ``angle += w dt``), where
         ``dt > 0``; unchanged elsewhere (the reference does not step its space for a zero interval)."""
         go = dt > 0
-        return self._replace(position=jnp.where(go, self.position + self.velocity * dt, self.position),
-                             angle=jnp.where(go, self.angle + self.angular_velocity * dt, self.angle))
+        return self._replace(position=jnp.where(go, collision.moved(self.position, self.velocity, dt), self.position),
+                             angle=jnp.where(go, collision.moved(self.angle, self.angular_velocity, dt), self.angle))
 
 
 def wall_table(walls: Walls) -> jax.Array:
     """``(W, 8)``: ``ax, ay, bx, by, ax - bx, ay - by, |a - b|^2, r`` per wall (the compiled sweep's static rows)."""
-    d = walls.a - walls.b
-    return jnp.concatenate([walls.a, walls.b, d, (d[:, :1] * d[:, :1] + d[:, 1:] * d[:, 1:]), walls.r[:, None]],
-                           axis=1)
-
-
-def _chipmunk_distance(qx, qy, ax, ay, bx, by, dx, dy, l2, r):
-    """Chipmunk's segment point query (``cpClosetPointOnSegment``, ``cpvlength``), ``d = a - b``: the surface
-    distance [m]; broadcasts."""
-    f = (dx * (qx - bx) + dy * (qy - by)) / jnp.where(l2 != 0.0, l2, 1.0)
-    f = jnp.where(l2 != 0.0, f, 1.0)
-    f = jnp.where(f < 1.0, f, 1.0)  # NaN -> 1, as cpfclamp01
-    f = jnp.where(0.0 > f, 0.0, f)
-    ex = qx - (bx + dx * f)
-    ey = qy - (by + dy * f)
-    return jnp.sqrt(ex * ex + ey * ey) - r
+    dx, dy, l2 = collision.segment_frame(walls.a[:, 0], walls.a[:, 1], walls.b[:, 0], walls.b[:, 1])
+    return jnp.concatenate([walls.a, walls.b, jnp.stack([dx, dy, l2], axis=1), walls.r[:, None]], axis=1)
 
 
 def rod_endpoints(rods: Rods, chipmunk: bool = True) -> tuple[jax.Array, ...]:
     """World endpoints ``ax, ay, bx, by`` of each rod (``(..., M)``: the rods' leaves may lead with a batch
     axis): Chipmunk's transform (the sweep's order of operations) or ``World.nearest``'s."""
-    c, s = jnp.cos(rods.angle), jnp.sin(rods.angle)
     px, py = rods.position[..., 0], rods.position[..., 1]
     lax_, lay, lbx, lby = rods.a[..., 0], rods.a[..., 1], rods.b[..., 0], rods.b[..., 1]
     if chipmunk:
-        ns = -s
-        return (c * lax_ + ns * lay + px, s * lax_ + c * lay + py, c * lbx + ns * lby + px, s * lbx + c * lby + py)
+        return collision.body_segment(jnp, px, py, rods.angle, lax_, lay, lbx, lby)[:4]
+    c, s = jnp.cos(rods.angle), jnp.sin(rods.angle)
     return (px + c * lax_ - s * lay, py + s * lax_ + c * lay, px + c * lbx - s * lby, py + s * lbx + c * lby)
 
 
@@ -106,10 +91,11 @@ def distances(qx: jax.Array, qy: jax.Array, table: jax.Array, rods: Rods) -> jax
     ``(B, W + M)``; the rods' leaves lead with ``B`` (each point's own instant)."""
     qx, qy = qx[:, None], qy[:, None]
     t = table
-    d_walls = _chipmunk_distance(qx, qy, t[:, 0], t[:, 1], t[:, 2], t[:, 3], t[:, 4], t[:, 5], t[:, 6], t[:, 7])
-    ax, ay, bx, by = rod_endpoints(rods)
-    dx, dy = ax - bx, ay - by
-    d_rods = _chipmunk_distance(qx, qy, ax, ay, bx, by, dx, dy, dx * dx + dy * dy, rods.r)
+    d_walls = collision.segment_distance(jnp, qx, qy, t[:, 0], t[:, 1], t[:, 2], t[:, 3], t[:, 4], t[:, 5], t[:, 6],
+                                         t[:, 7])
+    rod_segments = collision.body_segment(jnp, rods.position[..., 0], rods.position[..., 1], rods.angle,
+                                          rods.a[..., 0], rods.a[..., 1], rods.b[..., 0], rods.b[..., 1])
+    d_rods = collision.segment_distance(jnp, qx, qy, *rod_segments, rods.r)
     return jnp.concatenate([d_walls, d_rods], axis=-1)
 
 
@@ -143,52 +129,39 @@ def sweep(path: Any, duration: jax.Array, robot_speed_bound: jax.Array, table: j
     """
     dtype = duration.dtype
     speed = robot_speed_bound + rods.max_speed()
-    fine = jnp.asarray(max_check_interval, dtype)
-    fine = jnp.where(speed > 0, jnp.minimum(fine, motion_fraction * radius / jnp.where(speed > 0, speed, 1.0)), fine)
-    floor = duration / max_checks * (1.0 + 1e-9)
-    fine = jnp.where(fine < floor, floor, fine)
+    fine, _ = collision.check_spacing(jnp, duration, speed, jnp.asarray(max_check_interval, dtype), motion_fraction,
+                                      radius, max_checks)
     inf = jnp.asarray(jnp.inf, dtype)
-
-    def next_dt(dist, t):
-        """The reference's interval after a check at ``t`` with distance ``dist``."""
-        remaining = duration - t
-        dt = (dist - radius) / jnp.where(speed > 0, speed, 1.0)
-        dt = jnp.where(dt > fine, dt, fine)
-        dt = jnp.where(dt < remaining, dt, remaining)
-        return jnp.where(speed <= 0, remaining, dt)
-
-    def advance(t, dt):
-        return jnp.where(dt >= duration - t, duration, t + dt)
 
     def body(carry):
         t, rods_now, checks, nearest, status, shape, dist = carry
         for _ in range(block):  # the reference's one-check loop, `block` checks per iteration; none after the last
-            running = status == 0
+            running = status == collision.GO
             qx, qy = path(t[None])
             seen = rods_now
             if cached is not None:  # the sweep's first check sees the shapes where pymunk cached them
                 seen = rods_now._replace(position=jnp.where(checks == 0, cached, rods_now.position))
             d = distances(qx, qy, table, jax.tree.map(lambda x: x[None], seen))[0]
-            horizon = radius + speed * (duration - t) + HORIZON_SLACK
+            horizon = collision.horizon(radius, speed, duration, t)
             dmin = jnp.min(d)
             hit = dmin < horizon
             dist_now = jnp.where(hit, dmin, horizon)
-            verdict = jnp.where(hit & (dist_now < radius), 2, jnp.where(t >= duration, 1, 0))
-            go = running & (verdict == 0)
-            dt = next_dt(dist_now, t)
-            nearest = jnp.where(running & hit, jnp.minimum(nearest, dist_now), nearest)
+            verdict, nearest_now, dt, t_next = collision.after_check(jnp, t, dist_now, hit, nearest, duration, radius,
+                                                                     speed, fine)
+            go = running & (verdict == collision.GO)
+            nearest = jnp.where(running, nearest_now, nearest)
             shape = jnp.where(running, jnp.where(hit, jnp.argmin(d), -1), shape).astype(jnp.int32)
             dist = jnp.where(running, dist_now, dist)
             checks = (checks + running).astype(jnp.int32)
             status = jnp.where(running, verdict, status).astype(jnp.int32)
             rods_now = jax.tree.map(lambda a, b: jnp.where(go, a, b), rods_now.moved(dt), rods_now)
-            t = jnp.where(go, advance(t, dt), t)
+            t = jnp.where(go, t_next, t)
         return t, rods_now, checks, nearest, status, shape, dist
 
-    carry0 = (jnp.zeros((), dtype), rods, jnp.zeros((), jnp.int32), inf, jnp.where(active, 0, 1).astype(jnp.int32),
-              jnp.full((), -1, jnp.int32), inf)
-    t, rods_end, checks, nearest, status, shape, dist = jax.lax.while_loop(lambda c: c[4] == 0, body, carry0)
-    collided = status == 2
+    status0 = jnp.where(active, collision.GO, collision.END).astype(jnp.int32)
+    carry0 = (jnp.zeros((), dtype), rods, jnp.zeros((), jnp.int32), inf, status0, jnp.full((), -1, jnp.int32), inf)
+    t, rods_end, checks, nearest, status, shape, dist = jax.lax.while_loop(lambda c: c[4] == collision.GO, body, carry0)
+    collided = status == collision.CONTACT
     clearance = jnp.where(collided, dist - radius, nearest - radius)
     return SweepResult(collided, t, jnp.where(collided, shape, -1), checks, clearance, rods_end)
 

@@ -1,10 +1,10 @@
 """The robot's footstep in JAX: the command's verdict, the CoM's path through the step and its speed bound.
 
 The verdict is :func:`footstep_gym.lipm.step_terms` and :func:`footstep_gym.footstep.kinematically_feasible`
-themselves, run with ``jax.numpy`` (written once for both array libraries). The path and its speed bound
-are :class:`footstep_gym.lipm.WorldPath` and :meth:`~footstep_gym.lipm.StepTrajectory.speed_bound` as array
-expressions (those are scalar Python with branches, the env's per-step path); ``tests/test_jax_door.py``
-checks them against the scalar ones.
+themselves, run with ``jax.numpy`` (written once for both array libraries). So are the path and its speed
+bound: :func:`footstep_gym.lipm.com_path`, :func:`~footstep_gym.lipm.com_state` and
+:func:`~footstep_gym.lipm.com_speed_bound`, which the reference env runs on Python numbers;
+``tests/test_jax_door.py`` checks the two runs against each other.
 """
 
 from __future__ import annotations
@@ -48,63 +48,26 @@ def verdict(robot: Robot, com: jax.Array, vel: jax.Array, command: jax.Array, su
     return Verdict(kin_ok, zmp_ok, p, c_end, v_end, xi0, eta0)
 
 
-class Path(NamedTuple):
-    """The CoM's path through one step in the world (``WorldPath``'s constants; complex ones complex)."""
+class Path(lipm.ComPath):
+    """The CoM's path through one step in the world: :class:`footstep_gym.lipm.ComPath` of JAX arrays, read with
+    ``jax.numpy`` by :func:`footstep_gym.lipm.com_state` and :func:`~footstep_gym.lipm.com_world`."""
 
-    w: float
-    t_ss: jax.Array
-    end: jax.Array
-    p: jax.Array
-    pd: jax.Array
-    pdw: jax.Array
-    a_xi: jax.Array
-    a_eta: jax.Array
-    b_xi: jax.Array
-    b_eta: jax.Array
-    origin: jax.Array
-    rot: jax.Array
+    __slots__ = ()
 
     def state(self, t: jax.Array) -> tuple[jax.Array, jax.Array]:
         """CoM ``(position, velocity)`` (complex, support foot's frame) at ``t`` [s] (``StepTrajectory.state``)."""
-        w, p = self.w, self.p
-        single = t <= self.t_ss
-        tau = jnp.minimum(t, self.end) - self.t_ss
-        s = jnp.where(single, t, tau)
-        e_up, e_down = jnp.exp(w * s), jnp.exp(-w * s)
-        pt = p + self.pd * jnp.where(single, 0.0, tau)
-        shift = jnp.where(single, 0.0, self.pdw)
-        xi = jnp.where(single, p + self.a_xi * e_up, pt + shift + self.b_xi * e_up)
-        eta = jnp.where(single, p + self.a_eta * e_down, pt - shift + self.b_eta * e_down)
-        return 0.5 * (xi + eta), 0.5 * w * (xi - eta)
+        return lipm.com_state(jnp, self, t)
 
     def __call__(self, t: jax.Array) -> tuple[jax.Array, jax.Array]:
         """World ``(x, y)`` [m] of the CoM at ``t`` [s] (any shape): ``WorldPath.__call__``."""
-        w, p = self.w, self.p
-        single = t <= self.t_ss
-        tau = jnp.where(self.end < t, self.end, t) - self.t_ss
-        s = jnp.where(single, t, tau)
-        e_up, e_down = jnp.exp(w * s), jnp.exp((-w) * s)
-        pt = p + self.pd * tau
-        xi = jnp.where(single, p + self.a_xi * e_up, pt + self.pdw + self.b_xi * e_up)
-        eta = jnp.where(single, p + self.a_eta * e_down, pt - self.pdw + self.b_eta * e_down)
-        z = self.origin + 0.5 * (xi + eta) * self.rot
-        return z.real, z.imag
+        return lipm.com_world(jnp, self, t)
 
 
 def path_of(robot: Robot, v: Verdict, command: jax.Array, support_side: jax.Array, origin: jax.Array,
             rot: jax.Array) -> tuple[Path, jax.Array]:
     """The step's CoM path (support foot at ``origin``, turned by the unit complex ``rot``) and the bound of
     its speed [m/s] (``StepTrajectory.speed_bound``)."""
-    w = robot.omega
     S, L, t_ss, t_ds = command[0], command[1], command[3], command[4]
     q = S + 1j * ((-support_side.astype(S.dtype)) * L)
-    p = v.p
-    xi1 = p + (v.xi0 - p) * jnp.exp(w * t_ss)
-    eta1 = p + (v.eta0 - p) * jnp.exp(-w * t_ss)
-    pd = (q - p) / t_ds
-    pdw = pd / w
-    path = Path(w, t_ss, t_ss + t_ds, p, pd, pdw, v.xi0 - p, v.eta0 - p, xi1 - p - pdw, eta1 - p + pdw, origin,
-                rot)
-    ss = 0.5 * w * (jnp.abs(v.xi0 - p) * jnp.exp(w * t_ss) + jnp.abs(v.eta0 - p))
-    ds = jnp.abs(pd) + 0.5 * w * (jnp.abs(xi1 - p - pdw) * jnp.exp(w * t_ds) + jnp.abs(eta1 - p + pdw))
-    return path, jnp.maximum(ss, ds)
+    path = Path(*lipm.com_path(jnp, robot.omega, v.xi0, v.eta0, v.p, q, t_ss, t_ds, origin, rot))
+    return path, lipm.com_speed_bound(jnp, path, t_ds)

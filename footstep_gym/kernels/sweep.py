@@ -1,15 +1,12 @@
 """The collision sweep's inner loop, compiled (numba): the checks of one footstep (see :mod:`footstep_gym.world`).
 
-Between two checks the loop moves the kinematic bodies as pymunk's ``Space.step`` does
-(``cpBodyUpdatePosition``: ``p += (v + 0) dt``, ``angle += (w + 0) dt``) and at each check
-computes the distance from the robot's centre to every shape that could be the nearest,
-with the operations of Chipmunk's point queries (``cpSegmentShapePointQuery`` /
-``cpCircleShapePointQuery`` on the geometry ``cpBody``'s transform gives the shape). The
-robot's centre comes from the LIPM's closed forms with the operations of
-:meth:`footstep_gym.lipm.StepTrajectory.world_path`. Compiled without ``fastmath`` (no
-reassociation, no fused multiply-adds), so every number is the one CPython and Chipmunk
-compute, bit for bit, on any CPU: the same IEEE operations, and the same libm (``exp``, ``sin``,
-``cos``) in one process; numpy's SIMD kernels, chosen per CPU, do not enter.
+Numba's compilation of the sweep's arithmetic written once in :mod:`footstep_gym.collision` (a shape's
+distance with the operations of Chipmunk's point queries, the kinematic bodies' motion between checks as
+pymunk's ``Space.step`` does it, the spacing of the checks) and of the CoM's path
+(:func:`footstep_gym.lipm.com_world`), with ``xp`` = :mod:`footstep_gym.scalars` as on Python numbers.
+Compiled without ``fastmath`` (no reassociation, no fused multiply-adds), so every number is the one
+CPython and Chipmunk compute, bit for bit, on any CPU: the same IEEE operations, and the same libm
+(``exp``, ``sin``, ``cos``) in one process; numpy's SIMD kernels, chosen per CPU, do not enter.
 ``tests/test_world.py`` checks the whole sweep against pymunk's.
 
 The kernel does not decide what pymunk alone knows: which shape a contact is (ties), and the
@@ -18,15 +15,20 @@ first check of a sweep against shapes pymunk cached elsewhere. It stops and retu
 
 Its test oracle is pymunk itself (:meth:`footstep_gym.world.World.sweep_pymunk`, which a world made
 with ``compiled=False`` runs at every check). Compiled on first use and cached on disk
-(``cache=True``): compiled once per install, then loaded from the cache by each new process.
+(``cache=True``): compiled once per install (and again after an edit of the modules it compiles), then
+loaded from the cache by each new process.
 """
 
 from __future__ import annotations
 
-import math
+import hashlib
+from pathlib import Path
 
 import numba
+import numba.extending
 import numpy as np
+
+from footstep_gym import collision, lipm, scalars
 
 DONE = 0  # the sweep reached its end without contact
 ASK = 1  # the check at the returned time needs pymunk's answer (a contact, or the first check on stale shapes)
@@ -44,68 +46,35 @@ P_DURATION, P_SPEED, P_RADIUS, P_FINE, P_SLACK, P_END_X, P_END_Y = 21, 22, 23, 2
 N_PARAMS = 28
 
 
-@numba.njit(cache=True, fastmath=False)
-def _shape_distance(j: int, qx: float, qy: float, rows: np.ndarray, states: np.ndarray) -> float:
-    """Shape ``j``'s distance from ``(qx, qy)``: Chipmunk's point query, same operations in the same order."""
+def _shape_distance_py(j: int, qx: float, qy: float, rows: np.ndarray, states: np.ndarray) -> float:
+    """Shape ``j``'s distance from ``(qx, qy)``: Chipmunk's point query (:mod:`footstep_gym.collision`)."""
     kind = rows[j, 0]
     if kind == STATIC_SEGMENT:
-        ax, ay, bx, by = rows[j, 2], rows[j, 3], rows[j, 4], rows[j, 5]
-        dx, dy, l2, r = rows[j, 6], rows[j, 7], rows[j, 8], rows[j, 9]
-    else:
-        mi = int(rows[j, 1])
-        px, py = states[mi, 0], states[mi, 1]
-        if kind == MOVING_CIRCLE:
-            ex = qx - px
-            ey = qy - py
-            return math.sqrt(ex * ex + ey * ey) - rows[j, 6]
-        a = states[mi, 2]
-        c, s = math.cos(a), math.sin(a)  # cpvforangle
-        ns = -s
-        lax, lay, lbx, lby, r = rows[j, 2], rows[j, 3], rows[j, 4], rows[j, 5], rows[j, 6]
-        # cpTransformPoint(t, v) = (t.a v.x + t.c v.y + t.tx, t.b v.x + t.d v.y + t.ty), t = (c, s, -s, c, p).
-        ax = c * lax + ns * lay + px
-        ay = s * lax + c * lay + py
-        bx = c * lbx + ns * lby + px
-        by = s * lbx + c * lby + py
-        dx = ax - bx
-        dy = ay - by
-        l2 = dx * dx + dy * dy
-    # cpClosetPointOnSegment (cpfclamp01 of a NaN is 1), cpvlength.
-    if l2 != 0.0:
-        f = (dx * (qx - bx) + dy * (qy - by)) / l2
-        if not f < 1.0:
-            f = 1.0
-        if 0.0 > f:
-            f = 0.0
-    else:
-        f = 1.0
-    ex = qx - (bx + dx * f)
-    ey = qy - (by + dy * f)
-    return math.sqrt(ex * ex + ey * ey) - r
+        return collision.segment_distance(scalars, qx, qy, rows[j, 2], rows[j, 3], rows[j, 4], rows[j, 5], rows[j, 6],
+                                          rows[j, 7], rows[j, 8], rows[j, 9])
+    mi = int(rows[j, 1])
+    if kind == MOVING_CIRCLE:
+        return collision.circle_distance(scalars, qx, qy, states[mi, 0], states[mi, 1], rows[j, 6])
+    ax, ay, bx, by, dx, dy, l2 = collision.body_segment(scalars, states[mi, 0], states[mi, 1], states[mi, 2],
+                                                        rows[j, 2], rows[j, 3], rows[j, 4], rows[j, 5])
+    return collision.segment_distance(scalars, qx, qy, ax, ay, bx, by, dx, dy, l2, rows[j, 6])
 
 
-@numba.njit(cache=True, fastmath=False)
-def _path(t: float, prm: np.ndarray) -> tuple[float, float]:
-    """The robot's centre at ``t``: :meth:`StepTrajectory.world_path`'s operations."""
-    w, t_ss, end = prm[P_W], prm[P_T_SS], prm[P_END]
-    nw = -w
-    p = complex(prm[P_P], prm[P_P + 1])
-    pd = complex(prm[P_PD], prm[P_PD + 1])
-    pdw = complex(prm[P_PDW], prm[P_PDW + 1])
-    if t <= t_ss:
-        xi = p + complex(prm[P_A_XI], prm[P_A_XI + 1]) * complex(math.exp(w * t), 0.0)
-        eta = p + complex(prm[P_A_ETA], prm[P_A_ETA + 1]) * complex(math.exp(nw * t), 0.0)
-    else:
-        tau = (end if end < t else t) - t_ss
-        pt = p + pd * complex(tau, 0.0)
-        xi = pt + pdw + complex(prm[P_B_XI], prm[P_B_XI + 1]) * complex(math.exp(w * tau), 0.0)
-        eta = pt - pdw + complex(prm[P_B_ETA], prm[P_B_ETA + 1]) * complex(math.exp(nw * tau), 0.0)
-    z = complex(prm[P_ORIGIN], prm[P_ORIGIN + 1]) + complex(0.5, 0.0) * (xi + eta) * complex(prm[P_ROT], prm[P_ROT + 1])
-    return z.real, z.imag
+def _com_path(prm: np.ndarray) -> lipm.ComPath:
+    """The CoM path whose constants are ``prm[:P_DURATION]`` (``WorldPath.sweep_params``)."""
+    return lipm.ComPath(prm[P_W], prm[P_T_SS], prm[P_END], complex(prm[P_P], prm[P_P + 1]),
+                        complex(prm[P_PD], prm[P_PD + 1]), complex(prm[P_PDW], prm[P_PDW + 1]),
+                        complex(prm[P_A_XI], prm[P_A_XI + 1]), complex(prm[P_A_ETA], prm[P_A_ETA + 1]),
+                        complex(prm[P_B_XI], prm[P_B_XI + 1]), complex(prm[P_B_ETA], prm[P_B_ETA + 1]),
+                        complex(prm[P_ORIGIN], prm[P_ORIGIN + 1]), complex(prm[P_ROT], prm[P_ROT + 1]))
 
 
-@numba.njit(cache=True, fastmath=False)
-def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarray, candidates: np.ndarray,
+def _path_py(t: float, prm: np.ndarray) -> tuple[float, float]:
+    """The robot's centre at ``t``: :func:`footstep_gym.lipm.com_world` of :func:`_com_path`."""
+    return lipm.com_world(scalars, _com_path(prm), t)
+
+
+def _sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarray, candidates: np.ndarray,
           ival: np.ndarray, fval: np.ndarray) -> int:
     """Run the checks from ``fval[0]`` (t) on; returns :data:`DONE`, :data:`ASK` or :data:`COLLIDED`.
 
@@ -127,16 +96,17 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
     :data:`DONE` the keys are bounds at the sweep's end.
     """
     duration, speed, radius, fine, slack = prm[P_DURATION], prm[P_SPEED], prm[P_RADIUS], prm[P_FINE], prm[P_SLACK]
+    path = _com_path(prm)
     checks, last, given, n_cand = ival[0], ival[1], ival[4], ival[5]
     t, nearest, world_time = fval[0], fval[1], fval[2]
     n_movers = states.shape[0]
     if ival[6] > 0:  # first call of a sweep: the carried bounds, less what moved since; the candidates
         jump = 0.0
         if ival[6] == 2:  # bounds carried from the point (P_END_X, P_END_Y)
-            x0, y0 = _path(0.0, prm)
-            jump = math.hypot(x0 - prm[P_END_X], y0 - prm[P_END_Y]) + slack
+            x0, y0 = lipm.com_world(scalars, path, 0.0)
+            jump = scalars.hypot(x0 - prm[P_END_X], y0 - prm[P_END_Y]) + slack
         ival[6] = 0
-        reach = radius + speed * duration + 1e-9 + slack
+        reach = collision.horizon(radius, speed, duration, 0.0) + slack
         n_cand = 0
         for j in range(rows.shape[0]):
             if rows[j, 0] != STATIC_SEGMENT:
@@ -158,8 +128,8 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
     dist = 0.0
     hit = -1
     while True:
-        qx, qy = _path(t, prm)
-        horizon = radius + speed * (duration - t) + 1e-9
+        qx, qy = lipm.com_world(scalars, path, t)
+        horizon = collision.horizon(radius, speed, duration, t)
         if given == 2:  # the caller asks pymunk first
             status = ASK
             break
@@ -172,7 +142,7 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
             best = horizon
             hit = -1
             if last >= 0:
-                d = _shape_distance(last, qx, qy, rows, states)
+                d = _shape_distance_py(last, qx, qy, rows, states)
                 keys[last] = d + st_now
                 if d < best:
                     best = d
@@ -181,7 +151,7 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
                 for i in range(n_cand):
                     j = candidates[i]
                     if keys[j] - cut < best and j != last:
-                        d = _shape_distance(j, qx, qy, rows, states)
+                        d = _shape_distance_py(j, qx, qy, rows, states)
                         keys[j] = d + st_now
                         if d < best:
                             best = d
@@ -193,31 +163,21 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
         if hit >= 0:
             last = hit
         checks += 1
-        if hit >= 0:
-            if dist < nearest:
-                nearest = dist
-            if dist < radius:
-                status = COLLIDED
-                break
-        if t >= duration:
+        verdict, nearest, dt, t_next = collision.after_check(scalars, t, dist, hit >= 0, nearest, duration, radius,
+                                                             speed, fine)
+        if verdict == collision.CONTACT:
+            status = COLLIDED
             break
-        remaining = duration - t
-        if speed <= 0:
-            dt = remaining
-        else:  # min(remaining, max(fine, (dist - radius) / speed))
-            dt = (dist - radius) / speed
-            if not dt > fine:
-                dt = fine
-            if not dt < remaining:
-                dt = remaining
-        if dt > 0:  # Space.step(dt) for kinematic bodies (cpBodyUpdatePosition)
+        if verdict == collision.END:
+            break
+        if dt > 0:  # Space.step(dt) for kinematic bodies
             for m in range(n_movers):
-                states[m, 0] = states[m, 0] + states[m, 3] * dt
-                states[m, 1] = states[m, 1] + states[m, 4] * dt
-                states[m, 2] = states[m, 2] + states[m, 5] * dt
+                states[m, 0] = collision.moved(states[m, 0], states[m, 3], dt)
+                states[m, 1] = collision.moved(states[m, 1], states[m, 4], dt)
+                states[m, 2] = collision.moved(states[m, 2], states[m, 5], dt)
             world_time += dt
             ival[3] = 1
-        t = duration if dt >= remaining else t + dt
+        t = t_next
     ival[0], ival[1], ival[2], ival[4] = checks, last, hit, given
     fval[0], fval[1], fval[2], fval[3], fval[4], fval[5] = t, nearest, world_time, dist, qx, qy
     if status == DONE:  # what the next sweep starts from: each shape's bound at the end
@@ -225,3 +185,36 @@ def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarra
         for j in range(keys.size):
             keys[j] -= cut
     return status
+
+
+# The shared functions and the loop, compilable inside the compiled sweep (they stay plain Python outside it).
+for _fn in (scalars.where, scalars.minimum, scalars.maximum, collision.segment_frame, collision.segment_distance,
+            collision.circle_distance, collision.body_segment, collision.moved, collision.check_spacing,
+            collision.horizon, collision.after_check, lipm.com_state, lipm.com_world, _shape_distance_py,
+            _com_path, _path_py, _sweep):
+    numba.extending.register_jitable(_fn)
+
+#: Compiled alone, for the tests (not cached: :data:`sweep` carries its own compiled copies).
+_shape_distance = numba.njit(fastmath=False)(_shape_distance_py)
+_path = numba.njit(fastmath=False)(_path_py)
+
+#: numba's disk cache is keyed by this file and the compiled function's own code, not by the modules it calls; the
+#: sources of those, hashed into the compiled function's closure (which the key includes), recompile it when they
+#: change.
+_SOURCES_STAMP = hashlib.sha256(b"".join(Path(m.__file__).read_bytes() for m in (collision, lipm, scalars))).hexdigest()
+
+
+def _compile(stamp: str):
+    """:func:`_sweep` compiled and cached on disk; ``stamp``: :data:`_SOURCES_STAMP` (read only into numba's key)."""
+
+    def sweep(prm: np.ndarray, rows: np.ndarray, states: np.ndarray, keys: np.ndarray, candidates: np.ndarray,
+              ival: np.ndarray, fval: np.ndarray) -> int:
+        stamp  # noqa: B018
+        return _sweep(prm, rows, states, keys, candidates, ival, fval)
+
+    sweep.__doc__ = _sweep.__doc__
+    return numba.njit(cache=True, fastmath=False)(sweep)
+
+
+#: The compiled :func:`_sweep`.
+sweep = _compile(_SOURCES_STAMP)

@@ -20,7 +20,7 @@ from footstep_gym import config
 from footstep_gym.config import config_dir
 from footstep_gym.errors import ConfigError
 from footstep_gym.robot import Robot, load_robot
-from footstep_gym.scenarios import DoorConfig
+from footstep_gym.scenarios import SCENARIOS, DoorConfig
 
 NOMINAL = np.array([0.0, 0.08, 0.0, 0.6, 0.2])
 SCENARIO_FILES = {"FootstepDoor-v0": "door", "FootstepCrossing-v0": "crossing", "FootstepCrowd-v0": "crowd"}
@@ -124,7 +124,7 @@ def test_missing_config_dir(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("edit, key", [
     (lambda d: d.update(door_sped=3.0), "door_sped"),      # unknown key in the file
-    (lambda d: d.pop("door_radius"), "door_radius"),       # missing key
+    (lambda d: d.update(door_radius="wide"), "door_radius"),  # not a number (a key left out takes its default)
 ])
 def test_bad_yaml_file_is_rejected_by_name(tmp_path, monkeypatch, edit, key):
     shutil.copytree(config_dir(), tmp_path / "configs")
@@ -589,3 +589,27 @@ def test_the_yaml_overrides_the_defaults_and_may_leave_keys_out(tmp_path, monkey
     (folder / "env.yaml").write_text("reward_time: high\n", encoding="utf-8")
     with pytest.raises(ConfigError, match="env.yaml.reward_time must be a number, got 'high'"):
         config.load(EnvConfig, "env.yaml")
+
+
+@pytest.mark.parametrize("scene", ["door", "crossing", "crowd"])
+def test_a_scenario_config_is_built_in_code_and_its_yaml_documents_the_defaults(scene, tmp_path, monkeypatch):
+    """Each scenario config has its defaults in code: built with no config folder at all (none can be read), it
+    validates, takes keyword overrides, and equals what the shipped YAML (the defaults' documentation) gives."""
+    cls = SCENARIOS[scene]
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(tmp_path / "nowhere"))
+    in_code = cls.Config()
+    in_code.validate()
+    with pytest.raises(ConfigError, match="nowhere"):
+        cls.load_config()
+    assert cls.Config(max_steps=7).max_steps == 7 and cls.Config().randomize is not in_code.randomize
+    monkeypatch.undo()
+    assert in_code == cls.load_config()
+    folder = tmp_path / "configs"  # a YAML that leaves a key out: the code's default
+    shutil.copytree(config_dir(), folder)
+    path = folder / cls.config_file
+    data = yaml.safe_load(path.read_text())
+    data.pop("max_steps")
+    data["goal_tolerance"] = 0.2
+    path.write_text(yaml.safe_dump(data))
+    monkeypatch.setenv("FOOTSTEP_GYM_CONFIG_DIR", str(folder))
+    assert cls.load_config() == dataclasses.replace(in_code, goal_tolerance=0.2)

@@ -20,6 +20,7 @@ from jax_helpers import check_replays
 from footstep_gym.errors import ConfigError
 from footstep_gym.jax import replay as R
 from footstep_gym.jax.env import FootstepJaxEnv
+from footstep_gym.scenes import crossing as crossing_scene
 
 CROSSING = "FootstepCrossing-v0"
 TRAIN = {"tier": "train"}
@@ -50,10 +51,10 @@ def test_traffic_schedule_is_the_references(x64):
     env.reset(seed=11)
     u = env.unwrapped
     jenv = FootstepJaxEnv("crossing", dtype="float64", **TRAIN)
-    params, rods, scene = R.episode_start(jenv, u.episode_config, jenv.scene.reference_start(u))
+    rods, scene = R.episode_start(jenv, u.episode_config, jenv.scene.reference_start(u))
     loop_time = float(scene.loop) / float(scene.speed)
     for t in (0.0, 1.3, 0.5 * loop_time, loop_time + 0.7, 2.3 * loop_time):
-        got = np.asarray(jenv.scene.positions(scene, jnp.asarray(t)))
+        got = np.asarray(crossing_scene.positions(jnp, scene, jnp.asarray(t)))
         assert np.allclose(got, u.scenario.positions(t), rtol=0, atol=1e-12)
     t = 0.6 * loop_time
     moved = jenv.scene.before_step(scene, rods, jnp.asarray(t), jnp.asarray(0.8))
@@ -67,7 +68,7 @@ def test_traffic_schedule_is_the_references(x64):
 def test_reset_draws_the_tiers_cars():
     env = FootstepJaxEnv("crossing", **TRAIN)
     keys = jax.random.split(jax.random.key(2), 5)
-    reset = jax.jit(jax.vmap(env.reset))
+    reset = jax.jit(jax.vmap(lambda k: env.reset(k, env.default_params)))
     state, obs = reset(keys)
     again, obs_again = reset(keys)
     assert np.array_equal(np.asarray(obs), np.asarray(obs_again))
@@ -78,7 +79,7 @@ def test_reset_draws_the_tiers_cars():
     loops = np.asarray(state.scene.loop)
     assert np.all((loops >= 11 * 0.9 + 1.5 - 1e-5) & (loops <= 11 * 0.9 + 1.7 + 1e-5))  # 12 cars, one gap
     paper = FootstepJaxEnv("crossing", **PAPER)
-    s, _ = paper.reset(jax.random.key(0))
+    s, _ = paper.reset(jax.random.key(0), paper.default_params)
     assert s.rods.position.shape == (1, 2) and not bool(s.scene.traffic)
     assert float(s.rods.velocity[0, 1]) == pytest.approx(0.25)
 

@@ -21,8 +21,9 @@ from footstep_gym.errors import ConfigError
 from footstep_gym.jax import replay as R
 from footstep_gym.jax import shapes, walker
 from footstep_gym.jax.env import FootstepJaxEnv
-from footstep_gym.jax.scenes import CrowdState
 from footstep_gym.robot import load_robot
+from footstep_gym.scenes import crowd as crowd_scene
+from footstep_gym.scenes.crowd import State as CrowdState
 from footstep_gym.world import World
 
 CROWD = "FootstepCrowd-v0"
@@ -57,9 +58,9 @@ def test_schedule_is_the_reference_crowds(x64):
     env.reset(seed=7)
     u = env.unwrapped
     jenv = FootstepJaxEnv("crowd", dtype="float64", **TRAIN)
-    params, rods, scene = R.episode_start(jenv, u.episode_config, jenv.scene.reference_start(u))
+    rods, scene = R.episode_start(jenv, u.episode_config, jenv.scene.reference_start(u))
     for t in (0.0, 0.37, 3.9, 4.0, 11.3):
-        got = np.asarray(jenv.scene.positions(scene, jnp.asarray(t)))
+        got = np.asarray(crowd_scene.positions(jnp, scene, jnp.asarray(t)))
         assert np.allclose(got, u.scenario.positions(t), rtol=0, atol=1e-14)
     moved = jenv.scene.before_step(scene, rods, jnp.asarray(2.5), jnp.asarray(0.8))
     u.scenario.before_step(u.world, 2.5, 0.8)
@@ -117,7 +118,7 @@ def test_first_check_sees_pymunks_cached_shapes(x64):
 
 def test_reset_is_seeded_and_draws_the_ring():
     env = FootstepJaxEnv("crowd", **TRAIN)
-    reset = jax.jit(jax.vmap(env.reset))
+    reset = jax.jit(jax.vmap(lambda k: env.reset(k, env.default_params)))
     keys = jax.random.split(jax.random.key(5), 6)
     s1, o1 = reset(keys)
     s2, o2 = reset(keys)
@@ -134,7 +135,7 @@ def test_reset_is_seeded_and_draws_the_ring():
 
 def test_dense_cell_holds_its_members():
     env = FootstepJaxEnv("crowd", **DENSE)
-    state, _ = env.reset(jax.random.key(1))
+    state, _ = env.reset(jax.random.key(1), env.default_params)
     assert env.scene.size == 10 and bool(jnp.all(state.scene.active))
 
 

@@ -180,7 +180,7 @@ def test_a_one_door_cell_parks_the_second_rod_and_two_doors_draw_theirs(x64):
     """Resets of the structure tier: both cells drawn; the second door at its centre, its speed and phase in the
     cell's ranges; a one-door cell's second rod parked and still."""
     env = FootstepJaxEnv("door", dtype="float64", **STRUCTURE)
-    state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(4), 200))
+    state, _ = jax.jit(jax.vmap(lambda k: env.reset(k, env.default_params)))(jax.random.split(jax.random.key(4), 200))
     cell = np.asarray(state.cell)
     two = cell == env.cells.index("two_doors")
     assert 0 < two.sum() < 200
@@ -194,7 +194,7 @@ def test_a_one_door_cell_parks_the_second_rod_and_two_doors_draw_theirs(x64):
 
 
 def test_float32_action_at_a_rounded_limit_is_the_limit(env64):
-    state, _ = env64.reset(jax.random.key(0))
+    state, _ = env64.reset(jax.random.key(0), env64.default_params)
     action = np.array([0.0, 0.08, -0.2, 0.6, 0.2], dtype=np.float32)  # theta and T_SS at float32-rounded limits
     cmd, clipped = env64.command(jnp.asarray(action))
     assert not bool(clipped)
@@ -205,7 +205,7 @@ def test_float32_action_at_a_rounded_limit_is_the_limit(env64):
 
 def test_reset_is_seeded_jittable_and_vmappable():
     env = FootstepJaxEnv("door", **TRAIN)
-    reset = jax.jit(jax.vmap(env.reset))
+    reset = jax.jit(jax.vmap(lambda k: env.reset(k, env.default_params)))
     keys = jax.random.split(jax.random.key(5), 4)
     s1, o1 = reset(keys)
     s2, o2 = reset(keys)
@@ -239,11 +239,12 @@ def test_float64_without_x64_says_how():
 def test_chunked_batch_step_is_vmap():
     env = FootstepJaxEnv("door", **TRAIN)
     n = 8
-    state, _ = jax.vmap(env.reset)(jax.random.split(jax.random.key(2), n))
+    state, _ = jax.vmap(lambda k: env.reset(k, env.default_params))(jax.random.split(jax.random.key(2), n))
     actions = jax.random.uniform(jax.random.key(3), (n, 5), jnp.float32, env.action_space.low, env.action_space.high)
     actions = actions.at[:4].set(jnp.asarray([0.05, 0.08, 0.0, 0.6, 0.2], jnp.float32))  # half walk, half random
-    chunked = jax.jit(lambda s, a: env.step_batch(s, a, chunk=4))(state, actions)
-    plain = jax.jit(jax.vmap(env.step))(state, actions)
+    p, keys = env.default_params, jax.random.split(jax.random.key(6), n)
+    chunked = jax.jit(lambda k, s, a: env.step_batch(k, s, a, p, chunk=4))(keys, state, actions)
+    plain = jax.jit(jax.vmap(lambda k, s, a: env.step(k, s, a, p)))(keys, state, actions)
     # Discrete values exactly; floats within a few float32 ulps (XLA may contract or vectorise the two layouts'
     # arithmetic differently).
     for x, y in zip(jax.tree.leaves(chunked), jax.tree.leaves(plain)):
@@ -255,3 +256,30 @@ def test_chunked_batch_step_is_vmap():
         else:
             assert np.array_equal(x, y)
     assert np.asarray(plain[5]["termination"]).tolist().count(0) < n  # some step ended an episode
+
+
+def test_building_the_env_builds_no_pymunk_world_and_its_params_are_the_references(x64, monkeypatch):
+    """``FootstepJaxEnv`` reads its cells' configs and walls from the scene layer: no reference env and no pymunk
+    world is built (both raise here). Its per-cell walls are those the reference's world holds for each cell."""
+    import footstep_gym.env as env_module
+    import footstep_gym.world as world_module
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("FootstepJaxEnv built a reference env or a pymunk world")
+
+    with monkeypatch.context() as m:
+        m.setattr(env_module.FootstepEnv, "__init__", refuse)
+        m.setattr(world_module.World, "__init__", refuse)
+        env = FootstepJaxEnv("door", dtype="float64", **STRUCTURE)
+    params = env.default_params
+    assert params.walls.r.shape[0] == len(env.cells) == params.max_steps.shape[0]
+    for i, cell in enumerate(env.cells):
+        ref = gym.make("FootstepDoor-v0", tier_cell=cell, **STRUCTURE).unwrapped
+        ref.reset(seed=0)
+        walls = [o for o in ref.world.obstacles if o.static]
+        n = int(params.wall_counts[i])
+        assert [o.name for o in walls] == env.wall_names[i] and n == len(walls)
+        assert np.array_equal(np.asarray(params.walls.a[i, :n]), [o.local_a for o in walls])
+        assert np.array_equal(np.asarray(params.walls.b[i, :n]), [o.local_b for o in walls])
+        assert np.array_equal(np.asarray(params.walls.r[i, :n]), [o.radius for o in walls])
+        ref.close()

@@ -102,10 +102,11 @@ def test_sensed_count_is_the_references(x64):
     env.reset(seed=301)
     jenv = FootstepJaxEnv("crowd", dtype="float64", tier="train", **LIMITED)
     episode = R.record("FootstepCrowd-v0", 301, "walk", dict(tier="train", **LIMITED), max_steps=25)
-    params, rods, scene = R.episode_start(jenv, episode.config, episode.start)
+    rods, scene = R.episode_start(jenv, episode.config, episode.start)
+    params = R.episode_params(jenv, [episode])
     state, _ = jenv.start_state(jax.random.key(0), jnp.asarray(episode.feet), rods, scene, params,
                                 jnp.zeros((), jnp.int32))
-    step = jax.jit(jenv.step)
+    step = jax.jit(lambda s, a: jenv.step(jax.random.key(1), s, a, params))
     counts = set()
     for action in episode.actions:
         _, _, terminated, truncated, info = env.step(action)
@@ -134,26 +135,29 @@ def test_noise_changes_only_the_sensed_slots(x64):
 def test_noise_has_the_configured_spread(x64):
     """The crowd's members are circles that do not turn: a slot's velocity is the sensed body velocity, so over 4,000
     keys its spread is the velocity noise's std over the velocity scale (and its mean the truth's); the same key
-    gives the same observation, a step from the same state the same one, and a step moves the key on."""
+    gives the same observation, a step from the same state with the same key the same one, another key another."""
     env = FootstepJaxEnv("crowd", dtype="float64", tier="train", **NOISE)
     blind = FootstepJaxEnv("crowd", dtype="float64", tier="train")
-    state, _ = env.reset(jax.random.key(3))
-    truth = np.asarray(blind.observation(state))
+    state, _ = env.reset(jax.random.key(3), env.default_params)
+    p = env.default_params
+    truth = np.asarray(blind.observation(state, blind.default_params))
     keys = jax.random.split(jax.random.key(4), 4000)
-    obs = np.asarray(jax.jit(jax.vmap(env.observation, in_axes=(None, 0)))(state, keys))
+    obs = np.asarray(jax.jit(jax.vmap(env.observation, in_axes=(None, None, 0)))(state, p, keys))
     scale = env.config.observation_velocity_scale
     vel = obs[:, HEAD + 2:HEAD + 4]  # the first slot's velocity (the nearest member, every draw here)
     assert truth[HEAD + 4] == 1.0 and np.all(obs[:, HEAD + 4] == 1.0)
     assert np.allclose(vel.std(axis=0), SIGMA[1] / scale, rtol=0.05)
     assert np.allclose(vel.mean(axis=0), truth[HEAD + 2:HEAD + 4], atol=4 * SIGMA[1] / scale / math.sqrt(4000))
-    assert np.allclose(np.asarray(env.observation(state, keys[0])), obs[0], rtol=0, atol=OBS_TOL_64)  # jit: ulps
+    assert np.allclose(np.asarray(env.observation(state, p, keys[0])), obs[0], rtol=0, atol=OBS_TOL_64)  # jit: ulps
     nominal = jnp.asarray(env.robot.nominal_command)
-    s1, o1, *_ = env.step(state, nominal)
-    again, o1_again, *_ = env.step(state, nominal)
-    assert np.array_equal(np.asarray(o1), np.asarray(o1_again))  # the key is in the state: replayable
-    assert not np.array_equal(np.asarray(jax.random.key_data(s1.key)), np.asarray(jax.random.key_data(state.key)))
+    s1, o1, *_ = env.step(keys[0], state, nominal, p)
+    again, o1_again, *_ = env.step(keys[0], state, nominal, p)
+    other, o1_other, *_ = env.step(keys[1], state, nominal, p)
+    assert np.array_equal(np.asarray(o1), np.asarray(o1_again))  # the step's key draws the noise: replayable
+    assert not np.array_equal(np.asarray(o1), np.asarray(o1_other))
+    assert np.array_equal(np.asarray(o1[:HEAD]), np.asarray(o1_other[:HEAD]))  # the robot's own slots are not noisy
     with pytest.raises(ValueError, match="needs a key"):
-        env.observation(state)
+        env.observation(state, p)
 
 
 def test_noise_tier_cells_in_make_vec():
@@ -183,13 +187,14 @@ def test_cells_with_different_sensing_are_one_line(monkeypatch):
     does; here the crossing's noise tier with its last cell's field of view narrowed) is one line naming it."""
     import footstep_gym.jax.env as jax_env
 
-    class NarrowLastCell(jax_env.FootstepEnv):
-        def __init__(self, *args, **kwargs):
-            super().__init__(*args, **kwargs)
-            cfg, ecfg = self._cell_configs[-1]
-            self._cell_configs[-1] = (cfg, dataclasses.replace(ecfg, sensing_fov=90.0))
+    def narrow_last_cell(*args, **kwargs):
+        robot, configs = real(*args, **kwargs)
+        last = list(configs)[-1]
+        cfg, ecfg = configs[last]
+        return robot, {**configs, last: (cfg, dataclasses.replace(ecfg, sensing_fov=90.0))}
 
-    monkeypatch.setattr(jax_env, "FootstepEnv", NarrowLastCell)
+    real = jax_env.cell_configs
+    monkeypatch.setattr(jax_env, "cell_configs", narrow_last_cell)
     with pytest.raises(ConfigError) as err:
         FootstepJaxEnv("crossing", tier="noise")
     assert "tier 'noise': cells with different sensing options" in str(err.value) and "\n" not in str(err.value)

@@ -24,7 +24,7 @@ SPLIT = textwrap.dedent("""
     env = FootstepJaxEnv("door", tier="train")
     n, steps = 8, 6
     keys = jax.random.split(jax.random.key(3), 2)
-    state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(4), n))
+    state, _ = jax.jit(jax.vmap(lambda k: env.reset(k, env.default_params)))(jax.random.split(jax.random.key(4), n))
     for workload in ("walk", "random"):
         both = speed.rollout_fn(env, n, steps, workload, chunk=2, devices=2)(speed.split_over(state, 2),
                                                                             speed.split_over(keys, 2))
@@ -85,7 +85,7 @@ def test_the_jittery_walker_and_the_make_vec_figure():
     rate = speed.vector_rate("FootstepDoor-v0", 4, 3, 1, "jitter", {"tier": "train"})
     assert rate.n == 4 and rate.steps_per_s > 0.0 and len(rate.repeats) == 1
     env = FootstepJaxEnv("door", tier="train")
-    state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(1), 4))
+    state, _ = jax.jit(jax.vmap(lambda k: env.reset(k, env.default_params)))(jax.random.split(jax.random.key(1), 4))
     keys = jax.random.split(jax.random.key(2), 1)
     plain = speed.rollout_fn(env, 4, 2, "jitter", chunk=2)(state, keys)[2]
     seen = speed.rollout_fn(env, 4, 2, "jitter", chunk=2, observe=True)(state, keys)[2]

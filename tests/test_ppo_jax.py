@@ -62,10 +62,16 @@ def test_the_adapter_obeys_brax_env_and_matches_footstep_jax_env(benv):
     state = jax.jit(benv.reset)(key)
     assert isinstance(state, BraxState) and state.obs.shape == (42,) and float(state.done) == 0.0
     # The footstep env itself, from the same key: the adapter's episode is its.
-    js, jobs = jenv.reset(key)
+    p = jenv.default_params
+    js, jobs = jenv.reset(key, p)
     np.testing.assert_allclose(np.asarray(state.obs), np.asarray(jobs), rtol=0, atol=1e-5)
     step = jax.jit(benv.step)
-    jstep = jax.jit(jenv.step)
+
+    @jax.jit
+    def jstep(s, a):  # the adapter's step: its randomness split off the episode's stream
+        key, k_step, _ = jax.random.split(s.key, 3)
+        return jenv.step(k_step, s._replace(key=key), a, p)
+
     rng = np.random.default_rng(1)
     ended = False
     for i in range(40):
@@ -96,9 +102,9 @@ def test_the_training_batch_resets_an_ended_episode_in_the_same_step_and_chunks_
     np.testing.assert_allclose(np.asarray(a.obs), np.asarray(b.obs), rtol=0, atol=1e-5)
     done = np.asarray(a.done) > 0
     assert 0 < done.sum() < n  # random actions: some envs fall at once, some step on
-    # An ended env holds a fresh episode drawn from its footstep state's key (the second half of its split, the
-    # JAX env's autoreset); one that goes on holds its stepped one.
-    fresh = jax.vmap(benv.reset)(jax.vmap(jax.random.split)(state.pipeline_state.key)[:, 1])
+    # An ended env holds a fresh episode drawn from its footstep state's key (the third of its split, the JAX env's
+    # autoreset); one that goes on holds its stepped one.
+    fresh = jax.vmap(benv.reset)(jax.vmap(lambda k: jax.random.split(k, 3))(state.pipeline_state.key)[:, 2])
     single = jax.vmap(benv.step)(state, actions)
     np.testing.assert_allclose(np.asarray(a.obs)[done], np.asarray(fresh.obs)[done], rtol=0, atol=1e-5)
     np.testing.assert_allclose(np.asarray(a.obs)[~done], np.asarray(single.obs)[~done], rtol=0, atol=1e-5)

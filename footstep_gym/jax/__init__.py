@@ -1,6 +1,6 @@
 """The batched JAX backend: footstep scenes as pure, jittable, vmappable functions, and their vector env.
 
-* :class:`footstep_gym.jax.env.FootstepJaxEnv`: ``reset(key, params)`` / ``step(state, action, params)`` over a
+* :class:`footstep_gym.jax.env.FootstepJaxEnv`: ``reset(key, params)`` / ``step(key, state, action, params)`` over a
   state pytree (gymnax / Brax style), for JAX users;
 * ``gymnasium.make_vec("FootstepDoor-v0", num_envs=N, vectorization_mode="vector_entry_point")`` (the crossing's
   and the crowd's ids too): the same behind Gymnasium's ``VectorEnv`` (numpy in and out),

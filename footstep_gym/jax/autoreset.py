@@ -12,7 +12,7 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 
-from footstep_gym.jax.env import FootstepJaxEnv, chunked_vmap
+from footstep_gym.jax.env import FootstepJaxEnv
 
 
 class AutoresetStep(NamedTuple):
@@ -42,16 +42,19 @@ def step_autoreset(env: FootstepJaxEnv, state: Any, actions: jax.Array, chunk: i
     where this step ended the episode, Gymnasium's ``SAME_STEP``; a vector env in ``NEXT_STEP`` mode passes the
     envs whose episode ended at the step before).
 
-    Each env's key is split in two: one half is the stepped episode's key (its sensing noise draws from it), the
-    other draws the fresh episode (:meth:`~footstep_gym.jax.env.FootstepJaxEnv.reset`), so an env's episodes come
-    from its own key, one after another. The step runs ``chunk`` envs at a time
-    (:func:`~footstep_gym.jax.env.chunked_vmap`), the resets over the whole batch at once (faster on
+    ``params``: the episodes' settings (:class:`~footstep_gym.jax.env.EnvParams`; default the env's
+    :attr:`~footstep_gym.jax.env.FootstepJaxEnv.default_params`). Each env's key is split in three: the stepped
+    episode's next key, the step's (its sensing noise draws from it) and the fresh episode's
+    (:meth:`~footstep_gym.jax.env.FootstepJaxEnv.reset`), so an env's episodes come from its own key, one after
+    another. The step runs ``chunk`` envs at a time
+    (:meth:`~footstep_gym.jax.env.FootstepJaxEnv.step_batch`), the resets over the whole batch at once (faster on
     a CPU than inside the chunks).
     """
-    keys = jax.vmap(jax.random.split)(state.key)
-    stepped, obs, reward, terminated, truncated, info = chunked_vmap(
-        lambda s, a: env.step(s, a, params), state._replace(key=keys[:, 0]), actions, chunk)
-    fresh, fresh_obs = jax.vmap(env.reset, in_axes=(0, None))(keys[:, 1], params)
+    params = env.default_params if params is None else params
+    keys = jax.vmap(lambda k: jax.random.split(k, 3))(state.key)
+    stepped, obs, reward, terminated, truncated, info = env.step_batch(keys[:, 1], state._replace(key=keys[:, 0]),
+                                                                       actions, params, chunk)
+    fresh, fresh_obs = jax.vmap(env.reset, in_axes=(0, None))(keys[:, 2], params)
     mask = (terminated | truncated) if reset is None else reset
     return AutoresetStep(where(mask, fresh, stepped), where(mask, fresh_obs, obs), obs, reward, terminated,
                          truncated, info)

@@ -1,18 +1,19 @@
 """``FootstepJaxEnv``: the footstep envs as pure JAX functions over a state pytree (gymnax / Brax style).
 
-``reset(key, params) -> (state, obs)`` and ``step(state, action, params) -> (state, obs, reward, terminated,
-truncated, info)`` are jittable and vmappable: one env's arrays in, one env's arrays out; ``jax.vmap`` makes a
-batch. The reference env (:class:`footstep_gym.env.FootstepEnv`, pymunk) is the spec and the judge: the same
+``reset(key, params) -> (state, obs)`` and ``step(key, state, action, params) -> (state, obs, reward,
+terminated, truncated, info)`` are jittable and vmappable: one env's arrays in, one env's arrays out; ``jax.vmap``
+makes a batch. ``params`` (:class:`EnvParams`, :attr:`FootstepJaxEnv.default_params`) holds every per-episode
+setting (gymnax's ``EnvParams``): the tier cells' scenes, starts, goals, limits, reward weights and walls. The reference env (:class:`footstep_gym.env.FootstepEnv`, pymunk) is the spec and the judge: the same
 action box and float32 handling, the same observation layout, reward terms, terminations and truncations
 (docs/model.md), shown by replaying its episodes (:mod:`footstep_gym.jax.replay`).
 
 Supported (the scenes of :mod:`footstep_gym.jax.scenes`, each with the ``randomize`` keys it lists):
 ``FootstepDoor-v0`` with one door or two, ``FootstepCrossing-v0`` (the timed car and the traffic lanes) and
 ``FootstepCrowd-v0``'s scripted ring (any size and ring), every other setting of their YAMLs including the
-sensing options (noise, range, field of view: :mod:`footstep_gym.jax.sensing`, the noise drawn from the state's
+sensing options (noise, range, field of view: :mod:`footstep_gym.jax.sensing`, the noise drawn from the step's
 key), and the tiers whose cells are such: every tier of the door, ``paper``, ``train``, ``shifted`` and ``noise``
 of the crossing and the crowd, and the structure tier's cells but the ORCA crowd's by ``tier_cell``. Cells with
-different walls (one door and two) each have their own (:meth:`FootstepJaxEnv.walls_of`). Anything else (the
+different walls (one door and two) each have their own (:class:`EnvParams`). Anything else (the
 ORCA crowd, ``fixed_period``, a tier whose cells sense differently) raises
 :class:`~footstep_gym.errors.ConfigError` in one line naming it.
 
@@ -29,16 +30,15 @@ import jax.numpy as jnp
 import numpy as np
 
 from footstep_gym import footstep, lipm, tiers
-from footstep_gym.action import action_limits
-from footstep_gym.env import FootstepEnv
+from footstep_gym.action import action_limits, action_space
+from footstep_gym.env import DEFAULT_CELL, cell_configs
 from footstep_gym.errors import ConfigError
 from footstep_gym.footstep import RIGHT
 from footstep_gym.jax import shapes, walker
-from footstep_gym.jax.scenes import (PARKED, SCENES, DoorParams, Scene,  # noqa: F401  (DoorParams re-exported)
-                                     SceneParams, pad_to)
+from footstep_gym.jax.scenes import PARKED, SCENES, Scene, SceneParams, pad_to
 from footstep_gym.jax.sensing import Sensing, sense
-from footstep_gym.observation import ObservationScales, command_to_unit, observations
-from footstep_gym.world import World
+from footstep_gym.observation import ObservationScales, command_to_unit, observation_space, observations
+from footstep_gym.scenarios import SCENARIOS
 
 #: Termination codes of ``info["termination"]`` (0: none): the reference's names in this order.
 TERMINATION_CODES = {"goal": 1, "collision": 2, "fall": 3}
@@ -48,11 +48,54 @@ SUPPORTED_SCENES = tuple(SCENES)
 REWARD_TERMS = ("progress", "time", "step", "goal", "collision", "fall")
 
 
+class RewardWeights(NamedTuple):
+    """The reward terms' weights (``configs/env.yaml``'s ``reward_*``; :data:`REWARD_TERMS`)."""
+
+    progress: jax.Array
+    time: jax.Array
+    step: jax.Array
+    goal: jax.Array
+    collision: jax.Array
+    fall: jax.Array
+
+
+class EnvParams(NamedTuple):
+    """Everything an episode needs, per tier cell (leaves lead with the cell axis ``C``; a reset draws one cell):
+    the scene's params (:class:`~footstep_gym.jax.scenes.SceneParams`), the start ``(C, 2)`` [m], its heading
+    [rad] and jitter [m], the goal ``(C, 2)`` [m] and its tolerance [m], the limits (``time_limit`` [s],
+    ``max_steps``), the reward weights, and the walls: one set ``(W, ...)`` every cell shares, or each cell's
+    ``(C, W, ...)`` (padded with walls of zero length :data:`PARKED` away), with the sweep's table of them and
+    each cell's own count ``wall_counts`` ``(C,)``. Built by :meth:`FootstepJaxEnv.make_params`; any leaf may be
+    changed (or batched with ``vmap``) as long as its shape stays."""
+
+    scene: SceneParams
+    start: jax.Array
+    start_yaw: jax.Array
+    start_jitter: jax.Array
+    goal: jax.Array
+    goal_tolerance: jax.Array
+    time_limit: jax.Array
+    max_steps: jax.Array
+    rewards: RewardWeights
+    walls: shapes.Walls
+    wall_table: jax.Array
+    wall_counts: jax.Array
+
+    def cell(self, cell: jax.Array) -> "EnvParams":
+        """Tier cell ``cell``'s params (an index): the cell axis gone (the walls too, where each cell has its own)."""
+        walls, table = (self.walls, self.wall_table) if self.walls.r.ndim == 1 else (
+            jax.tree.map(lambda x: x[cell], self.walls), self.wall_table[cell])
+        per_cell = jax.tree.map(lambda x: x[cell], self._replace(walls=(), wall_table=()))
+        return per_cell._replace(walls=walls, wall_table=table)
+
+
 class State(NamedTuple):
     """One env's state. Feet ``(2, 3)``: row 0 the right foot, row 1 the left, ``(x, y, yaw)`` [m, rad];
     ``support``: +1 left, -1 right; CoM position [m] and velocity [m/s] in the world; ``previous``: the last
     command applied; ``goal_dist``: the robot centre's distance to the goal [m] now; ``rods``: the moving
-    obstacles now; ``scene``: the episode's draws its scene moves them by (:mod:`footstep_gym.jax.scenes`)."""
+    obstacles now; ``scene``: the episode's draws its scene moves them by (:mod:`footstep_gym.scenes`); ``cell``:
+    the episode's tier cell (an index into the params' cells); ``key``: the episode's own stream (what an
+    autoreset draws the next episode from)."""
 
     key: jax.Array
     feet: jax.Array
@@ -65,10 +108,6 @@ class State(NamedTuple):
     goal_dist: jax.Array
     rods: shapes.Rods
     scene: Any
-    goal: jax.Array
-    goal_tolerance: jax.Array
-    time_limit: jax.Array
-    max_steps: jax.Array
     cell: jax.Array
 
 
@@ -91,12 +130,17 @@ def _dtype(dtype: Any) -> Any:
 class FootstepJaxEnv:
     """A footstep scene as pure functions (module docstring); ``env_kwargs`` as for ``gymnasium.make``.
 
-    ``block``: collision checks evaluated per iteration of the sweep (:mod:`footstep_gym.jax.shapes`; the
-    answers do not depend on it). ``action_space`` and ``observation_space`` are the reference env's.
+    The object holds what fixes the arrays' shapes and the spaces (the robot, the sweep's and the observation's
+    settings, the sensing options, the scene's obstacle count); every per-episode setting is in the params
+    (:class:`EnvParams`, :attr:`default_params`). ``block``: collision checks evaluated per iteration of the sweep
+    (:mod:`footstep_gym.jax.shapes`; the answers do not depend on it). ``action_space`` and
+    ``observation_space`` are the reference env's.
     """
 
     def __init__(self, scenario: str = "door", *, dtype: Any = "float32", tier: str | None = None,
                  tier_cell: str | None = None, block: int = shapes.DEFAULT_BLOCK, **env_kwargs: Any) -> None:
+        if scenario not in SCENARIOS:
+            raise ConfigError(f"FootstepJaxEnv: unknown scene {scenario!r}; known: {', '.join(SCENARIOS)}")
         if scenario not in SCENES:
             raise _unsupported(f"scene {scenario!r}")
         if "render_mode" in env_kwargs:
@@ -105,112 +149,128 @@ class FootstepJaxEnv:
         if not (isinstance(block, int) and block >= 1):
             raise ConfigError(f"FootstepJaxEnv: block must be an integer >= 1, got {block!r}")
         self.block = block
-        ref = tiers.make_env(scenario, tier=tier, tier_cell=tier_cell, **env_kwargs)  # validates every cell
-        self.scenario, self.tier, self.cells = scenario, ref.tier, list(ref.cells)
-        self.robot = robot = ref.robot
-        self.config = env_cfg = ref.config
-        self.action_space, self.observation_space = ref.action_space, ref.observation_space
-        dt = self.dtype
-        #: The scene's arrays and moves (:mod:`footstep_gym.jax.scenes`).
-        self.scene: Scene = SCENES[scenario]([cfg for cfg, _ in ref._cell_configs], dt)
-        options = {Sensing.of(ecfg) if ecfg.sensing_limited else None for _, ecfg in ref._cell_configs}
+        # The cells, as gymnasium.make resolves them (footstep_gym.tiers.make_env), each built and validated now.
+        if tier is None:
+            if tier_cell is not None:
+                raise ConfigError(f"FootstepJaxEnv: tier_cell={tier_cell!r} needs tier= (the tier it is a cell of)")
+            cells = {DEFAULT_CELL: env_kwargs}
+        else:
+            cells = tiers.env_kwargs(scenario, tier, tier_cell, env_kwargs)["cells"]
+        robot, by_name = cell_configs(scenario, cells)
+        configs = list(by_name.values())
+        self.scenario, self.tier, self.cells = scenario, tier, list(by_name)
+        self.robot = robot
+        #: The env config of the first cell: the sweep's and the observation's settings (the cells' must agree).
+        self.config = env_cfg = configs[0][1]
+        #: The tier cells' (scenario config, env config).
+        self.cell_configs: list[tuple[Any, Any]] = configs
+        options = {Sensing.of(ecfg) if ecfg.sensing_limited else None for _, ecfg in configs}
         if len(options) > 1:
             raise _unsupported(f"tier {self.tier!r}: cells with different sensing options")
         #: The sensing options (noise, range, field of view; :mod:`footstep_gym.jax.sensing`), ``None`` when off.
         self.sensing: Sensing | None = options.pop()
-        for cell, (cfg, ecfg) in zip(self.cells, ref._cell_configs):
+        for cell, (cfg, ecfg) in zip(self.cells, configs):
             if ecfg.fixed_period:
                 raise _unsupported("fixed_period")
+        #: The scene's arrays and moves (:mod:`footstep_gym.jax.scenes`).
+        self.scene: Scene = SCENES[scenario]([cfg for cfg, _ in configs], self.dtype)
+        for cell, (cfg, _) in zip(self.cells, configs):
             what = self.scene.unsupported(cfg)
             if what:
                 raise _unsupported(f"tier cell {cell!r}: {what}")
-        self._build_walls(ref, env_cfg, robot)
-        cells = [self.cell_params(cfg) for cfg, _ in ref._cell_configs]
-        self.params: SceneParams = jax.tree.map(lambda *x: jnp.stack(x), *cells)
         # The action box, its float32-rounded limits, and the nominal command (the previous one after reset).
         limits = action_limits(robot)
+        self.action_space = action_space(limits)
+        self.observation_space = observation_space(limits.low, limits.high, robot.nominal_command,
+                                                   env_cfg.sensing_range, env_cfg.observation_position_scale,
+                                                   env_cfg.n_obstacles_observed)
         self.low, self.high = limits.low, limits.high
         self._limits = [pins.tolist() for pins in limits.pins]  # the values a float32 action is pinned at
         com_local, vel_local = lipm.steady_state(robot, robot.nominal_command, RIGHT)
         self._start_com = (com_local, vel_local)
         self.obs_size = int(self.observation_space.shape[0])
-        ref.close()
-
-    def _build_walls(self, ref: FootstepEnv, env_cfg: Any, robot: Any) -> None:
-        """The static walls of each cell (the reference scenario's ``build_static``). Cells that share their walls
-        (one ``static_key``) share one table; otherwise each cell has its own, padded to the most walls of any
-        cell with walls of zero length :data:`PARKED` away (beyond the sweep's horizon and the sensing range)."""
-        cls, dt = ref._scenario_cls, self.dtype
-        by_key: dict[Any, tuple[shapes.Walls, list[str]]] = {}
-        cell_keys = []
-        for cfg, _ in ref._cell_configs:
-            key = cls.static_key(cfg)
-            if key not in by_key:
-                world = World(robot.body_radius, env_cfg.collision_slop, env_cfg.max_check_interval,
-                              env_cfg.collision_motion_fraction, env_cfg.max_sweep_checks, compiled=False)
-                cls(cfg, np.random.default_rng(0)).build_static(world)
-                by_key[key] = (shapes.walls_of(world, dt), [o.name for o in world.obstacles if o.static])
-            cell_keys.append(key)
         #: The names of each cell's walls, in the order of ``info["obstacle"]``'s indices (walls first, then rods).
-        self.wall_names = [by_key[k][1] for k in cell_keys]
-        #: Each cell's wall count.
-        self.wall_counts = jnp.asarray([len(names) for names in self.wall_names], jnp.int32)
-        if len(by_key) == 1:
-            self.walls = by_key[cell_keys[0]][0]
-            self.wall_table = shapes.wall_table(self.walls)
-            self.per_cell_walls = False
-            return
-        width = max(len(names) for names in self.wall_names)
-
-        def pad(walls: shapes.Walls) -> shapes.Walls:
-            return shapes.Walls(pad_to(walls.a, width, PARKED, dt), pad_to(walls.b, width, PARKED, dt),
-                                pad_to(walls.r, width, 0.0, dt))
-
-        #: The walls ``(W, ...)``; with per-cell walls (:attr:`per_cell_walls`), each cell's ``(C, W, ...)``.
-        self.walls = jax.tree.map(lambda *x: jnp.stack(x), *(pad(by_key[k][0]) for k in cell_keys))
-        self.wall_table = jax.vmap(shapes.wall_table)(self.walls)
-        self.per_cell_walls = True
-
-    def walls_of(self, cell: jax.Array) -> tuple[shapes.Walls, jax.Array]:
-        """The walls and the sweep's wall table of tier cell ``cell`` (an index)."""
-        if not self.per_cell_walls:
-            return self.walls, self.wall_table
-        return jax.tree.map(lambda x: x[cell], self.walls), self.wall_table[cell]
+        self.wall_names = [[w.name for w in self.scene.module.walls(cfg)] for cfg, _ in configs]
+        self._params = self.make_params(configs)
 
     # ------------------------------------------------------------------ settings
-    def cell_params(self, cfg: Any) -> SceneParams:
-        """The scene's params (:mod:`footstep_gym.jax.scenes`) of one scenario config (a ``DoorConfig``,
-        ``CrossingConfig`` or ``CrowdConfig``)."""
-        return self.scene.cell_params(cfg)
+    def make_params(self, configs: list[tuple[Any, Any]]) -> EnvParams:
+        """The params of cells given as ``(scenario config, env config)`` pairs (each its own cell, in order):
+        the scene's, the start, goal and limits, the reward weights and the walls (the scene's ``walls``).
+        Cells that share their walls (one ``static_key``) share one table; otherwise each cell has its own,
+        padded to the most walls of any cell."""
+        dt = self.dtype
+        cls = SCENARIOS[self.scenario]
+
+        def arr(x: Any) -> jax.Array:
+            return jnp.asarray(np.asarray(x, np.float64), dt)
+
+        def stack(rows: list[Any]) -> Any:
+            return jax.tree.map(lambda *x: jnp.stack(x), *rows)
+
+        scene = stack([self.scene.cell_params(cfg) for cfg, _ in configs])
+        rewards = stack([RewardWeights(*(arr(getattr(ecfg, f"reward_{k}")) for k in REWARD_TERMS))
+                         for _, ecfg in configs])
+        by_key: dict[Any, shapes.Walls] = {}
+        keys = []
+        for cfg, _ in configs:
+            key = cls.static_key(cfg)
+            if key not in by_key:
+                ws = self.scene.module.walls(cfg)
+                by_key[key] = shapes.Walls(arr(np.reshape([w.a for w in ws], (-1, 2))),
+                                           arr(np.reshape([w.b for w in ws], (-1, 2))),
+                                           arr([0.5 * w.thickness for w in ws]))
+            keys.append(key)
+        counts = jnp.asarray([by_key[k].r.shape[0] for k in keys], jnp.int32)
+        if len(by_key) == 1:
+            walls = by_key[keys[0]]
+            table = shapes.wall_table(walls)
+        else:
+            width = max(w.r.shape[0] for w in by_key.values())
+
+            def pad(w: shapes.Walls) -> shapes.Walls:
+                return shapes.Walls(pad_to(w.a, width, PARKED, dt), pad_to(w.b, width, PARKED, dt),
+                                    pad_to(w.r, width, 0.0, dt))
+
+            walls = stack([pad(by_key[k]) for k in keys])
+            table = jax.vmap(shapes.wall_table)(walls)
+        return EnvParams(scene, *(stack([arr(getattr(cfg, k)) for cfg, _ in configs]) for k in
+                                  ("start", "start_yaw", "start_jitter", "goal", "goal_tolerance", "time_limit")),
+                         jnp.asarray([cfg.max_steps for cfg, _ in configs], jnp.int32), rewards, walls, table, counts)
 
     @property
-    def default_params(self) -> SceneParams:
-        """Every tier cell's settings, stacked (a reset draws one cell uniformly; one cell: no draw)."""
-        return self.params
+    def default_params(self) -> EnvParams:
+        """Every tier cell's settings (:class:`EnvParams`; a reset draws one cell uniformly; one cell: no draw)."""
+        return self._params
+
+    @property
+    def per_cell_walls(self) -> bool:
+        """Whether the default params give each cell walls of its own (cells with different walls)."""
+        return self._params.walls.r.ndim == 2
 
     # ------------------------------------------------------------------ reset
-    def reset(self, key: jax.Array, params: SceneParams | None = None) -> tuple[State, jax.Array]:
+    def reset(self, key: jax.Array, params: EnvParams) -> tuple[State, jax.Array]:
         """A new episode from ``key``: ``(state, observation)``. The episode's draws (cell, randomize keys, the
         obstacles' placement, start jitter) come from ``key``; they are not the reference env's numpy draws for
         a seed."""
-        params = self.params if params is None else params
         dt = self.dtype
         key, k_cell, k_scene, k_start = jax.random.split(key, 4)
         n_cells = params.max_steps.shape[0]
         cell = jax.random.randint(k_cell, (), 0, n_cells) if n_cells > 1 else jnp.zeros((), jnp.int32)
-        p = jax.tree.map(lambda x: x[cell], params)
-        rods, scene = self.scene.draw(k_scene, p)
+        p = params.cell(cell)
+        rods, scene = self.scene.draw(k_scene, p.scene)
         jitter = p.start_jitter * jax.random.uniform(k_start, (2,), dt, -1.0, 1.0)
         centre = (p.start[0] + jitter[0], p.start[1] + jitter[1])
         half = 0.5 * self.robot.nominal_side_stride
         feet = jnp.stack([jnp.stack(footstep.foot_from_node(centre, p.start_yaw, side, half, xp=jnp))
                           for side in (RIGHT, -RIGHT)])
-        return self.start_state(key, feet, rods, scene, p, cell)
+        return self.start_state(key, feet, rods, scene, params, cell)
 
     def start_state(self, key: jax.Array, feet: jax.Array, rods: shapes.Rods, scene: Any,
-                    p: SceneParams, cell: jax.Array) -> tuple[State, jax.Array]:
-        """The state (and observation) of an episode that starts with these feet, obstacles and scene draws:
-        the robot on its right foot, its CoM in the steady gait of stepping in place (``FootstepEnv.reset``)."""
+                    params: EnvParams, cell: jax.Array) -> tuple[State, jax.Array]:
+        """The state (and observation) of an episode of tier cell ``cell`` that starts with these feet, obstacles
+        and scene draws: the robot on its right foot, its CoM in the steady gait of stepping in place
+        (``FootstepEnv.reset``). ``key``: the episode's stream (the first observation's noise is drawn from it)."""
         dt = self.dtype
         com_local, vel_local = self._start_com
         support = feet[0]
@@ -219,20 +279,16 @@ class FootstepJaxEnv:
         com = support[0] + 1j * support[1] + complex(com_local) * rot
         vel = complex(vel_local) * rot
         zero = jnp.zeros((), dt)
+        p = params.cell(cell)
         state = State(key, feet.astype(dt), jnp.asarray(RIGHT, jnp.int32), jnp.stack([com.real, com.imag]).astype(dt),
                       jnp.stack([vel.real, vel.imag]).astype(dt), zero, jnp.zeros((), jnp.int32),
                       jnp.asarray(self.robot.nominal_command, dt), self._goal_distance(feet, p.goal), rods, scene,
-                      p.goal, p.goal_tolerance, p.time_limit, p.max_steps, jnp.asarray(cell, jnp.int32))
-        state, k_obs = self._noise_key(state)
-        return state, self.observation(state, k_obs)
-
-    def _noise_key(self, state: State) -> tuple[State, jax.Array | None]:
-        """The key of an observation's sensing noise, split off the state's (``None``, the state unchanged, when
-        there is no noise)."""
-        if self.sensing is None or not self.sensing.noisy:
-            return state, None
-        key, k_obs = jax.random.split(state.key)
-        return state._replace(key=key), k_obs
+                      jnp.asarray(cell, jnp.int32))
+        k_obs = None
+        if self.sensing is not None and self.sensing.noisy:
+            key, k_obs = jax.random.split(key)
+            state = state._replace(key=key)
+        return state, self._observe(state, p, k_obs)[0]
 
     @staticmethod
     def _goal_distance(feet: jax.Array, goal: jax.Array) -> jax.Array:
@@ -261,9 +317,10 @@ class FootstepJaxEnv:
         cmd = jnp.where(values < low, low, jnp.where(values > high, high, values))
         return cmd, jnp.any(cmd != values)
 
-    def step(self, state: State, action: jax.Array, params: SceneParams | None = None
+    def step(self, key: jax.Array, state: State, action: jax.Array, params: EnvParams
              ) -> tuple[State, jax.Array, jax.Array, jax.Array, jax.Array, dict[str, jax.Array]]:
-        """One footstep: ``(state, obs, reward, terminated, truncated, info)`` (``FootstepEnv.step``).
+        """One footstep: ``(state, obs, reward, terminated, truncated, info)`` (``FootstepEnv.step``). ``key``
+        draws the step's randomness (the observation's sensing noise, where a tier senses with noise).
 
         ``info``: ``termination`` (0 none, 1 goal, 2 collision, 3 fall), ``is_success``, ``feasible``,
         ``collision``, ``clipped``, ``command``, ``time`` [s], ``period`` [s], ``steps``, ``zmp_offset``
@@ -271,8 +328,8 @@ class FootstepJaxEnv:
         shape hit: its index among the cell's walls, then the rods; -1 if none), ``rewards`` (the terms of
         :data:`REWARD_TERMS`), ``cell`` (the episode's tier cell, an index into :attr:`cells`).
         """
-        del params  # the episode's settings are in the state
         robot, cfg, dt = self.robot, self.config, self.dtype
+        p = params.cell(state.cell)
         cmd, clipped = self.command(action)
         side = state.support
         sidx = (side + 1) // 2
@@ -290,8 +347,7 @@ class FootstepJaxEnv:
         period = cmd[3] + cmd[4]
         path, bound = walker.path_of(robot, v, cmd, side, origin, rot)
         rods = self.scene.before_step(state.scene, state.rods, state.time, period)
-        walls, table = self.walls_of(state.cell)
-        result = shapes.sweep(path, period, bound, table, rods, robot.body_radius,
+        result = shapes.sweep(path, period, bound, p.wall_table, rods, robot.body_radius,
                               cfg.max_check_interval, cfg.collision_motion_fraction, cfg.max_sweep_checks,
                               self.block, active=feasible, cached=state.rods.position if self.scene.moves else None)
         collided = feasible & result.collided
@@ -314,19 +370,20 @@ class FootstepJaxEnv:
         rods = jax.tree.map(lambda a, b: jnp.where(feasible, a, b), result.rods, state.rods)
         time = state.time + elapsed
         steps = state.steps + 1
-        d_after = self._goal_distance(feet, state.goal)
-        goal = ~collided & feasible & (d_after <= state.goal_tolerance)
+        d_after = self._goal_distance(feet, p.goal)
+        goal = ~collided & feasible & (d_after <= p.goal_tolerance)
         termination = jnp.where(~feasible, 3, jnp.where(collided, 2, jnp.where(goal, 1, 0))).astype(jnp.int32)
         terminated = termination > 0
-        truncated = ~terminated & ((steps >= state.max_steps) | (time >= state.time_limit))
+        truncated = ~terminated & ((steps >= p.max_steps) | (time >= p.time_limit))
         zero = jnp.zeros((), dt)
+        w = p.rewards
         rewards = {
-            "progress": cfg.reward_progress * (state.goal_dist - d_after),
-            "time": cfg.reward_time * elapsed,
-            "step": jnp.asarray(cfg.reward_step, dt),
-            "goal": jnp.where(termination == 1, jnp.asarray(cfg.reward_goal, dt), zero),
-            "collision": jnp.where(termination == 2, jnp.asarray(cfg.reward_collision, dt), zero),
-            "fall": jnp.where(termination == 3, jnp.asarray(cfg.reward_fall, dt), zero),
+            "progress": w.progress * (state.goal_dist - d_after),
+            "time": w.time * elapsed,
+            "step": w.step,
+            "goal": jnp.where(termination == 1, w.goal, zero),
+            "collision": jnp.where(termination == 2, w.collision, zero),
+            "fall": jnp.where(termination == 3, w.fall, zero),
         }
         reward = rewards["progress"]
         for name in REWARD_TERMS[1:]:
@@ -335,47 +392,47 @@ class FootstepJaxEnv:
                                    com=jnp.stack([com_out.real, com_out.imag]).astype(dt),
                                    com_vel=jnp.stack([vel_out.real, vel_out.imag]).astype(dt), time=time,
                                    steps=steps, previous=cmd, goal_dist=d_after, rods=rods)
-        new_state, k_obs = self._noise_key(new_state)
         info = {
             "termination": termination, "is_success": termination == 1, "feasible": feasible,
             "collision": collided, "clipped": clipped, "command": cmd, "time": time, "period": period,
             "steps": steps, "zmp_offset": jnp.stack([v.p.real, v.p.imag]), "zmp_margin": zmp_margin,
             "clearance": jnp.where(feasible, result.clearance, jnp.nan), "checks": result.checks,
-            "obstacle": jnp.where(collided, self._cell_index(result.obstacle, state.cell, walls), -1),
+            "obstacle": jnp.where(collided, self._cell_index(result.obstacle, p), -1),
             "rewards": rewards, "cell": state.cell,
         }
-        if self.sensing is None:
-            return new_state, self.observation(new_state), reward, terminated, truncated, info
-        obs, n_sensed = self._observe(new_state, k_obs)
-        info["sensed_obstacles"] = n_sensed
+        obs, n_sensed = self._observe(new_state, p, key)
+        if n_sensed is not None:
+            info["sensed_obstacles"] = n_sensed
         return new_state, obs, reward, terminated, truncated, info
 
-    def step_batch(self, state: State, actions: jax.Array, chunk: int = 64) -> tuple:
-        """:meth:`step` over a batch (leaves lead with N), as ``vmap`` over chunks of ``chunk`` envs run one after
-        another (``lax.map``) when N is a multiple of ``chunk`` larger than it; plain ``vmap`` otherwise.
+    def step_batch(self, keys: jax.Array, state: State, actions: jax.Array, params: EnvParams,
+                   chunk: int = 64) -> tuple:
+        """:meth:`step` over a batch (``keys``, ``state``'s leaves and ``actions`` lead with N; one ``params`` for
+        all), as ``vmap`` over chunks of ``chunk`` envs run one after another (``lax.map``) when N is a multiple of
+        ``chunk`` larger than it; plain ``vmap`` otherwise.
 
         The answers are ``vmap``'s (discrete ones exactly; XLA may round a float an ulp otherwise in the two
         layouts); the chunks are faster on a CPU: each chunk's sweep runs only as many iterations as its own
         slowest env needs, and its arrays stay in cache.
         """
-        return chunked_vmap(self.step, state, actions, chunk)
+        return chunked_vmap(lambda ks, a: self.step(ks[0], ks[1], a, params), (keys, state), actions, chunk)
 
-    def _cell_index(self, shape: jax.Array, cell: jax.Array, walls: shapes.Walls) -> jax.Array:
+    def _cell_index(self, shape: jax.Array, p: EnvParams) -> jax.Array:
         """A sweep's shape index (walls first, padding included) as the index among the cell's own walls and then
-        the rods, the order of the reference world's obstacles."""
-        n_walls = walls.r.shape[0]
-        return jnp.where(shape >= n_walls, shape - (n_walls - self.wall_counts[cell]), shape)
+        the rods, the order of the reference world's obstacles (``p``: one cell's params)."""
+        n_walls = p.walls.r.shape[0]
+        return jnp.where(shape >= n_walls, shape - (n_walls - p.wall_counts), shape)
 
     # ------------------------------------------------------------------ observation
-    def observation(self, state: State, key: jax.Array | None = None) -> jax.Array:
+    def observation(self, state: State, params: EnvParams, key: jax.Array | None = None) -> jax.Array:
         """The observation ``(12 + 5K,)`` float32 (``FootstepEnv``'s layout): :func:`footstep_gym.observation.observations`
         on this env's state and its nearest shapes: those sensed (:attr:`sensing`; ``key`` draws the noise) when a
         sensing option is on."""
-        return self._observe(state, key)[0]
+        return self._observe(state, params.cell(state.cell), key)[0]
 
-    def _observe(self, state: State, key: jax.Array | None) -> tuple[jax.Array, jax.Array | None]:
+    def _observe(self, state: State, p: EnvParams, key: jax.Array | None) -> tuple[jax.Array, jax.Array | None]:
         """The observation and, with a sensing option on, how many moving obstacles were sensed (``info``'s
-        ``sensed_obstacles``; a crowd's parked padding members are not obstacles)."""
+        ``sensed_obstacles``; a crowd's parked padding members are not obstacles). ``p``: one cell's params."""
         cfg, dt = self.config, self.dtype
         support = state.feet[(state.support + 1) // 2]
         low = jnp.asarray(self.low, dt)
@@ -385,12 +442,13 @@ class FootstepJaxEnv:
         if self.sensing is not None:
             if self.sensing.noisy and key is None:
                 raise ValueError("FootstepJaxEnv.observation: the sensing noise needs a key")
-            rods, rods_sensed = sense(rods, key, state.com[0], state.com[1], support[2], self.sensing)
+            rods, rods_sensed = sense(rods, key if self.sensing.noisy else None, state.com[0], state.com[1],
+                                      support[2], self.sensing)
             n_sensed = jnp.sum(rods_sensed & (jnp.abs(state.rods.position[:, 0]) < 0.5 * PARKED)).astype(jnp.int32)
-        point, pvel, mask = shapes.nearest_shapes(state.com[0], state.com[1], self.walls_of(state.cell)[0], rods,
+        point, pvel, mask = shapes.nearest_shapes(state.com[0], state.com[1], p.walls, rods,
                                                   cfg.n_obstacles_observed, cfg.sensing_range, rods_sensed)
         return observations(support[None], state.support.astype(dt)[None], state.com[None], state.com_vel[None],
-                            state.goal[None], previous[None], point[None], pvel[None], mask[None],
+                            p.goal[None], previous[None], point[None], pvel[None], mask[None],
                             ObservationScales.of(cfg), xp=jnp)[0], n_sensed
 
 

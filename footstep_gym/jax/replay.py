@@ -137,13 +137,17 @@ def max_steps(episodes: list[Episode]) -> int:
     return max(e.config.max_steps for e in episodes)
 
 
-def episode_start(jenv: FootstepJaxEnv, config: Any, start: dict) -> tuple[Any, Any, Any]:
-    """``(params, rods, scene)``: the JAX scene's params of a reference episode's scenario ``config`` (its
-    ``randomize`` keys as drawn) and its obstacles and scene state from the episode's ``start``
-    (``Scene.reference_start``)."""
-    params = jenv.cell_params(dataclasses.replace(config, randomize={}))
-    rods, scene = jenv.scene.start_from(start, params, config)
-    return params, rods, scene
+def episode_start(jenv: FootstepJaxEnv, config: Any, start: dict) -> tuple[Any, Any]:
+    """``(rods, scene)``: a reference episode's obstacles and scene state from its ``start``
+    (``Scene.reference_start``) and scenario ``config`` (its ``randomize`` keys as drawn)."""
+    return jenv.scene.start_from(start, jenv.scene.cell_params(dataclasses.replace(config, randomize={})), config)
+
+
+def episode_params(jenv: FootstepJaxEnv, episodes: list[Episode]) -> Any:
+    """Params with one cell per episode (in order): its scenario config (its ``randomize`` keys as drawn) and its
+    tier cell's env config."""
+    return jenv.make_params([(dataclasses.replace(e.config, randomize={}),
+                              jenv.cell_configs[cell_index(jenv, e.tier_cell)][1]) for e in episodes])
 
 
 def cell_index(jenv: FootstepJaxEnv, tier_cell: str | None) -> int:
@@ -158,8 +162,9 @@ def cell_index(jenv: FootstepJaxEnv, tier_cell: str | None) -> int:
 
 
 def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Replayed:
-    """Run ``episodes``' actions in ``jenv`` from their starts, all at once (their actions share a dtype);
-    ``pad_to``: run at least this many steps (one compiled function serves batches of any episode length)."""
+    """Run ``episodes``' actions in ``jenv`` from their starts, all at once (their actions share a dtype), each
+    episode its own cell of the params (:func:`episode_params`); ``pad_to``: run at least this many steps (one
+    compiled function serves batches of any episode length)."""
     if len({e.actions.dtype for e in episodes}) != 1:
         raise ValueError("replay: the episodes' actions must share a dtype (replay each kind apart)")
     dt = jenv.dtype
@@ -167,14 +172,15 @@ def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Re
     nominal = np.asarray(jenv.robot.nominal_command, episodes[0].actions.dtype)
     actions = np.stack([np.concatenate([e.actions, np.tile(nominal, (n_steps - len(e.actions), 1))])
                         for e in episodes])
-    params, rods, scene = zip(*(episode_start(jenv, e.config, e.start) for e in episodes))
+    rods, scene = zip(*(episode_start(jenv, e.config, e.start) for e in episodes))
     stack = lambda *x: jnp.stack(x)  # noqa: E731
-    p, rods, scene = (jax.tree.map(stack, *x) for x in (params, rods, scene))
+    rods, scene = (jax.tree.map(stack, *x) for x in (rods, scene))
+    params = episode_params(jenv, episodes)
     feet = jnp.asarray(np.stack([e.feet for e in episodes]), dt)
     keys = jax.random.split(jax.random.key(0), len(episodes))
-    cells = jnp.asarray([cell_index(jenv, e.tier_cell) for e in episodes], jnp.int32)
-    state, obs0 = jax.vmap(jenv.start_state)(keys, feet, rods, scene, p, cells)
-    out = _run(jenv, state, jnp.asarray(actions))
+    cells = jnp.arange(len(episodes), dtype=jnp.int32)
+    state, obs0 = jax.vmap(jenv.start_state, in_axes=(0, 0, 0, 0, None, 0))(keys, feet, rods, scene, params, cells)
+    out = _run(jenv, state, jnp.asarray(actions), params)
     obs, rew, term, trunc, clear, hit = (np.asarray(x) for x in out)
     obs = np.concatenate([np.asarray(obs0)[:, None], np.swapaxes(obs, 0, 1)], axis=1)
     clear = np.where(np.isnan(clear), np.inf, clear)
@@ -182,20 +188,22 @@ def replay(jenv: FootstepJaxEnv, episodes: list[Episode], pad_to: int = 0) -> Re
                     np.swapaxes(clear, 0, 1), np.swapaxes(hit, 0, 1))
 
 
-def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array) -> tuple:
+def _run(jenv: FootstepJaxEnv, state: Any, actions: jax.Array, params: Any) -> tuple:
     fn = getattr(jenv, "_replay_fn", None)
     if fn is None:
-        step = jax.vmap(jenv.step)
+        step = jax.vmap(jenv.step, in_axes=(0, 0, 0, None))
 
-        def run(state, actions):
-            def body(s, a):
-                s, obs, reward, _, truncated, info = step(s, a)
-                return s, (obs, reward, info["termination"], truncated, info["clearance"], info["obstacle"])
+        def run(state, actions, params):
+            def body(carry, a):
+                s, key = carry
+                key, k_step = jax.random.split(key)
+                s, obs, reward, _, truncated, info = step(jax.random.split(k_step, a.shape[0]), s, a, params)
+                return (s, key), (obs, reward, info["termination"], truncated, info["clearance"], info["obstacle"])
 
-            return jax.lax.scan(body, state, jnp.swapaxes(actions, 0, 1))[1]
+            return jax.lax.scan(body, (state, jax.random.key(1)), jnp.swapaxes(actions, 0, 1))[1]
 
         fn = jenv._replay_fn = jax.jit(run)
-    return fn(state, actions)
+    return fn(state, actions, params)
 
 
 @dataclass

@@ -134,7 +134,8 @@ def measure(env: FootstepJaxEnv, n: int, steps: int, repeats: int, workload: str
     (``chunk``: :meth:`FootstepJaxEnv.step_batch`'s; ``devices``, ``observe``: :func:`rollout_fn`'s)."""
     fn = rollout_fn(env, n, steps, workload, chunk, devices, observe)
     key = split_over(jax.random.split(jax.random.key(seed), devices), devices)
-    state, _ = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(seed + 1), n))
+    state, _ = jax.jit(jax.vmap(env.reset, in_axes=(0, None)))(jax.random.split(jax.random.key(seed + 1), n),
+                                                                env.default_params)
     state = split_over(state, devices)
     t0 = time.perf_counter()
     state, key, total = fn(state, key)

@@ -95,6 +95,8 @@ class FootstepVectorEnv(VectorEnv):
         self.observation_space = batch_space(env.observation_space, self.num_envs)
         self._state = None
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        #: The episodes' settings (:class:`~footstep_gym.jax.env.EnvParams`), one for every env, compiled in.
+        self.params = env.default_params
         self.devices = int(devices)
         self._reset_fn = jax.jit(speed.on_devices(self._reset_batch, self.devices))
         self._step_fn = jax.jit(speed.on_devices(self._step_batch, self.devices), static_argnames=("same_step",))
@@ -107,7 +109,7 @@ class FootstepVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ jitted batch functions
     def _reset_batch(self, keys: jax.Array, state: Any, mask: jax.Array) -> tuple[Any, jax.Array]:
-        new, obs = jax.vmap(self.jax_env.reset)(keys)
+        new, obs = jax.vmap(self.jax_env.reset, in_axes=(0, None))(keys, self.params)
         if state is None:
             return new, obs
         return autoreset.where(mask, new, state), obs
@@ -115,7 +117,8 @@ class FootstepVectorEnv(VectorEnv):
     def _step_batch(self, state: Any, actions: jax.Array, reset_mask: jax.Array, same_step: bool) -> tuple:
         env = self.jax_env
 
-        out = autoreset.step_autoreset(env, state, actions, self.chunk, reset=None if same_step else reset_mask)
+        out = autoreset.step_autoreset(env, state, actions, self.chunk, self.params,
+                                       reset=None if same_step else reset_mask)
         info = self._host_info(out.info)  # the rest is not computed
         if same_step:
             return out.state, out.obs, out.step_obs, out.reward, out.terminated, out.truncated, info

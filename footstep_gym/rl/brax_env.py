@@ -64,6 +64,8 @@ class FootstepBraxEnv(Env):
 
     def __init__(self, env: FootstepJaxEnv) -> None:
         self.env = env
+        #: The episodes' settings (:attr:`FootstepJaxEnv.default_params`).
+        self.params = env.default_params
         self.gradient, self.intercept = rescaling(env.action_space)
 
     @property
@@ -80,7 +82,7 @@ class FootstepBraxEnv(Env):
 
     def reset(self, rng: jax.Array) -> State:
         """A new episode drawn from ``rng`` (:meth:`FootstepJaxEnv.reset`)."""
-        state, obs = self.env.reset(rng)
+        state, obs = self.env.reset(rng, self.params)
         zero = jnp.zeros((), jnp.float32)
         info = {"truncation": zero, "is_success": zero, "termination": jnp.zeros((), jnp.int32),
                 "episode_done": zero, "episode_metrics": {"sum_reward": zero, "length": zero}}
@@ -106,7 +108,10 @@ class FootstepBraxEnv(Env):
 
     def step(self, state: State, action: jax.Array) -> State:
         """One footstep of the agent's action (in ``[-1, 1]``); ``done`` on a termination or truncation."""
-        return self.stepped(state, *self.env.step(state.pipeline_state, self.command(action)))
+        # The step's randomness from the episode's stream, split as the autoreset splits it (its third: a fresh one's).
+        key, k_step, _ = jax.random.split(state.pipeline_state.key, 3)
+        return self.stepped(state, *self.env.step(k_step, state.pipeline_state._replace(key=key), self.command(action),
+                                                  self.params))
 
 
 class BatchedAutoReset(Wrapper):
@@ -126,7 +131,7 @@ class BatchedAutoReset(Wrapper):
         return jax.vmap(self.env.reset)(rng)
 
     def step(self, state: State, action: jax.Array) -> State:
-        out = step_autoreset(self.env.env, state.pipeline_state, self.env.command(action), self.chunk)
+        out = step_autoreset(self.env.env, state.pipeline_state, self.env.command(action), self.chunk, self.env.params)
         return self.env.stepped(state, out.state, out.obs, out.reward, out.terminated, out.truncated, out.info)
 
 

@@ -11,21 +11,23 @@ import numpy as np
 from footstep_gym import config
 from footstep_gym.config import nonnegative, pair, plain, positive
 from footstep_gym.errors import ConfigError
+from footstep_gym.scenes import draw_config
 from footstep_gym.world import World
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ScenarioConfig:
-    """Keys every scenario's YAML has (SI units)."""
+    """Keys every scenario's YAML has (SI units), with defaults in code (a scene overrides those it sets otherwise;
+    its YAML documents them and may override them again). Keyword-only, so a scenario's own keys need no default."""
 
-    start: tuple[float, float] = pair()  # [m] robot centre at reset
-    start_yaw: float = plain()  # [rad] heading at reset
-    start_jitter: float = nonnegative()  # [m] uniform +- jitter of the start, per episode
-    goal: tuple[float, float] = pair()  # [m]
-    goal_tolerance: float = positive()  # [m]
-    time_limit: float = positive()  # [s] simulated, then truncated
-    max_steps: int = positive()  # footsteps, then truncated
-    randomize: dict = plain()  # {key: [lo, hi]}: drawn uniformly per episode from reset(seed=...)
+    start: tuple[float, float] = pair(default=(0.0, 0.0))  # [m] robot centre at reset
+    start_yaw: float = plain(default=0.0)  # [rad] heading at reset
+    start_jitter: float = nonnegative(default=0.02)  # [m] uniform +- jitter of the start, per episode
+    goal: tuple[float, float] = pair(default=(1.9, 0.0))  # [m]
+    goal_tolerance: float = positive(default=0.1)  # [m]
+    time_limit: float = positive(default=60.0)  # [s] simulated, then truncated
+    max_steps: int = positive(default=200)  # footsteps, then truncated
+    randomize: dict = plain(default={})  # {key: [lo, hi]}: drawn uniformly per episode from reset(seed=...)
 
     #: Top-level sections of the YAML that are no fields (so no ``gymnasium.make`` keywords): ``config.load``
     #: sets them aside; ``fuzz`` is read by :meth:`Scenario.fuzz_ranges`.
@@ -83,7 +85,7 @@ class ScenarioConfig:
         """This config with every ``randomize`` key drawn from its range (validated again)."""
         if not self.randomize:
             return self
-        return config.replace(self, **{k: float(rng.uniform(*v)) for k, v in self.randomize.items()})
+        return config.replace(self, **draw_config(self, rng))
 
 
 class RobotMotion(NamedTuple):

@@ -29,7 +29,6 @@ its speed, crosses in the gap only in the few episodes whose phase happens to su
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -38,26 +37,27 @@ import numpy as np
 from footstep_gym.config import nonnegative, positive
 from footstep_gym.errors import ConfigError
 from footstep_gym.scenarios.base import RobotMotion, Scenario, ScenarioConfig
+from footstep_gym.scenes import crossing as scene
 from footstep_gym.world import World
 
 
 @dataclass(frozen=True)
 class CrossingConfig(ScenarioConfig):
-    obstacle_speed: float = positive(max_key="max_obstacle_speed", unit="m/s")  # [m/s] along +y
-    obstacle_length: float = positive()  # [m] along its motion
-    obstacle_width: float = positive()  # [m] across it
-    crossing_x: float = positive()  # [m] ahead of the start, where it crosses the straight path
-    arrival_speed: float = positive(max_key="max_arrival_speed", unit="m/s")  # [m/s] it meets a robot walking this fast
-    timing_jitter: float = nonnegative()  # [s] uniform +- on the meeting time per episode
-    max_obstacle_speed: float = positive()  # [m/s] largest obstacle_speed accepted (randomize ranges included)
-    max_arrival_speed: float = positive()  # [m/s] largest arrival_speed accepted
+    obstacle_speed: float = positive(max_key="max_obstacle_speed", unit="m/s", default=0.25)  # [m/s] along +y
+    obstacle_length: float = positive(default=0.5)  # [m] along its motion
+    obstacle_width: float = positive(default=0.24)  # [m] across it
+    crossing_x: float = positive(default=0.9)  # [m] ahead of the start, where it crosses the straight path
+    arrival_speed: float = positive(max_key="max_arrival_speed", unit="m/s", default=0.125)  # [m/s] it meets a robot walking this fast
+    timing_jitter: float = nonnegative(default=1.0)  # [s] uniform +- on the meeting time per episode
+    max_obstacle_speed: float = positive(default=5.0)  # [m/s] largest obstacle_speed accepted (randomize ranges included)
+    max_arrival_speed: float = positive(default=2.0)  # [m/s] largest arrival_speed accepted
     # Steady traffic instead of the timed car (traffic_lanes >= 1); the defaults leave the paper's scene.
-    traffic_lanes: int = nonnegative()  # 0: the one timed car; >= 1: lanes of cars, directions alternating
-    traffic_lane_width: float = positive(unit="m")  # [m] between neighbouring lanes' centre lines
-    traffic_spacing: float = positive(unit="m")  # [m] between consecutive cars of a lane, centre to centre
-    traffic_speed: float = positive(max_key="max_obstacle_speed", unit="m/s")  # [m/s] of every car
-    traffic_extent: float = positive(unit="m")  # [m] cars re-enter after driving this far past the path
-    traffic_gap: float = nonnegative(unit="m")  # [m] 0: none; > 0: one gap this long (centre to centre) per loop
+    traffic_lanes: int = nonnegative(default=0)  # 0: the one timed car; >= 1: lanes of cars, directions alternating
+    traffic_lane_width: float = positive(unit="m", default=0.6)  # [m] between neighbouring lanes' centre lines
+    traffic_spacing: float = positive(unit="m", default=1.5)  # [m] between consecutive cars of a lane, centre to centre
+    traffic_speed: float = positive(max_key="max_obstacle_speed", unit="m/s", default=0.3)  # [m/s] of every car
+    traffic_extent: float = positive(unit="m", default=2.5)  # [m] cars re-enter after driving this far past the path
+    traffic_gap: float = nonnegative(unit="m", default=0.0)  # [m] 0: none; > 0: one gap this long (centre to centre) per loop
 
     def smallest(self, key: str) -> float:
         """The smallest value numeric ``key`` can take in an episode: its ``randomize`` lower end, else its value."""
@@ -100,55 +100,33 @@ class Crossing(Scenario):
             cls = CrossingTraffic
         return super().__new__(cls)
 
+    def __init__(self, cfg: CrossingConfig, rng: np.random.Generator) -> None:
+        super().__init__(cfg, rng)
+        #: The episode's uniforms (:func:`footstep_gym.scenes.crossing.draw_numpy`), its cars at 0 s and schedule.
+        self.draws = scene.draw_numpy(rng, cfg)
+        self.bodies, self.state = scene.start(np, scene.cell(cfg), self.draws, scene.size(cfg))
+        self.members: list = []
+
     def build(self, world: World) -> None:
-        c = self.cfg
-        sx, sy = c.start
-        t_meet = c.crossing_x / c.arrival_speed + self.rng.uniform(-1.0, 1.0) * c.timing_jitter
-        half = 0.5 * (c.obstacle_length - c.obstacle_width)
-        world.add_rod("car", (sx + c.crossing_x, sy - c.obstacle_speed * t_meet), (0.0, -half), (0.0, half),
-                      c.obstacle_width, velocity=(0.0, c.obstacle_speed))
+        a, b, r = scene.shape(self.cfg)
+        per_lane = scene.counts(self.cfg)[1]
+        for i, (p, v) in enumerate(zip(self.bodies.position.tolist(), self.bodies.velocity.tolist())):
+            name = "car_{}_{}".format(*divmod(i, per_lane)) if self.cfg.traffic_lanes else "car"
+            self.members.append(world.add_rod(name, tuple(p), a, b, 2 * r, velocity=tuple(v)))
 
 
 class CrossingTraffic(Crossing):
     """Steady two-way traffic across the path (``traffic_lanes`` >= 1; the module's doc).
 
-    Every car follows a schedule, :meth:`positions` (with ``traffic_gap``, the gap follows a lane's
-    last car): its lane's phase (drawn per episode) plus ``traffic_speed`` times the time, wrapped
-    into the lane's loop. Before each footstep the cars are put at their scheduled places (a car
-    past the loop's end re-enters at its start) and keep their lane's velocity through the step, so
-    between re-entries they move as one steady car does.
+    Every car follows a schedule, :meth:`positions` (:func:`footstep_gym.scenes.crossing.positions`). Before
+    each footstep the cars are put at their scheduled places (a car past the loop's end re-enters at its start)
+    and keep their lane's velocity through the step, so between re-entries they move as one steady car does.
     """
-
-    def __init__(self, cfg: CrossingConfig, rng: np.random.Generator) -> None:
-        super().__init__(cfg, rng)
-        lanes = cfg.traffic_lanes
-        self.per_lane = max(1, math.ceil(2.0 * cfg.traffic_extent / cfg.traffic_spacing - 1e-9))
-        # [m] a lane's length, where its cars re-enter: one car's spacing is the gap when there is one
-        self.loop = (self.per_lane - 1) * cfg.traffic_spacing + (cfg.traffic_gap or cfg.traffic_spacing)
-        k = np.repeat(np.arange(lanes), self.per_lane)
-        j = np.tile(np.arange(self.per_lane), lanes)
-        sx, sy = cfg.start
-        self.x = sx + cfg.crossing_x + (k - 0.5 * (lanes - 1)) * cfg.traffic_lane_width  # per car
-        self.direction = np.where(k % 2 == 0, 1.0, -1.0)  # lane 0 along +y, then alternating
-        # per lane, per episode: anywhere in the loop's repeating unit (with a gap, the whole loop)
-        phases = rng.uniform(0.0, self.loop if cfg.traffic_gap else cfg.traffic_spacing, lanes)
-        self.offset = phases[k] + j * cfg.traffic_spacing  # [m] along the loop at t = 0
-        self.y0 = sy - 0.5 * self.loop
-        self.members: list = []
 
     def positions(self, t: float) -> np.ndarray:
         """Car centres ``(n, 2)`` [m] at time ``t`` [s] (lane by lane, car by car)."""
-        along = np.mod(self.offset + self.direction * self.cfg.traffic_speed * t, self.loop)
-        return np.stack([self.x, self.y0 + along], axis=1)
-
-    def build(self, world: World) -> None:
-        c = self.cfg
-        half = 0.5 * (c.obstacle_length - c.obstacle_width)
-        for i, (p, d) in enumerate(zip(self.positions(0.0), self.direction)):
-            lane, car = divmod(i, self.per_lane)
-            self.members.append(world.add_rod(f"car_{lane}_{car}", (float(p[0]), float(p[1])), (0.0, -half),
-                                              (0.0, half), c.obstacle_width, velocity=(0.0, float(d) * c.traffic_speed)))
+        return scene.positions(np, self.state, t)
 
     def before_step(self, world: World, t: float, duration: float, robot: RobotMotion | None = None) -> None:
-        for m, p in zip(self.members, self.positions(t)):
-            m.body.position = (float(p[0]), float(p[1]))
+        for m, p in zip(self.members, self.positions(t).tolist()):
+            m.body.position = tuple(p)

@@ -33,6 +33,7 @@ from footstep_gym.config import interval, nonnegative, pair, plain, positive
 from footstep_gym.errors import ConfigError
 from footstep_gym.scenarios.base import RobotMotion, Scenario, ScenarioConfig
 from footstep_gym.scenarios.orca import OrcaCrowd, OrcaParams, require_pyrvo
+from footstep_gym.scenes import crowd as scene
 from footstep_gym.world import World
 
 CROWD_MODELS = ("scripted", "orca")
@@ -41,38 +42,43 @@ CROWD_LAYOUTS = ("ring", "counter_flow", "crossing_flows", "closing_in")
 
 @dataclass(frozen=True)
 class CrowdConfig(ScenarioConfig):
-    crowd_size: int = positive()  # cylinders on the ring
-    crowd_speed: float = nonnegative(max_key="max_crowd_speed", unit="m/s")  # [m/s] mean speed along the start -> goal direction
-    crowd_accel_time: float = positive()  # [s] to reach crowd_speed from rest (constant acceleration)
-    ring_radius: float = positive()  # [m] member centres from the ring's centre
-    member_radius: float = positive()  # [m]
-    breathing_amplitude: float = nonnegative()  # [m] largest radial oscillation of a member
-    breathing_period: tuple[float, float] = interval()  # [s] range each member's period is drawn from
-    angle_jitter: float = nonnegative()  # [deg] uniform +- on each member's place on the ring
-    max_crowd_speed: float = positive()  # [m/s] largest crowd_speed accepted (randomize ranges included)
-    max_breathing_speed: float = positive()  # [m/s] largest radial breathing speed 2 pi amplitude / shortest period
+    crowd_size: int = positive(default=8)  # cylinders on the ring
+    crowd_speed: float = nonnegative(max_key="max_crowd_speed", unit="m/s", default=0.16)  # [m/s] mean speed along the start -> goal direction
+    crowd_accel_time: float = positive(default=4.0)  # [s] to reach crowd_speed from rest (constant acceleration)
+    ring_radius: float = positive(default=0.36)  # [m] member centres from the ring's centre
+    member_radius: float = positive(default=0.08)  # [m]
+    breathing_amplitude: float = nonnegative(default=0.04)  # [m] largest radial oscillation of a member
+    breathing_period: tuple[float, float] = interval(default=(3.0, 6.0))  # [s] range each member's period is drawn from
+    angle_jitter: float = nonnegative(default=8.0)  # [deg] uniform +- on each member's place on the ring
+    max_crowd_speed: float = positive(default=2.0)  # [m/s] largest crowd_speed accepted (randomize ranges included)
+    max_breathing_speed: float = positive(default=1.0)  # [m/s] largest radial breathing speed 2 pi amplitude / shortest period
     # The model; the keys below are the ORCA crowd's (crowd_size, ring_radius and angle_jitter serve it too).
-    crowd_model: str = plain()  # "scripted" (the ring on its schedule) or "orca" (reactive pedestrians, pyrvo)
-    crowd_layout: str = plain()  # orca: "ring", "counter_flow", "crossing_flows" or "closing_in"; scripted: "ring"
-    robot_visible: bool = plain()  # orca: the robot is an ORCA agent the pedestrians avoid (CrowdNav's robot.visible)
-    pedestrian_speed: tuple[float, float] = interval()  # [m/s] range each one's preferred (= ORCA max) speed is drawn from
-    pedestrian_radius: tuple[float, float] = interval()  # [m] range each one's radius is drawn from
-    orca_time_step: float = positive()  # [s] longest ORCA step: a footstep runs in equal steps no longer
-    orca_neighbor_dist: float = positive()  # [m] others farther (centre to centre) are not considered
-    orca_max_neighbors: int = positive()  # the nearest this many others are considered
-    orca_time_horizon: float = positive()  # [s] velocities are chosen collision-free for this long
-    orca_safety_space: float = nonnegative()  # [m] added to every radius ORCA sees (not to the bodies)
-    orca_robot_margin: float = nonnegative()  # [m] robot_visible: added to the robot's radius ORCA sees (its CoM sway)
-    closing_radius: float = positive()  # [m] closing_in: the ring around the start the members start on
-    closing_goal_along: tuple[float, float] = interval()  # [m] closing_in: range of a goal's distance along the path
-    closing_goal_spread: float = nonnegative()  # [m] closing_in: uniform +- of a goal sideways off the path
-    flow_lanes: int = positive()  # flows: lanes per stream (crowd_size pedestrians dealt over the lanes)
-    lane_width: float = positive()  # [m] flows: between neighbouring lanes' centre lines
-    flow_spacing: float = positive()  # [m] flows: between consecutive pedestrians of a lane
-    flow_ahead: float = positive()  # [m] flows: a lane's first pedestrian from the start (counter) / the path (crossing)
-    flow_behind: float = positive()  # [m] flows: goals this far past the start (counter) / the path (crossing)
-    flow_jitter: float = nonnegative()  # [m] flows: uniform +- along its lane on each pedestrian's place
-    crossing_points: tuple[float, float] = pair()  # [m] crossing_flows: along the path, where the left / right stream crosses
+    crowd_model: str = plain(default="scripted")  # "scripted" (the ring on its schedule) or "orca" (reactive pedestrians, pyrvo)
+    crowd_layout: str = plain(default="ring")  # orca: "ring", "counter_flow", "crossing_flows" or "closing_in"; scripted: "ring"
+    robot_visible: bool = plain(default=True)  # orca: the robot is an ORCA agent the pedestrians avoid (CrowdNav's robot.visible)
+    pedestrian_speed: tuple[float, float] = interval(default=(0.12, 0.2))  # [m/s] range each one's preferred (= ORCA max) speed is drawn from
+    pedestrian_radius: tuple[float, float] = interval(default=(0.07, 0.09))  # [m] range each one's radius is drawn from
+    orca_time_step: float = positive(default=0.1)  # [s] longest ORCA step: a footstep runs in equal steps no longer
+    orca_neighbor_dist: float = positive(default=2.0)  # [m] others farther (centre to centre) are not considered
+    orca_max_neighbors: int = positive(default=10)  # the nearest this many others are considered
+    orca_time_horizon: float = positive(default=5.0)  # [s] velocities are chosen collision-free for this long
+    orca_safety_space: float = nonnegative(default=0.01)  # [m] added to every radius ORCA sees (not to the bodies)
+    orca_robot_margin: float = nonnegative(default=0.03)  # [m] robot_visible: added to the robot's radius ORCA sees (its CoM sway)
+    closing_radius: float = positive(default=1.2)  # [m] closing_in: the ring around the start the members start on
+    closing_goal_along: tuple[float, float] = interval(default=(0.4, 2.4))  # [m] closing_in: range of a goal's distance along the path
+    closing_goal_spread: float = nonnegative(default=0.15)  # [m] closing_in: uniform +- of a goal sideways off the path
+    flow_lanes: int = positive(default=3)  # flows: lanes per stream (crowd_size pedestrians dealt over the lanes)
+    lane_width: float = positive(default=0.35)  # [m] flows: between neighbouring lanes' centre lines
+    flow_spacing: float = positive(default=0.8)  # [m] flows: between consecutive pedestrians of a lane
+    flow_ahead: float = positive(default=1.0)  # [m] flows: a lane's first pedestrian from the start (counter) / the path (crossing)
+    flow_behind: float = positive(default=1.0)  # [m] flows: goals this far past the start (counter) / the path (crossing)
+    flow_jitter: float = nonnegative(default=0.15)  # [m] flows: uniform +- along its lane on each pedestrian's place
+    crossing_points: tuple[float, float] = pair(default=(1.0, 2.0))  # [m] crossing_flows: along the path, where the left / right stream crosses
+    # The keys every scenario has, at this scene's values (ScenarioConfig's defaults are generic).
+    start_jitter: float = nonnegative(default=0.0)
+    goal: tuple[float, float] = pair(default=(3.0, 0.0))
+    goal_tolerance: float = positive(default=0.12)
+    time_limit: float = positive(default=40.0)
 
     def validate(self) -> None:
         super().validate()
@@ -154,10 +160,9 @@ class Crowd(Scenario):
             self.starts, self.goals = self._layout(rng)
             self._clock = 0.0
             return
-        self.angles = 2 * np.pi * np.arange(n) / n + np.radians(cfg.angle_jitter) * rng.uniform(-1, 1, n)
-        self.amplitudes = cfg.breathing_amplitude * rng.uniform(0.5, 1.0, n)
-        self.periods = rng.uniform(*cfg.breathing_period, n)
-        self.phases = rng.uniform(0.0, 2 * np.pi, n)
+        #: The episode's uniforms (:func:`footstep_gym.scenes.crowd.draw_numpy`), its members at 0 s and its ring.
+        self.draws = scene.draw_numpy(rng, cfg)
+        self.bodies, self.state = scene.start(np, scene.cell(cfg), self.draws, n)
 
     # ------------------------------------------------------------ the ORCA crowd's layouts
     def _layout(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -193,18 +198,11 @@ class Crowd(Scenario):
 
     def centre(self, t: float) -> np.ndarray:
         """Ring centre at time ``t`` [s]."""
-        c = self.cfg
-        ta = c.crowd_accel_time
-        s = c.crowd_speed * (0.5 * t * t / ta if t < ta else t - 0.5 * ta)
-        return np.asarray(self.cfg.start, dtype=float) + s * self.direction
+        return scene.centre(np, self.state, t)
 
     def positions(self, t: float) -> np.ndarray:
         """Member centres ``(n, 2)`` [m] at time ``t`` [s]."""
-        radius = self.cfg.ring_radius + self.amplitudes * np.sin(2 * np.pi * t / self.periods + self.phases)
-        # The ring turns with the walking direction, so member 0 is always ahead.
-        heading = math.atan2(self.direction[1], self.direction[0])
-        ang = self.angles + heading
-        return self.centre(t) + radius[:, None] * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        return scene.positions(np, self.state, t)
 
     def build(self, world: World) -> None:
         c = self.cfg
@@ -216,8 +214,8 @@ class Crowd(Scenario):
             for i, (p, r) in enumerate(zip(self.orca.positions, self.orca.radii)):
                 self.members.append(world.add_circle(f"member_{i}", p, r))
             return
-        for i, p in enumerate(self.positions(0.0)):
-            self.members.append(world.add_circle(f"member_{i}", (float(p[0]), float(p[1])), self.cfg.member_radius))
+        for i, p in enumerate(self.bodies.position.tolist()):
+            self.members.append(world.add_circle(f"member_{i}", tuple(p), self.cfg.member_radius))
 
     def before_step(self, world: World, t: float, duration: float, robot: RobotMotion | None = None) -> None:
         if self.orca is not None:
@@ -234,7 +232,7 @@ class Crowd(Scenario):
                 m.body.position = p
                 m.body.velocity = v
             return
-        now, then = self.positions(t), self.positions(t + duration)
-        for m, p0, p1 in zip(self.members, now, then):
-            m.body.position = (float(p0[0]), float(p0[1]))
-            m.body.velocity = (float(p1[0] - p0[0]) / duration, float(p1[1] - p0[1]) / duration)
+        now, chord = scene.before_step(np, self.state, None, None, t, duration)
+        for m, p, v in zip(self.members, now.tolist(), chord.tolist()):
+            m.body.position = tuple(p)
+            m.body.velocity = tuple(v)

@@ -34,25 +34,28 @@ from footstep_gym.world import World
 
 @dataclass(frozen=True)
 class DoorConfig(ScenarioConfig):
-    door_speed: float = nonnegative(max_key="max_door_speed", unit="deg/s")  # [deg/s] clockwise
-    door_radius: float = positive(max_key="max_door_radius", unit="m")  # [m] wing length
-    door_thickness: float = positive()  # [m] of the rod
-    door_centre: tuple[float, float] = pair()  # [m]
-    door_start_angle: float = plain()  # [deg] of the rod from +x, counter-clockwise (90 = vertical)
-    door_angle_jitter: float = nonnegative()  # [deg] uniform +- per episode
-    corridor_y: tuple[float, float] = interval()  # [m] lower and upper wall, relative to the door centre
-    corridor_x: tuple[float, float] = interval()  # [m] extent of the walls, relative to the door centre
-    wall_thickness: float = positive()  # [m]
-    wall_gap: float = nonnegative()  # [m] between the rod's tip circle and the upper wall's ends
-    drum_segments: int = nonnegative()  # walls of the half drum over the upper half (0: open, no drum)
-    max_door_speed: float = positive()  # [deg/s] largest door_speed accepted (randomize ranges included)
-    max_door_radius: float = positive()  # [m] largest door_radius accepted (the tip's speed grows with it)
+    door_speed: float = nonnegative(max_key="max_door_speed", unit="deg/s", default=17.0)  # [deg/s] clockwise
+    door_radius: float = positive(max_key="max_door_radius", unit="m", default=0.5)  # [m] wing length
+    door_thickness: float = positive(default=0.02)  # [m] of the rod
+    door_centre: tuple[float, float] = pair(default=(0.0, 0.0))  # [m]
+    door_start_angle: float = plain(default=90.0)  # [deg] of the rod from +x, counter-clockwise (90 = vertical)
+    door_angle_jitter: float = nonnegative(default=10.0)  # [deg] uniform +- per episode
+    corridor_y: tuple[float, float] = interval(default=(-0.66, 0.0))  # [m] lower and upper wall, relative to the door centre
+    corridor_x: tuple[float, float] = interval(default=(-1.8, 1.8))  # [m] extent of the walls, relative to the door centre
+    wall_thickness: float = positive(default=0.02)  # [m]
+    wall_gap: float = nonnegative(default=0.02)  # [m] between the rod's tip circle and the upper wall's ends
+    drum_segments: int = nonnegative(default=8)  # walls of the half drum over the upper half (0: open, no drum)
+    max_door_speed: float = positive(default=360.0)  # [deg/s] largest door_speed accepted (randomize ranges included)
+    max_door_radius: float = positive(default=2.0)  # [m] largest door_radius accepted (the tip's speed grows with it)
     # A second revolving door further along the corridor (door_count: 2); the defaults leave the paper's scene.
-    door_count: int = positive()  # 1: the paper's door; 2: a second door of the same size follows it along +x
-    second_door_offset: float = positive(unit="m")  # [m] from the first door's centre to the second's, along +x
-    second_door_speed: float = nonnegative(max_key="max_door_speed", unit="deg/s")  # [deg/s] clockwise
-    second_door_start_angle: float = plain()  # [deg] of the second rod from +x, counter-clockwise
-    second_door_angle_jitter: float = nonnegative()  # [deg] uniform +- per episode on the second rod
+    door_count: int = positive(default=1)  # 1: the paper's door; 2: a second door of the same size follows it along +x
+    second_door_offset: float = positive(unit="m", default=1.8)  # [m] from the first door's centre to the second's, along +x
+    second_door_speed: float = nonnegative(max_key="max_door_speed", unit="deg/s", default=17.0)  # [deg/s] clockwise
+    second_door_start_angle: float = plain(default=90.0)  # [deg] of the second rod from +x, counter-clockwise
+    second_door_angle_jitter: float = nonnegative(default=10.0)  # [deg] uniform +- per episode on the second rod
+    # The keys every scenario has, at this scene's values (ScenarioConfig's defaults are generic).
+    start: tuple[float, float] = pair(default=(-1.3, -0.33))
+    goal: tuple[float, float] = pair(default=(1.3, -0.33))
 
     def validate(self) -> None:
         super().validate()

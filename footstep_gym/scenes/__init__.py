@@ -8,7 +8,8 @@ Per scenario (:mod:`.door`, :mod:`.crossing`, :mod:`.crowd`), pure functions for
   ``numpy.random.Generator`` (in the order the reference always drew them), the batched backend takes the same
   uniforms from a JAX key; ``start(xp, cell, u, m)`` turns them into the moving obstacles at 0 s
   (:class:`Bodies`) and the episode's scene state;
-* the moving obstacles' poses at time ``t`` and their motion over a footstep (``motion``).
+* the moving obstacles' poses at time ``t`` (``positions``) and where they are and how they move over the
+  footstep from ``t`` (``before_step``; ``MOVES``: whether it puts them elsewhere than they were).
 
 The reference env calls them with ``xp = numpy`` (float64, its episodes bit for bit as before), the batched
 backend (:mod:`footstep_gym.jax.scenes`) with ``xp = jax.numpy``. ``m``: the moving obstacles an env holds (the
@@ -66,5 +67,6 @@ def float_of(xp: Any, x: Any, like: Any) -> Any:
 
 
 def draw_config(cfg: Any, rng: Any) -> dict[str, float]:
-    """``{key: value}`` of every ``randomize`` key of ``cfg``, drawn from ``rng`` in the YAML's order."""
+    """``{key: value}`` of every ``randomize`` key of scenario config ``cfg``, drawn from the reference env's
+    generator ``rng`` in the order given (the batched backend draws the same :func:`uniform` from a JAX key)."""
     return {k: float(uniform(float(lo), float(hi), rng.random())) for k, (lo, hi) in cfg.randomize.items()}

@@ -10,11 +10,11 @@ from __future__ import annotations
 import math
 from typing import Any, NamedTuple
 
-from footstep_gym.scenes import PARKED, Bodies, Shape, Wall, float_of
+from footstep_gym.scenes import PARKED, Bodies, Shape, Wall
 
 #: The config keys an episode may draw (``randomize``) that :func:`start` reads as drawn values.
 RANDOMIZABLE = ("door_speed", "second_door_speed", "second_door_start_angle")
-#: Whether :func:`motion` moves the bodies before a footstep (the door's turn at their velocities).
+#: Whether :func:`before_step` puts the bodies elsewhere (no: the doors turn at their velocities).
 MOVES = False
 #: The reference world's names of the moving obstacles, in order.
 NAMES = ("door", "door_2")
@@ -73,22 +73,22 @@ def draw_numpy(rng: Any, cfg: Any) -> Draws:
 def start(xp: Any, c: Cell, u: Draws, m: int) -> tuple[Bodies, tuple]:
     """The rods at 0 s ``(m, ...)`` (a door past ``door_count`` :data:`PARKED`, still) and the scene state
     (none: nothing moves a rod but its turn)."""
-    like = u.jitter
-    two = xp.arange(m) < c.door_count
-    starts = xp.stack([float_of(xp, c.door_start_angle, like), float_of(xp, c.second_door_start_angle, like)])[:m]
-    jitters = xp.stack([float_of(xp, c.door_angle_jitter, like), float_of(xp, c.second_door_angle_jitter, like)])[:m]
-    speeds = xp.stack([float_of(xp, c.door_speed, like), float_of(xp, c.second_door_speed, like)])[:m]
-    centres = xp.stack([float_of(xp, c.door_centre, like), float_of(xp, c.second_door_centre, like)])[:m]
-    angle = xp.deg2rad(starts + (-1.0 + 2.0 * u.jitter[:m]) * jitters)
-    position = xp.where(two[:, None], centres, PARKED)
-    zero = xp.zeros((m,), dtype=like.dtype)
-    return Bodies(position, xp.where(two, angle, zero), xp.zeros((m, 2), dtype=like.dtype),
-                  xp.where(two, -xp.deg2rad(speeds), zero)), ()
+    dt = u.jitter.dtype
+
+    def per_door(first: Any, second: Any) -> Any:
+        return xp.asarray([first, second][:m], dtype=dt)
+
+    angle = xp.deg2rad(per_door(c.door_start_angle, c.second_door_start_angle)
+                       + (-1.0 + 2.0 * u.jitter[:m]) * per_door(c.door_angle_jitter, c.second_door_angle_jitter))
+    omega = -xp.deg2rad(per_door(c.door_speed, c.second_door_speed))
+    there = xp.arange(m) < c.door_count
+    return Bodies(xp.where(there[:, None], per_door(c.door_centre, c.second_door_centre), PARKED),
+                  xp.where(there, angle, 0.0), xp.zeros((m, 2), dtype=dt), xp.where(there, omega, 0.0)), ()
 
 
-def motion(xp: Any, state: tuple, t: Any, duration: Any) -> None:
-    """Nothing: the rods turn at their velocities (:data:`MOVES` is False)."""
-    return None
+def before_step(xp: Any, state: tuple, position: Any, velocity: Any, t: Any, duration: Any) -> tuple[Any, Any]:
+    """The rods as they are: they turn at their velocities (:data:`MOVES` is False)."""
+    return position, velocity
 
 
 def walls(cfg: Any) -> list[Wall]:

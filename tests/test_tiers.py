@@ -664,15 +664,19 @@ def test_a_gap_no_longer_than_a_car_is_refused():
 
 
 # ------------------------------------------------------------------ splits and the protocol's version
-def test_protocol_2_has_a_fresh_test_split_and_protocol_1s_test_seeds_in_validation():
+def test_protocol_3_has_a_fresh_test_split_and_the_earlier_test_seeds_in_validation():
     from footstep_gym.evaluation import benchmark, splits
 
-    assert splits.PROTOCOL_VERSION == benchmark.PROTOCOL_VERSION == 2
+    assert splits.PROTOCOL_VERSION == benchmark.PROTOCOL_VERSION == 3
     lo, hi = splits.SPLITS["validation"]
-    assert lo <= 20000 and hi >= 30000  # protocol 1's test seeds 20000-29999 were looked at
+    # protocol 1's test seeds (20000-29999) and protocol 2's run ones (30000-30099) were looked at: validation now
+    assert lo <= 20000 and hi >= 30100
     t0, t1 = splits.SPLITS["test"]
-    assert t0 >= 30000 and t1 > t0
-    assert benchmark.seeds(3) == [t0, t0 + 1, t0 + 2]
+    assert t0 >= hi and t1 > t0
+    assert benchmark.seeds(3, "test", release=True) == [t0, t0 + 1, t0 + 2]
+    assert benchmark.seeds(3) == [lo, lo + 1, lo + 2]  # a run without --release is a development run
+    with pytest.raises(Exception, match="release"):
+        benchmark.seeds(3, "test")
 
 
 def test_a_trainer_on_any_tier_takes_train_seeds():

@@ -71,3 +71,20 @@ class Policy(ABC):
     @abstractmethod
     def act(self, observation: Any, snapshot: Snapshot | None) -> np.ndarray:
         """The next footstep command ``(5,)`` from the env's observation and/or sensing snapshot."""
+
+
+class SeededPolicy(Policy):
+    """A policy of the registry's constructor ``(robot, ..., seed, name)`` with its own generator ``rng``:
+    seeded when built, re-seeded by ``reset(seed)`` (``None`` keeps it), ``last_info`` cleared per episode."""
+
+    def __init__(self, robot: Any, seed: int | None = None, name: str | None = None) -> None:
+        super().__init__()
+        if name is not None:
+            self.name = name  # a configured variant of the class (e.g. "paper-period-aware")
+        self.robot = robot
+        self.rng = np.random.default_rng(seed)
+
+    def reset(self, seed: int | None = None) -> None:
+        if seed is not None:
+            self.rng = np.random.default_rng(seed)
+        self.last_info = {}

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from footstep_gym.policy import Policy
+from footstep_gym.policy import SeededPolicy
 from footstep_gym.robot import Robot
 
 #: Constant walkers' forward strides S [m] and periods T = T_SS + T_DS [s]: 3 x 3 walkers, 1 cm/s to 0.25 m/s.
@@ -44,7 +44,7 @@ def is_null(name: str) -> bool:
     return name.startswith(NULL_PREFIX)
 
 
-class NullPolicy(Policy):
+class NullPolicy(SeededPolicy):
     """Shared by the null baselines: the registry's constructor ``(robot, config, seed, name)``, no sensing.
 
     ``config`` (the planners' :class:`~footstep_gym.planners.PlannerConfig`) is accepted and unused.
@@ -53,16 +53,7 @@ class NullPolicy(Policy):
     description = ""
 
     def __init__(self, robot: Robot, config: Any = None, seed: int | None = None, name: str | None = None) -> None:
-        super().__init__()
-        if name is not None:
-            self.name = name
-        self.robot = robot
-        self.rng = np.random.default_rng(seed)
-
-    def reset(self, seed: int | None = None) -> None:
-        if seed is not None:
-            self.rng = np.random.default_rng(seed)
-        self.last_info = {}
+        super().__init__(robot, seed, name)
 
     def act(self, observation: Any, snapshot: Any) -> np.ndarray:
         command = self._command()

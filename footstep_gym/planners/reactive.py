@@ -28,7 +28,7 @@ import numpy as np
 
 from footstep_gym import footstep, lipm
 from footstep_gym.errors import ConfigError
-from footstep_gym.policy import Policy
+from footstep_gym.policy import SeededPolicy
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot
 
@@ -121,7 +121,7 @@ def min_clearance(snapshot: Snapshot, points: np.ndarray, times: np.ndarray) -> 
 
 
 # ---------------------------------------------------------------- the policies
-class SensingBaseline(Policy):
+class SensingBaseline(SeededPolicy):
     """Shared by the reactive and classical baselines: the registry's constructor ``(robot, config, seed, name)``
     (``config``, the planners' :class:`~footstep_gym.planners.PlannerConfig`, is accepted and unused: their values
     are ``configs/baselines.yaml``'s), the ``walk`` section, and ``act`` = :meth:`_command` made feasible, with
@@ -133,18 +133,9 @@ class SensingBaseline(Policy):
     config_keys: tuple[str, ...] = ()
 
     def __init__(self, robot: Robot, config: Any = None, seed: int | None = None, name: str | None = None) -> None:
-        super().__init__()
-        if name is not None:
-            self.name = name
-        self.robot = robot
+        super().__init__(robot, seed, name)
         self.walk = section("walk", WALK_KEYS)
         self.params: Mapping[str, Any] = section(self.config_section, self.config_keys) if self.config_section else {}
-        self.rng = np.random.default_rng(seed)
-
-    def reset(self, seed: int | None = None) -> None:
-        if seed is not None:
-            self.rng = np.random.default_rng(seed)
-        self.last_info = {}
 
     def act(self, observation: Any, snapshot: Snapshot | None) -> np.ndarray:
         if snapshot is None:

@@ -78,27 +78,18 @@ from footstep_gym.planners.pso import CommandRepair
 from footstep_gym.planners.rrt import PathChoice, PathSearch
 from footstep_gym.planners.tracking import Tracker
 from footstep_gym.planners.walks import WalkStart, walk_start
-from footstep_gym.policy import Policy
+from footstep_gym.policy import SeededPolicy
 from footstep_gym.robot import Robot
 from footstep_gym.sensing import Snapshot
 
 
-class SnapshotPlanner(Policy):
+class SnapshotPlanner(SeededPolicy):
     """Shared by the scripted planners: robot, config, generator, timing of ``act``."""
 
     def __init__(self, robot: Robot, config: PlannerConfig, seed: int | None = None, name: str | None = None) -> None:
-        super().__init__()
-        if name is not None:
-            self.name = name  # a configured variant (e.g. "paper-period-aware") of this class
-        self.robot = robot
+        super().__init__(robot, seed, name)
         self.config = config
         self._seed = seed
-        self.rng = np.random.default_rng(seed)
-
-    def reset(self, seed: int | None = None) -> None:
-        if seed is not None:
-            self.rng = np.random.default_rng(seed)
-        self.last_info = {}
 
     def act(self, observation: Any, snapshot: Snapshot | None) -> np.ndarray:
         if snapshot is None:

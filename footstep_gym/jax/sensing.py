@@ -55,7 +55,7 @@ def sensed(rods: Rods, px: jax.Array, py: jax.Array, heading: jax.Array, max_ran
     """Which rods ``(M,)`` a robot with its CoM at ``(px, py)`` [m] facing ``heading`` [rad] senses: those whose
     closest surface point is within ``max_range`` [m] and within ``fov`` [deg] (inclusive) of it, and any it is
     inside or touching (gap <= 0)."""
-    ax, ay, bx, by = rod_endpoints(rods, chipmunk=False)
+    ax, ay, bx, by = rod_endpoints(rods)
     qx, qy, nx, ny, d = centre_line(px, py, ax, ay, bx - ax, by - ay)
     gap = d - rods.r
     keep = ~(gap > max_range)

@@ -75,13 +75,11 @@ def wall_table(walls: Walls) -> jax.Array:
     return jnp.concatenate([walls.a, walls.b, jnp.stack([dx, dy, l2], axis=1), walls.r[:, None]], axis=1)
 
 
-def rod_endpoints(rods: Rods, chipmunk: bool = True) -> tuple[jax.Array, ...]:
+def rod_endpoints(rods: Rods) -> tuple[jax.Array, ...]:
     """World endpoints ``ax, ay, bx, by`` of each rod (``(..., M)``: the rods' leaves may lead with a batch
-    axis): Chipmunk's transform (the sweep's order of operations) or ``World.nearest``'s."""
+    axis), in ``World.nearest``'s order of operations (the sweep places them with ``collision.body_segment``)."""
     px, py = rods.position[..., 0], rods.position[..., 1]
     lax_, lay, lbx, lby = rods.a[..., 0], rods.a[..., 1], rods.b[..., 0], rods.b[..., 1]
-    if chipmunk:
-        return collision.body_segment(jnp, px, py, rods.angle, lax_, lay, lbx, lby)[:4]
     c, s = jnp.cos(rods.angle), jnp.sin(rods.angle)
     return (px + c * lax_ - s * lay, py + s * lax_ + c * lay, px + c * lbx - s * lby, py + s * lbx + c * lby)
 
@@ -197,7 +195,7 @@ def nearest_shapes(px: jax.Array, py: jax.Array, walls: Walls, rods: Rods, k: in
     ``rods_sensed`` ``(M,)``: only these rods count (``footstep_gym.sensing.nearest_views`` over what was sensed)."""
     ax_w, ay_w = walls.a[:, 0], walls.a[:, 1]
     dx_w, dy_w = walls.b[:, 0] - ax_w, walls.b[:, 1] - ay_w
-    ax_r, ay_r, bx_r, by_r = rod_endpoints(rods, chipmunk=False)
+    ax_r, ay_r, bx_r, by_r = rod_endpoints(rods)
     ax = jnp.concatenate([ax_w, ax_r])
     ay = jnp.concatenate([ay_w, ay_r])
     dx = jnp.concatenate([dx_w, bx_r - ax_r])

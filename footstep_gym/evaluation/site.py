@@ -109,13 +109,14 @@ def _kind(row: Mapping[str, Any], baselines: set[str]) -> str:
     return "agent" if row.get("learned") else "planner"
 
 
-def _baselines(root: Path, board: Mapping[str, Any]) -> set[str]:
-    """The rows the board counts as baselines besides the null walkers: those configured in configs/baselines.yaml
-    (where it exists) and the board's reactive anchors (``scores.reactive_baselines``, protocol 3)."""
-    names: set[str] = set()
-    path = root / "configs/baselines.yaml"
-    if path.is_file():
-        names |= set(yaml.safe_load(path.read_text(encoding="utf-8")) or {})
+def _baselines(board: Mapping[str, Any]) -> set[str]:
+    """The rows the board counts as baselines besides the null walkers: the registered reactive and classical
+    baselines (:mod:`footstep_gym.planners.reactive`, :mod:`~footstep_gym.planners.classical`) and the board's
+    reactive anchors (``scores.reactive_baselines``, protocol 3)."""
+    from footstep_gym.planners.classical import CLASSICAL_POLICIES
+    from footstep_gym.planners.reactive import REACTIVE_POLICIES
+
+    names = {*REACTIVE_POLICIES, *CLASSICAL_POLICIES}
     scores = board.get("scores")
     if isinstance(scores, dict):
         names |= set(scores.get("reactive_baselines") or [])
@@ -132,7 +133,7 @@ def load_site_data(root: Path, board_dir: Path | None = None) -> SiteData:
     if not isinstance(board, dict) or board.get("leaderboard") != "footstep_gym" or "policies" not in board:
         raise SiteError(f"{board_path}: not a footstep_gym leaderboard.json")
     methods = []
-    baselines = _baselines(root, board)
+    baselines = _baselines(board)
     for row in list(board["policies"]) + list(board.get("in_distribution") or []):
         name = row["policy"]
         source = row.get("source")

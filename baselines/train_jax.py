@@ -47,7 +47,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--devices", type=int, default=1,
                    help="CPU cores as JAX devices, over which Brax's trainer splits the envs and each update "
                         "(default 1: the shipped runs' setting; num_envs and batch_size must divide by it)")
-    p.add_argument("--ship", action="store_true", help="ship each run to --agents-dir/ppo-jax/")
+    p.add_argument("--tier", default=None,
+                   help="train on this tier of the benchmark (replaces the config's env_kwargs tier; e.g. structure, "
+                        "noise for the in-distribution tracks)")
+    p.add_argument("--agent", default=AGENT,
+                   help="the agent's name: its folder under --agents-dir and its row on the board (default ppo-jax)")
+    p.add_argument("--ship", action="store_true", help="ship each run to --agents-dir/<agent>/")
     p.add_argument("--force", action="store_true", help="with --ship: replace agents already shipped")
     p.add_argument("--agents-dir", type=Path, default=REPO / "baselines" / "agents", help="the agents folder")
     p.add_argument("--results", type=Path, default=REPO / "baselines" / "results" / "jax",
@@ -210,6 +215,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"--seeds: a training seed is a whole number >= 0, got {min(args.seeds)}")
     if len(set(args.seeds)) != len(args.seeds):
         parser.error(f"--seeds: a seed given twice ({' '.join(map(str, args.seeds))})")
+    if not args.agent or "/" in args.agent or args.agent.startswith("."):
+        parser.error(f"--agent: a folder name, got {args.agent!r}")
     if args.force and not args.ship:
         parser.error("--force applies with --ship only")
     if args.timesteps is not None and args.timesteps < 1:
@@ -228,6 +235,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         asked = ppo.load_config(env_id, args.config)
+        if args.tier is not None:
+            asked = ppo.with_tier(asked, args.tier)
         cfg = ppo.planned(asked, args.timesteps)
     except ConfigError as exc:
         print(f"train_jax.py: {exc}", file=sys.stderr)
@@ -237,14 +246,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                      f"{cfg.env_id} must divide by it")
     print(ppo.plan_line(args.timesteps or asked.num_timesteps, cfg), f"on {ppo.jax_devices()}", flush=True)
     if args.ship and not args.force:
-        taken = [str(d) for s in args.seeds if (d := args.agents_dir / AGENT / f"{cfg.env_id}_{s}").exists()]
+        taken = [str(d) for s in args.seeds if (d := args.agents_dir / args.agent / f"{cfg.env_id}_{s}").exists()]
         if taken:
             print(f"train_jax.py: already shipped, not replaced (--force replaces them): {', '.join(taken)}",
                   file=sys.stderr)
             return 2
     command = "python baselines/train_jax.py " + shlex.join(argv if argv is not None else sys.argv[1:])
     for seed in args.seeds:
-        print(f"{AGENT} {cfg.env_id} seed {seed}", flush=True)
+        print(f"{args.agent} {cfg.env_id} seed {seed}", flush=True)
 
         def progress(steps: int, wall: float, rate: float) -> None:
             print(f"  {steps:>10,} env steps  {wall:7.1f} s  validation success {rate:.2f}", flush=True)
@@ -256,9 +265,9 @@ def main(argv: Sequence[str] | None = None) -> int:
               f"({result.timesteps / result.wall_time_s:,.0f} env steps/s), time to {TARGET}: "
               f"{'never' if t is None else f'{t:.1f} s'}; run {run}", flush=True)
         if args.ship:
-            dest = ppo.ship(run, result, args.agents_dir, AGENT, TARGET)
+            dest = ppo.ship(run, result, args.agents_dir, args.agent, TARGET)
             print(f"  shipped: {dest}", flush=True)
-    if args.ship and not args.no_report:
+    if args.ship and not args.no_report and args.agent == AGENT:
         for path in write_report(args.agents_dir, args.results, cfg.env_id, args.reference):
             print(path)
     return 0

@@ -147,6 +147,20 @@ def parse_config(entry: Any, env_id: str, where: str = "ppo-jax config") -> PPOJ
     return cfg
 
 
+def with_tier(cfg: PPOJaxConfig, tier_name: str) -> PPOJaxConfig:
+    """``cfg`` trained on the benchmark tier ``tier_name`` (its env options' ``tier`` replaced; every cell the tier
+    has for the scene, one drawn per episode as ``gym.make(..., tier=...)`` does).
+
+    Raises:
+        ConfigError: ``tier_name`` is not a tier of configs/benchmark.yaml.
+    """
+    from footstep_gym import tiers
+
+    if tier_name not in tiers.tier_names():
+        raise ConfigError(f"ppo-jax: unknown tier {tier_name!r}; one of {', '.join(tiers.tier_names())}")
+    return replace(cfg, env_kwargs={**cfg.env_kwargs, "tier": tier_name})
+
+
 def planned(cfg: PPOJaxConfig, timesteps: int | None = None) -> PPOJaxConfig:
     """``cfg`` (its ``num_timesteps`` replaced by ``timesteps`` if given) as Brax's trainer runs it.
 

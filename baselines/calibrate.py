@@ -7,6 +7,8 @@ Usage::
     python baselines/calibrate.py --oracle-episodes 20 --no-null --out runs/calib-oracle   # the oracle only
     python baselines/calibrate.py --tier structure --env crowd --out runs/calib-crowd --workers 2
     python baselines/calibrate.py --no-null --privileged oracle-lookahead --oracle-episodes 100 \
+        --cell structure/door/any_phase --out runs/calib-any-phase      # one cell
+    python baselines/calibrate.py --no-null --privileged oracle-lookahead --oracle-episodes 100 \
         --out runs/calib-certify                   # protocol 3: certify solvability on 100 validation seeds per cell
 
 A cell outside the ``paper`` tier stays in the benchmark only if the best null baseline succeeds in
@@ -44,12 +46,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-null", action="store_true", help="the privileged solvers only")
     parser.add_argument("--tier", action="append", help="only these tiers (repeat)")
     parser.add_argument("--env", action="append", help="only these scenes or env ids (repeat)")
+    parser.add_argument("--cell", action="append",
+                        help="only these cells, TIER/SCENE/CELL as the table names them (repeat)")
     parser.add_argument("--workers", type=int, default=1, help="worker processes (1)")
     parser.add_argument("--out", type=Path, required=True, help="folder for calibration.json and calibration.md")
     args = parser.parse_args(argv)
     try:
         scenes = [scene_of(resolve_env_id(e)) for e in args.env] if args.env else None
-        cells = benchmark_cells(scenes, args.tier)
+        cells = cal.select_cells(benchmark_cells(scenes, args.tier), args.cell)
         oracle_n = args.oracle_episodes or args.episodes
         for n in (args.episodes, oracle_n):
             cal.split_seeds(cal.SPLIT, n, args.offset)

@@ -49,6 +49,24 @@ class CellScore:
         return self.successes / self.episodes
 
 
+def cell_name(cell: BenchmarkCell) -> str:
+    """``tier/scene/cell``: how the calibration's table and ``calibrate.py --cell`` name a cell."""
+    return f"{cell.tier}/{cell.scene}/{cell.name}"
+
+
+def select_cells(cells: Sequence[BenchmarkCell], names: Sequence[str] | None) -> list[BenchmarkCell]:
+    """The cells of ``cells`` named in ``names`` (:func:`cell_name`; all of them if ``names`` is None), in
+    ``cells``' order; ``ValueError`` naming any name that is not one of them."""
+    if names is None:
+        return list(cells)
+    known = {cell_name(c) for c in cells}
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ValueError(f"unknown cell(s) {', '.join(map(repr, unknown))}: a cell is TIER/SCENE/CELL, one of "
+                         f"{', '.join(sorted(known))}")
+    return [c for c in cells if cell_name(c) in set(names)]
+
+
 def calibration_tasks(cells: Sequence[BenchmarkCell], policies: Sequence[str], episodes: int, offset: int = 0
                       ) -> tuple[list[Task], list[tuple[BenchmarkCell, str]]]:
     """The episodes of every ``policy`` on every cell, on ``episodes`` validation seeds from the ``offset``-th on;
@@ -144,7 +162,7 @@ def markdown_table(scores: Sequence[CellScore]) -> str:
         cert = "–" if o is None else ("yes" if certified(o) else
                                       f"no ({o.episodes} < {CERTIFY_EPISODES} episodes)" if o.rate >= ORACLE_MIN
                                       else "no")
-        lines.append(f"| {c.tier}/{c.scene}/{c.name} | {rule} | {null_text} | {' | '.join(solver_texts)} | {kept} | "
+        lines.append(f"| {cell_name(c)} | {rule} | {null_text} | {' | '.join(solver_texts)} | {kept} | "
                      f"{cert} |")
     return "\n".join(lines)
 
@@ -156,4 +174,4 @@ def null_policies() -> list[str]:
 
 __all__ = ["CERTIFY_EPISODES", "EXEMPT_TIERS", "NULL_MAX", "ORACLE_MIN", "PRIVILEGED", "SPLIT", "CellScore",
            "benchmark_cells", "best_null", "best_privileged", "broken", "certified",
-           "calibration_tasks", "markdown_table", "null_policies", "oracle_scores", "score", "split_seeds"]
+           "calibration_tasks", "cell_name", "markdown_table", "null_policies", "oracle_scores", "score", "select_cells", "split_seeds"]

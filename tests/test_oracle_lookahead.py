@@ -97,3 +97,37 @@ def test_the_calibration_takes_the_best_privileged_solver_and_certifies_on_100_e
     assert "| oracle (validation) | oracle-lookahead (validation) | rule kept | certified |" in table
     assert "| 0.80 (80/100) | 0.95 (95/100) | yes | yes |" in table
     assert "no (20 < 100 episodes)" in table
+
+
+@pytest.mark.parametrize("env_id, kwargs", [("FootstepDoor-v0", {"tier": "structure", "tier_cell": "two_doors"}),
+                                            ("FootstepCrowd-v0", {})])
+def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
+    """The truth places a shape at rest once and leaves out walls no point comes near: the same numbers, bit for
+    bit, as every shape's pose at every point's time (TruthModel.poses) through the centre-line distance."""
+    from footstep_gym.kernels.numpy_kernels import centre_line_gap2
+    from footstep_gym.planners.oracle import TruthPredictor
+
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=10000)
+    u = env.unwrapped
+    env.step(u.robot.nominal_command)
+    snap = true_snapshot(u)
+    model = TruthModel(u, snap.obstacles, 6.0)
+    truth = TruthPredictor(snap, model, 6.0)
+    assert truth._fixed.size == sum(o.static for o in snap.obstacles)
+    period = 0.7
+    rng = np.random.default_rng(3)
+    centre = np.asarray(snap.centre, dtype=float)
+    for spread in (0.05, 0.5, 3.0):  # points in a small box (most walls pruned), a wide one (none)
+        points = centre + rng.uniform(-spread, spread, (300, 2))
+        times = rng.uniform(0.0, 8.0, 300)
+        c, a = model.poses(times, period)
+        d2 = centre_line_gap2(points[:, 0] + 1j * points[:, 1], c, np.exp(1j * a), truth._la, truth._lab, truth._lab2)
+        d2[times[:, None] > truth._truth_horizon] = np.inf
+        if env_id == "FootstepDoor-v0" and spread < 1:  # the pruning is exercised: a small box leaves walls out
+            assert len(truth._near_fixed(points, 0.4)) < truth._fixed.size
+        for safe in (0.0, 0.15, 0.4):
+            np.testing.assert_array_equal(truth.free_at(points, times, safe, period),
+                                          (d2 >= (truth._r + safe) ** 2).all(axis=1))
+        np.testing.assert_array_equal(truth.clearance_at(points, times, period),
+                                      (np.sqrt(d2) - truth._r).min(axis=1))

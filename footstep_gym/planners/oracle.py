@@ -229,10 +229,15 @@ class TruthModel:
         self._cache[key] = out
         return out
 
-    def poses(self, taus: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+    def poses(self, taus: np.ndarray, period: float, columns: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
         """Body centres ``(N, S)`` complex [m] and angles ``(N, S)`` [rad] at ``taus (N,)`` [s] after now, for a walk
-        whose steps take ``period`` [s]: from the step's first place at the velocity of the step."""
+        whose steps take ``period`` [s]: from the step's first place at the velocity of the step. ``columns``: only
+        these shapes' (indices; ``S`` of them)."""
         centres, angles, velocities, omegas = self.boundaries(period)
+        if columns is not None:
+            centres, angles = centres[:, columns], angles[:, columns]
+            velocities, omegas = velocities[:, columns], omegas[:, columns]
         x = np.maximum(np.asarray(taus, dtype=float), 0.0) / float(period)
         k = np.minimum(np.floor(x).astype(int), len(centres) - 1)
         dt = ((x - k) * float(period))[:, None]
@@ -261,33 +266,72 @@ class TruthPredictor(ObstaclePredictor):
         self._lab = np.array([g[1] - g[0] for g in geometry], dtype=complex).reshape(n)
         self._lab2 = np.abs(self._lab) ** 2
         self._r = np.array([g[2] for g in geometry], dtype=float).reshape(n)
+        # Shapes the truth never moves (static, at rest): their pose at any time is the one now, so their centre
+        # lines are placed once, not at every point's time (the same numbers: the truth's pose of a shape at rest
+        # is its place plus a zero velocity times the time).
+        fixed = ~moving & (truth.velocity == 0) & (truth.omega == 0)
+        self._fixed, self._moves = np.flatnonzero(fixed), np.flatnonzero(~fixed)
+        rot = np.exp(1j * truth.angle[fixed])
+        self._fixed_line = (truth.position[fixed] + rot * self._la[fixed], rot * self._lab[fixed])
+        ends = np.stack([self._fixed_line[0], self._fixed_line[0] + self._fixed_line[1]])
+        self._fixed_box = (ends.real.min(axis=0), ends.real.max(axis=0), ends.imag.min(axis=0), ends.imag.max(axis=0))
 
-    def _distance2_at(self, points: np.ndarray, times: np.ndarray, period: float) -> np.ndarray:
-        """Squared distances ``(N, S)`` from each point to each shape's centre line at its time (``inf``: not
-        checked)."""
+    def _near_fixed(self, points: np.ndarray, reach: float) -> np.ndarray:
+        """Indices (into the fixed shapes) of those whose centre line may come within ``reach`` [m] of a point of
+        ``points (N, 2)``: the others' centre lines lie farther than ``reach`` (plus a micrometre) from every point
+        (their bounding boxes are that far apart), so no check of these points can find them nearer."""
+        lo_x, hi_x, lo_y, hi_y = self._fixed_box
+        gap_x = np.maximum(np.maximum(lo_x - points[:, 0].max(), points[:, 0].min() - hi_x), 0.0)
+        gap_y = np.maximum(np.maximum(lo_y - points[:, 1].max(), points[:, 1].min() - hi_y), 0.0)
+        return np.flatnonzero(np.hypot(gap_x, gap_y) <= reach + 1e-6)
+
+    def _gap2_at(self, points: np.ndarray, times: np.ndarray, period: float, near: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Squared distances from each point to each shape's centre line at its time: to the fixed shapes
+        ``(N, F)`` (``near``: only these of them) and to the others ``(N, M)`` (``inf``: beyond the shape's
+        horizon, not checked), the columns in ``self._fixed``'s (or ``near``'s) and ``self._moves``' order."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         p = pts[:, 0] + 1j * pts[:, 1]
         tt = np.broadcast_to(np.asarray(times, dtype=float), p.shape)
-        centre, angle = self.truth.poses(tt, period)
-        rot = np.exp(1j * angle)
-        d2 = centre_line_gap2(p, centre, rot, self._la, self._lab, self._lab2)
-        if np.isfinite(self._truth_horizon).any():
-            d2[tt[:, None] > self._truth_horizon] = np.inf
-        return d2
+        origin, ab_world = self._fixed_line
+        ab2 = self._lab2[self._fixed]
+        if near is not None:
+            origin, ab_world, ab2 = origin[near], ab_world[near], ab2[near]
+        ap = p[:, None] - origin
+        u = (ap * ab_world.conj()).real / np.where(ab2 > 0, ab2, 1.0)
+        np.clip(u, 0.0, 1.0, out=u)
+        d = ap - u * ab_world
+        fixed = d.real ** 2 + d.imag ** 2
+        m = self._moves
+        if not m.size:
+            return fixed, np.empty((len(p), 0))
+        centre, angle = self.truth.poses(tt, period, m)
+        moving = centre_line_gap2(p, centre, np.exp(1j * angle), self._la[m], self._lab[m], self._lab2[m])
+        horizon = self._truth_horizon[m]
+        if np.isfinite(horizon).any():
+            moving[tt[:, None] > horizon] = np.inf
+        return fixed, moving
 
     def free_at(self, points: np.ndarray, times: np.ndarray, safe_distance: float, period: float) -> np.ndarray:
         """``clearance >= safe_distance`` for each point at its time, a walk of period ``period`` [s]: ``(N,)`` bool."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         if not self._r.size:
             return np.ones(len(pts), dtype=bool)
-        return (self._distance2_at(pts, times, period) >= (self._r + safe_distance) ** 2).all(axis=1)
+        r_fixed = self._r[self._fixed]
+        near = self._near_fixed(pts, float(r_fixed.max(initial=0.0)) + float(safe_distance)) if len(pts) else None
+        fixed, moving = self._gap2_at(pts, times, period, near)
+        r_fixed = r_fixed if near is None else r_fixed[near]
+        return ((fixed >= (r_fixed + safe_distance) ** 2).all(axis=1)
+                & (moving >= (self._r[self._moves] + safe_distance) ** 2).all(axis=1))
 
     def clearance_at(self, points: np.ndarray, times: np.ndarray, period: float) -> np.ndarray:
         """Distance [m] from each point (at its time, a walk of period ``period``) to the nearest shape, ``(N,)``."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         if not self._r.size:
             return np.full(len(pts), np.inf)
-        return (np.sqrt(self._distance2_at(pts, times, period)) - self._r).min(axis=1)
+        fixed, moving = self._gap2_at(pts, times, period)
+        return np.minimum((np.sqrt(fixed) - self._r[self._fixed]).min(axis=1, initial=np.inf),
+                          (np.sqrt(moving) - self._r[self._moves]).min(axis=1, initial=np.inf))
 
     def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
         raise TypeError("the oracle's truth depends on the walk's period: use free_at (TruthBody passes it)")

@@ -15,7 +15,8 @@ A cell outside the ``paper`` tier stays in the benchmark only if the best null b
 at most 0.1 of its validation episodes and the best privileged solver (``--privileged``: ``oracle``,
 ``oracle-lookahead``) in at least 0.9, certified on at least 100 episodes (configs/benchmark.yaml's
 header; docs/benchmark.md, "How the cells are chosen"). The script writes ``calibration.json`` (every
-policy's successes per cell, and each policy's cost: wall seconds per episode) and ``calibration.md``
+policy's successes per cell with the seeds and outcomes of its failures, and each policy's cost: wall seconds per
+episode) and ``calibration.md``
 (the table docs/benchmark.md quotes) into ``--out`` and prints the table; it exits with status 1 if a
 cell breaks the rule.
 """
@@ -85,7 +86,9 @@ def main(argv: list[str] | None = None) -> int:
            "cost": cost,
            "command": " ".join(["python", "baselines/calibrate.py", *(argv if argv is not None else sys.argv[1:])]),
            "scores": [{"scene": s.cell.scene, "tier": s.cell.tier, "cell": s.cell.name, "policy": s.policy,
-                       "successes": s.successes, "episodes": s.episodes} for s in scores],
+                       "successes": s.successes, "episodes": s.episodes,
+                       "failed": [{"seed": seed, "outcome": outcome} for seed, outcome in s.failed]}
+                      for s in scores],
            "broken": cal.broken(scores)}
     (args.out / "calibration.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     (args.out / "calibration.md").write_text(table + "\n", encoding="utf-8")

@@ -99,6 +99,18 @@ def test_the_calibration_takes_the_best_privileged_solver_and_certifies_on_100_e
     assert "no (20 < 100 episodes)" in table
 
 
+
+def test_the_calibration_runs_named_cells_and_keeps_the_seeds_of_its_failures():
+    cells = cal.select_cells(benchmark_cells(), ["structure/door/any_phase"])
+    assert [cal.cell_name(c) for c in cells] == ["structure/door/any_phase"]
+    with pytest.raises(ValueError, match="unknown cell.*'door/structure/any_phase'.*structure/door/any_phase"):
+        cal.select_cells(benchmark_cells(), ["door/structure/any_phase"])  # the label's order is not the table's
+    train = cal.select_cells(benchmark_cells(), ["train/door/train"])
+    (standing,) = cal.score(train, ["null-stand"], 2, progress=False)  # steps in place: never reaches the goal
+    assert (standing.successes, [seed for seed, _ in standing.failed]) == (0, [10000, 10001])
+    assert all(outcome != "goal" for _, outcome in standing.failed)
+
+
 @pytest.mark.parametrize("env_id, kwargs", [("FootstepDoor-v0", {"tier": "structure", "tier_cell": "two_doors"}),
                                             ("FootstepCrowd-v0", {})])
 def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):

@@ -43,6 +43,7 @@ class CellScore:
     policy: str
     successes: int
     episodes: int
+    failed: tuple[tuple[int, str], ...] = ()  # (seed, outcome) of each episode that did not reach the goal
 
     @property
     def rate(self) -> float:
@@ -85,9 +86,12 @@ def score(cells: Sequence[BenchmarkCell], policies: Sequence[str], episodes: int
     tasks, owners = calibration_tasks(cells, policies, episodes, offset)
     results = run_tasks(tasks, workers, progress=progress)
     wins = [0] * len(owners)
+    failed: list[list[tuple[int, str]]] = [[] for _ in owners]
     for r in results:
         wins[r.cell_index] += r.outcome == "goal"
-    return [CellScore(bc, p, w, episodes) for (bc, p), w in zip(owners, wins)]
+        if r.outcome != "goal":
+            failed[r.cell_index].append((int(r.seed), str(r.outcome)))
+    return [CellScore(bc, p, w, episodes, tuple(sorted(f))) for (bc, p), w, f in zip(owners, wins, failed)]
 
 
 def best_null(scores: Sequence[CellScore]) -> dict[str, CellScore]:

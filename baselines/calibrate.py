@@ -10,6 +10,8 @@ Usage::
         --cell structure/door/any_phase --out runs/calib-any-phase      # one cell
     python baselines/calibrate.py --no-null --privileged oracle-lookahead --oracle-episodes 100 \
         --out runs/calib-certify                   # protocol 3: certify solvability on 100 validation seeds per cell
+    python baselines/calibrate.py --merge runs/calib-a --merge runs/calib-b --out baselines/results/calibration
+                                                   # several runs as one, with the certification table
 
 A cell outside the ``paper`` tier stays in the benchmark only if the best null baseline succeeds in
 at most 0.1 of its validation episodes and the best privileged solver (``--privileged``: ``oracle``,
@@ -50,8 +52,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cell", action="append",
                         help="only these cells, TIER/SCENE/CELL as the table names them (repeat)")
     parser.add_argument("--workers", type=int, default=1, help="worker processes (1)")
+    parser.add_argument("--merge", type=Path, action="append",
+                        help="run nothing: merge these runs' folders (repeat) into --out, with the certification table")
     parser.add_argument("--out", type=Path, required=True, help="folder for calibration.json and calibration.md")
     args = parser.parse_args(argv)
+    if args.merge:
+        return merge(args.merge, args.out, parser)
     try:
         scenes = [scene_of(resolve_env_id(e)) for e in args.env] if args.env else None
         cells = cal.select_cells(benchmark_cells(scenes, args.tier), args.cell)
@@ -97,6 +103,34 @@ def main(argv: list[str] | None = None) -> int:
     for name, c in cost.items():
         print(f"{name}: {c['episodes']} episodes, {c['wall_s']} s, {c['s_per_episode']} s per episode "
               f"({args.workers} worker(s))", file=sys.stderr)
+    for line in doc["broken"]:
+        print(f"rule broken: {line}", file=sys.stderr)
+    return 1 if doc["broken"] else 0
+
+
+def merge(folders: list[Path], out: Path, parser: argparse.ArgumentParser) -> int:
+    """``--merge``: the runs of ``folders`` as one calibration (``calibration.json``: every run's settings and
+    cost, every score with its cost; ``calibration.md``: the certification table), exit 1 if a cell breaks the
+    rule."""
+    try:
+        docs = [json.loads((f / "calibration.json").read_text(encoding="utf-8")) for f in folders]
+        scores, cost = cal.scores_from_runs(docs)
+    except (OSError, ValueError, KeyError) as exc:
+        parser.exit(2, f"calibrate.py: error: --merge: {exc}\n")
+    table = cal.certification_table(scores, cost)
+    doc = {"split": cal.SPLIT,
+           "runs": [{"folder": f.as_posix(), **{k: d[k] for k in ("command", "offset", "workers", "wall_time_s",
+                                                                 "cost")}} for f, d in zip(folders, docs)],
+           "scores": [{"scene": s.cell.scene, "tier": s.cell.tier, "cell": s.cell.name, "policy": s.policy,
+                       "successes": s.successes, "episodes": s.episodes,
+                       "s_per_episode": cost[(cal.cell_name(s.cell), s.policy)],
+                       "failed": [{"seed": seed, "outcome": outcome} for seed, outcome in s.failed]}
+                      for s in scores],
+           "broken": cal.broken(scores)}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "calibration.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    (out / "calibration.md").write_text(table + "\n", encoding="utf-8")
+    print(table)
     for line in doc["broken"]:
         print(f"rule broken: {line}", file=sys.stderr)
     return 1 if doc["broken"] else 0

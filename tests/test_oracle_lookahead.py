@@ -143,3 +143,23 @@ def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
                                           (d2 >= (truth._r + safe) ** 2).all(axis=1))
         np.testing.assert_array_equal(truth.clearance_at(points, times, period),
                                       (np.sqrt(d2) - truth._r).min(axis=1))
+
+
+def test_calibration_runs_merge_into_one_certification_table():
+    def run(policy: str, wins: int, failed: list[int], s_per_episode: float) -> dict:
+        return {"offset": 0, "cost": {policy: {"s_per_episode": s_per_episode}},
+                "scores": [{"scene": "door", "tier": "structure", "cell": "any_phase", "policy": policy,
+                            "successes": wins, "episodes": 100,
+                            "failed": [{"seed": s, "outcome": "collision"} for s in failed]}]}
+
+    first = run("oracle", 98, [], 2.0)
+    again = run("oracle", 98, [10003, 10007], 1.0)  # the same seeds again, now with its failures' seeds
+    scores, cost = cal.scores_from_runs([first, again, run("oracle-lookahead", 91, [], 5.0)])
+    oracle = next(s for s in scores if s.policy == "oracle")
+    assert oracle.failed == ((10003, "collision"), (10007, "collision")) and len(scores) == 2
+    assert cost == {("structure/door/any_phase", "oracle"): 1.0, ("structure/door/any_phase", "oracle-lookahead"): 5.0}
+    table = cal.certification_table(scores, cost)
+    assert "| structure/door/any_phase | 0.98 (98/100) | 0.91 (91/100) | oracle 0.98 | oracle 1.0, " \
+           "oracle-lookahead 5.0 | yes |" in table
+    with pytest.raises(ValueError, match="disagree: 98/100 .* 97/100"):
+        cal.scores_from_runs([first, run("oracle", 97, [], 1.0)])

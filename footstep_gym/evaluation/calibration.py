@@ -171,6 +171,59 @@ def markdown_table(scores: Sequence[CellScore]) -> str:
     return "\n".join(lines)
 
 
+def scores_from_runs(docs: Sequence[dict]) -> tuple[list[CellScore], dict[tuple[str, str], float]]:
+    """The scores of several ``calibrate.py`` runs (their ``calibration.json`` documents) as one list, and each
+    (cell name, policy)'s cost in wall seconds per episode (its run's). A (cell, policy, seeds) scored by two runs
+    must agree (the episodes are seeded); the score that keeps its failures' seeds is kept. ``ValueError`` where
+    two runs disagree or a run names a cell the benchmark does not have."""
+    cells = {cell_name(c): c for c in benchmark_cells()}
+    kept: dict[tuple[str, str], tuple[CellScore, int, float]] = {}
+    for doc in docs:
+        offset = int(doc.get("offset", 0))
+        for row in doc["scores"]:
+            name = f"{row['tier']}/{row['scene']}/{row['cell']}"
+            if name not in cells:
+                raise ValueError(f"a calibration run scores {name!r}, which is no cell of the benchmark")
+            score = CellScore(cells[name], row["policy"], int(row["successes"]), int(row["episodes"]),
+                              tuple((int(f["seed"]), str(f["outcome"])) for f in row.get("failed", ())))
+            run_cost = doc.get("cost", {}).get(row["policy"], doc.get("cost", {}).get("null baselines", {}))
+            key = (name, score.policy)
+            if key in kept:
+                old, old_offset, _ = kept[key]
+                if (old.successes, old.episodes, old_offset) != (score.successes, score.episodes, offset):
+                    raise ValueError(f"two calibration runs of {score.policy} on {name} disagree: "
+                                     f"{old.successes}/{old.episodes} (offset {old_offset}) and "
+                                     f"{score.successes}/{score.episodes} (offset {offset})")
+                if old.failed or not score.failed:
+                    continue
+            kept[key] = (score, offset, float(run_cost.get("s_per_episode", float("nan"))))
+    return [v[0] for v in kept.values()], {k: v[2] for k, v in kept.items()}
+
+
+def certification_table(scores: Sequence[CellScore], cost: dict[tuple[str, str], float]) -> str:
+    """Protocol 3's certification: per cell outside :data:`EXEMPT_TIERS` (the benchmark's order), each privileged
+    solver's success on validation seeds and its cost (wall seconds per episode, ``cost`` per (cell name, policy)),
+    the best of them, and whether it certifies the cell (:func:`certified`)."""
+    best = best_privileged(scores)
+    solvers = [p for p in PRIVILEGED if any(s.policy == p for s in scores)]
+    by_solver = {p: {cell_name(s.cell): s for s in scores if s.policy == p} for p in solvers}
+    lines = ["| cell | " + " | ".join(f"{p} (validation)" for p in solvers)
+             + " | best privileged | s per episode | certified |",
+             "|---|" + "---:|" * len(solvers) + "---|---|---|"]
+    for c in benchmark_cells():
+        name = cell_name(c)
+        if c.tier in EXEMPT_TIERS or c.label not in best:
+            continue
+        texts = [f"{by_solver[p][name].rate:.2f} ({by_solver[p][name].successes}/{by_solver[p][name].episodes})"
+                 if name in by_solver[p] else "–" for p in solvers]
+        b = best[c.label]
+        spent = ", ".join(f"{p} {cost[(name, p)]:.1f}" for p in solvers if (name, p) in cost)
+        verdict = "yes" if certified(b) else ("**no**" if b.rate < ORACLE_MIN else
+                                             f"no ({b.episodes} < {CERTIFY_EPISODES} episodes)")
+        lines.append(f"| {name} | {' | '.join(texts)} | {b.policy} {b.rate:.2f} | {spent} | {verdict} |")
+    return "\n".join(lines)
+
+
 def null_policies() -> list[str]:
     """Every null baseline's name."""
     return list(NULL_POLICIES)
@@ -178,4 +231,4 @@ def null_policies() -> list[str]:
 
 __all__ = ["CERTIFY_EPISODES", "EXEMPT_TIERS", "NULL_MAX", "ORACLE_MIN", "PRIVILEGED", "SPLIT", "CellScore",
            "benchmark_cells", "best_null", "best_privileged", "broken", "certified",
-           "calibration_tasks", "cell_name", "markdown_table", "null_policies", "oracle_scores", "score", "select_cells", "split_seeds"]
+           "calibration_tasks", "cell_name", "certification_table", "markdown_table", "null_policies", "oracle_scores", "score", "scores_from_runs", "select_cells", "split_seeds"]

@@ -97,7 +97,25 @@ AGENTS: dict[str, AgentEntry] = {
                           config=None, eval_freq=-1,
                           why_not_trainable="it trains in JAX, not through rl_zoo3: python baselines/train_jax.py "
                                             "(hyperparameters in configs/rl/ppo-jax.yml)"),
+    "ppo-jax-2e7": AgentEntry("ppo_jax", "ppo-jax at the declared budget, 2e7 env steps per run "
+                                         "(configs/rl/ppo-jax-2e7.yml), trained on the train tier: the generalisation "
+                                         "track at budget", folder="ppo-jax-2e7", default_folder=False, config=None,
+                              eval_freq=-1,
+                              why_not_trainable="it trains in JAX, not through rl_zoo3: python baselines/train_jax.py "
+                                                "--config configs/rl/ppo-jax-2e7.yml --agent ppo-jax-2e7"),
     # The in-distribution track: trained on a tier's cells (train split seeds), tested on that tier only.
+    "ppo-jax-2e7-structure": AgentEntry(
+        "ppo_jax", "ppo-jax at the declared budget (2e7 env steps per run) trained on each scene's structure tier, "
+                   "tested there only", folder="ppo-jax-2e7-structure", default_folder=False, config=None,
+        eval_freq=-1, tier="structure",
+        why_not_trainable="it trains in JAX: python baselines/train_jax.py --config configs/rl/ppo-jax-2e7.yml "
+                          "--tier structure --agent ppo-jax-2e7-structure"),
+    "ppo-jax-2e7-noise": AgentEntry(
+        "ppo_jax", "ppo-jax at the declared budget (2e7 env steps per run) trained on each scene's noise tier, "
+                   "tested there only", folder="ppo-jax-2e7-noise", default_folder=False, config=None,
+        eval_freq=-1, tier="noise",
+        why_not_trainable="it trains in JAX: python baselines/train_jax.py --config configs/rl/ppo-jax-2e7.yml "
+                          "--tier noise --agent ppo-jax-2e7-noise"),
     "ppo-structure": AgentEntry("ppo", "PPO trained on each scene's structure tier (its cells drawn per episode), "
                                        "tested there only: the in-distribution track", folder="ppo-structure",
                                 config="ppo-structure", eval_freq=-1, tier="structure"),

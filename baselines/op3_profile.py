@@ -1,7 +1,7 @@
 """Derive the ``op3`` robot profile from the OP3's MuJoCo model (footstep_gym/fullbody/profile.py).
 
-    python baselines/op3_profile.py            # print configs/robots/op3.yaml as the model gives it
-    python baselines/op3_profile.py --write    # write it (tests/test_fullbody.py compares the two)
+    python baselines/op3_profile.py            # print configs/robots/op3.yaml and op3-swing.yaml as the model gives them
+    python baselines/op3_profile.py --write    # write them (tests/test_fullbody.py compares)
 """
 
 from __future__ import annotations
@@ -10,20 +10,22 @@ import argparse
 import sys
 
 from footstep_gym.config import config_dir
-from footstep_gym.fullbody.profile import profile_yaml
+from footstep_gym.fullbody.profile import PROFILES, derive_profile, profile_yaml
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="write configs/robots/op3.yaml")
+    parser.add_argument("--write", action="store_true", help="write configs/robots/op3.yaml and op3-swing.yaml")
     args = parser.parse_args(argv)
-    text = profile_yaml()
-    if not args.write:
-        sys.stdout.write(text)
-        return 0
-    path = config_dir() / "robots" / "op3.yaml"
-    path.write_text(text, encoding="utf-8")
-    print(f"wrote {path}")
+    derived = derive_profile()
+    for name in PROFILES:
+        text = profile_yaml(derived, name)
+        if not args.write:
+            sys.stdout.write(text + "\n")
+            continue
+        path = config_dir() / "robots" / f"{name}.yaml"
+        path.write_text(text, encoding="utf-8")
+        print(f"wrote {path}")
     return 0
 
 

@@ -27,7 +27,8 @@ __all__ = ["FootstepEnv", "EnvConfig", "TERMINATIONS", "FALL_REASONS", "DEFAULT_
 
 TERMINATIONS = ("goal", "collision", "fall")
 #: Why a step is a fall (``info["fall"]``), in the order they are checked: outside the command box (never from
-#: the env, which clips to it), outside the swinging side's turn limits, feet overlapping, ZMP outside the region.
+#: the env, which clips to it), T_SS too short for the swing (a robot with swing limits), outside the swinging
+#: side's turn limits, feet overlapping, ZMP outside the region.
 FALL_REASONS = footstep.KINEMATIC_VIOLATIONS + ("zmp",)
 
 
@@ -192,7 +193,7 @@ class FootstepEnv(gym.Env):
     | key | meaning |
     |---|---|
     | ``termination`` | ``"goal"``, ``"collision"``, ``"fall"`` or ``None`` |
-    | ``fall`` | on a fall, why (the first that fails): ``"turn_limit"`` (θ outside the swinging side's turn limits), ``"overlap"`` (the feet, grown by ``foot_clearance``, overlap) or ``"zmp"`` (the ZMP leaves the stable region); ``None`` otherwise |
+    | ``fall`` | on a fall, why (the first that fails): ``"swing"`` (T_SS below the stride's floor, :func:`footstep.swing_time_floor`; only a robot with ``swing_speed`` or ``swing_acceleration`` has one), ``"turn_limit"`` (θ outside the swinging side's turn limits), ``"overlap"`` (the feet, grown by ``foot_clearance``, overlap) or ``"zmp"`` (the ZMP leaves the stable region); ``None`` otherwise |
     | ``is_success``, ``feasible``, ``collision``, ``clipped`` | bools |
     | ``command`` | the command applied, after clipping |
     | ``time``, ``period`` | s: simulated time since reset, this step's ``T_SS + T_DS`` |

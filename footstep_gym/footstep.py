@@ -125,9 +125,27 @@ def feet_overlap(S: Any, L: Any, theta: Any, support_side: Any, robot: Robot, xp
     return ~(sep_x | sep_y | sep_u | sep_v)
 
 
+#: Peak speed and peak acceleration of the minimum-jerk path s(u) = 10u^3 - 15u^4 + 6u^5 over a distance D in a
+#: time T, in units of D / T and D / T^2: s'(1/2) = 15/8 and s''((3 - sqrt 3) / 6) = 10 / sqrt 3.
+MIN_JERK_PEAK_SPEED = 15.0 / 8.0
+MIN_JERK_PEAK_ACCELERATION = 10.0 / math.sqrt(3.0)
+
+
+def swing_time_floor(robot: Robot, S: Any, xp: Any = np) -> Any:
+    """The shortest T_SS [s] at front stride ``S`` [m] whose swing keeps to ``robot.swing_speed`` and
+    ``robot.swing_acceleration``: the swing foot travels the steady gait's ``2|S|`` on a minimum-jerk path, so
+    ``T_SS >= max(15/8 * 2|S| / swing_speed, sqrt(10/sqrt(3) * 2|S| / swing_acceleration))`` (0 with no limits;
+    ``xp``: ``math``, ``numpy`` or ``jax.numpy``)."""
+    travel = 2.0 * (abs(S) if xp is math else xp.abs(S))
+    by_speed = MIN_JERK_PEAK_SPEED * travel / robot.swing_speed
+    by_acceleration = xp.sqrt(MIN_JERK_PEAK_ACCELERATION * travel / robot.swing_acceleration)
+    return max(by_speed, by_acceleration) if xp is math else xp.maximum(by_speed, by_acceleration)
+
+
 #: The kinematic limits a command can fail, in the order :func:`kinematic_violation` checks them: outside the
-#: command box, outside the swinging side's turn limits, the two soles (grown by ``foot_clearance``) overlapping.
-KINEMATIC_VIOLATIONS = ("limits", "turn_limit", "overlap")
+#: command box, a T_SS too short for the swing to travel the stride (:func:`swing_time_floor`), outside the
+#: swinging side's turn limits, the two soles (grown by ``foot_clearance``) overlapping.
+KINEMATIC_VIOLATIONS = ("limits", "swing", "turn_limit", "overlap")
 
 
 def kinematic_violation(robot: Robot, S: float, L: float, theta: float, t_ss: float, t_ds: float,
@@ -145,6 +163,8 @@ def kinematic_violation(robot: Robot, S: float, L: float, theta: float, t_ss: fl
             and t_ss >= robot.t_ss[0] - eps and t_ss <= robot.t_ss[1] + eps
             and t_ds >= robot.t_ds[0] - eps and t_ds <= robot.t_ds[1] + eps):
         return "limits"
+    if robot.swing_limited and t_ss < swing_time_floor(robot, S, math) - eps:
+        return "swing"
     lo, hi = turn_bounds(support_side, robot)
     if not (theta >= lo - eps and theta <= hi + eps):
         return "turn_limit"
@@ -165,7 +185,8 @@ def kinematic_violation(robot: Robot, S: float, L: float, theta: float, t_ss: fl
 def kinematically_feasible(commands: Any, support_side: Any, robot: Robot, xp: Any = np) -> Any:
     """Batch verdict of the kinematic limits for commands ``(N, 5)`` ``[S, L, theta, T_SS, T_DS]``.
 
-    Inside the action box, inside the side-dependent turn limits, and no foot overlap. With ``xp`` another
+    Inside the action box, T_SS at least the swing's floor (:func:`swing_time_floor`), inside the side-dependent
+    turn limits, and no foot overlap. With ``xp`` another
     array namespace (``jax.numpy``) the commands keep their float dtype and every limit is rounded to it, so a
     float32 command at a float32-rounded limit is inside.
     """
@@ -177,6 +198,8 @@ def kinematically_feasible(commands: Any, support_side: Any, robot: Robot, xp: A
         low, high = (xp.asarray(b, dtype=cmd.dtype) for b in (robot.command_low, robot.command_high))
     eps = 1e-9
     ok = xp.all((cmd >= low - eps) & (cmd <= high + eps), axis=-1)
+    if robot.swing_limited:
+        ok &= cmd[..., 3] >= swing_time_floor(robot, cmd[..., 0], xp) - eps
     lo, hi = turn_bounds(support_side, robot, xp)
     theta = cmd[..., 2]
     if xp is not np:

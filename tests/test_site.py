@@ -200,3 +200,25 @@ def test_a_board_with_scores_shows_them_without_code_changes(tmp_path: Path) -> 
     ind = board["in_distribution"][0]["policy"]
     method = (tmp_path / f"site/methods/{ind}.html").read_text()
     assert "IQM success" in method and "scene-balanced success" not in method
+
+
+def test_a_board_with_a_full_body_summary_shows_its_column(tmp_path: Path) -> None:
+    """A board with a full-body summary (baselines/make_leaderboard.py --fullbody) gets a column on that tier's
+    table: the share that walks on the OP3 without a fall, – for a method not replayed; the other tiers' tables none."""
+    board = json.loads(json.dumps(BOARD))
+    first = board["policies"][0]["policy"]
+    board["fullbody"] = {"tier": "paper", "robot": "op3", "source": "fullbody_paper_op3.json",
+                         "policies": {first: {"episodes": 9, "scenes": [], "op3_no_fall": 0.333,
+                                              "env_success": 1.0, "env_success_and_op3_no_fall": 0.333}}}
+    folder = tmp_path / "board"
+    folder.mkdir()
+    (folder / "leaderboard.json").write_text(json.dumps(board))
+    site.build_site(ROOT, tmp_path / "site", folder)
+    index = (tmp_path / "site/index.html").read_text()
+    paper = index[index.index('id="tier-table-paper"'):]
+    paper = paper[:paper.index("</table>")]
+    assert paper.count("full body (op3): no fall (episodes)") == 1
+    row = re.search(rf'<tr class="[^"]*">(<td data-v="{re.escape(first)}".*?)</tr>', paper).group(1)
+    assert re.findall(r'<td[^>]*data-v="([^"]*)"', row)[-1] == "0.333000" and "(9)" in row
+    other = index[index.index('id="tier-table-train"'):]
+    assert "full body" not in other[:other.index("</table>")]

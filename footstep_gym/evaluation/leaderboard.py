@@ -48,6 +48,7 @@ import numpy as np
 import pandas as pd
 
 from footstep_gym.evaluation.benchmark import GENERALISATION, IN_DISTRIBUTION
+from footstep_gym.evaluation import fullbody_column
 from footstep_gym.evaluation import protocol as row_protocol
 from footstep_gym.evaluation.outfolder import new_run_folder
 from footstep_gym.evaluation.records import CellRecord
@@ -294,10 +295,11 @@ def _label(doc: Mapping[str, Any]) -> str:
 
 
 def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None, reps: int = REPS,
-          seed: int = SEED) -> dict[str, Any]:
+          seed: int = SEED, fullbody: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The leaderboard of ``docs`` (checked files): what ``leaderboard.json`` holds, and all the tables and
     figures are drawn from. Policies are ordered: complete runs by the mean of their tiers' IQMs (best first),
-    then partial runs, then upper bounds."""
+    then partial runs, then upper bounds. ``fullbody``: a full-body summary
+    (:func:`footstep_gym.evaluation.fullbody_column.load_summary`), shown as a column beside its tier."""
     cells = tier_cells(docs)
     tiers = list(cells)
     scenes = _ordered([c.split("/")[0] for cs in cells.values() for c in cs])
@@ -365,6 +367,7 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
         "bootstrap": {"reps": reps, "seed": seed, "confidence": 0.95, "gamma": GAMMA},
         "policies": policies, "in_distribution": in_distribution, "aggregates": aggregates,
         "per_scene": scene_rows, "scores": scores,
+        **({"fullbody": dict(fullbody)} if fullbody else {}),
     }
 
 
@@ -418,6 +421,30 @@ def _partial_note(board: Mapping[str, Any], p: Mapping[str, Any]) -> str:
             "comparable with the full rows" + (f" except on {', '.join(full)}" if full else ""))
 
 
+def _fullbody_head(board: Mapping[str, Any]) -> list[str]:
+    """The full-body column's header (none without a summary)."""
+    fb = board.get("fullbody")
+    return [f"full body ({fb['robot'].upper() if fb['robot'] == 'op3' else fb['robot']}, {fb['tier']})"] if fb else []
+
+
+def _fullbody_cell(board: Mapping[str, Any], policy: str) -> list[str]:
+    """The full-body column's cell of ``policy`` (none without a summary; – where it was not replayed)."""
+    if not board.get("fullbody"):
+        return []
+    return [fullbody_column.cell(board["fullbody"], policy) or DASH]
+
+
+def fullbody_note(board: Mapping[str, Any]) -> list[str]:
+    """The line under a table with the full-body column."""
+    fb = board.get("fullbody")
+    if not fb:
+        return []
+    return [f"full body ({fb['robot']}, {fb['tier']}): the share of the method's {fb['tier']}-tier episodes "
+            f"(validation seeds, every scene pooled; recorded through the env with robot {fb['robot']!r}) that walk "
+            f"on the OP3 in MuJoCo without a fall (docs/fullbody.md), then (its env success on those episodes, "
+            f"episodes); – not replayed. From baselines/results/fullbody/{fb['source']}."]
+
+
 def headline_markdown(board: Mapping[str, Any]) -> str:
     """The leaderboard's table (the README's): a row per policy, a column per tier with the IQM success over the
     tier's cells [95 % CI], the training runs; partial runs after the complete ones, upper bounds last. A row of
@@ -436,8 +463,9 @@ def headline_markdown(board: Mapping[str, Any]) -> str:
             label += " ‡"
         if p["upper_bound"]:
             label = f"*{label}*"
-        rows.append([label, _runs(p["runs"]), *row])
-    table = pd.DataFrame(rows, columns=["policy", "runs", *(f"{t} ({plural(len(cells[t]), 'cell')})" for t in tiers)])
+        rows.append([label, _runs(p["runs"]), *row, *_fullbody_cell(board, p["policy"])])
+    table = pd.DataFrame(rows, columns=["policy", "runs", *(f"{t} ({plural(len(cells[t]), 'cell')})" for t in tiers),
+                                        *_fullbody_head(board)])
     return markdown_table(table).rstrip("\n")
 
 
@@ -449,6 +477,7 @@ def headline_notes(board: Mapping[str, Any]) -> list[str]:
              "the interval is the point]; runs: training runs per cell. Rows: complete runs by the mean of their "
              "tiers' IQMs, then partial runs, then upper bounds (they read the true future; not baselines)."]
     notes += [_partial_note(board, p) + "." for p in board["policies"] if not p["complete"]]
+    notes += fullbody_note(board)
     notes += [f"‡ {p['label']}: another protocol than the other rows ({_other_protocol(board, p)}; admitted by "
               "--allow-mixed): not comparable with them." for p in board["policies"] if _other_protocol(board, p)]
     return notes
@@ -523,9 +552,9 @@ def scores_markdown(board: Mapping[str, Any]) -> str:
         rows.append([label, *(_score(by[(name, t)]["success"], by[(name, t)]["success_ci95"]) if (name, t) in by
                               else DASH for t in board["tiers"]),
                      _score(r["score"]) if r else DASH, _score(r["safe_score"]) if r else DASH,
-                     _score(r["p_improvement"]) if r else DASH])
+                     _score(r["p_improvement"]) if r else DASH, *_fullbody_cell(board, name)])
     head = ["policy", *(f"{t}{' (not ranked)' if t not in s['ranked_tiers'] else ''}" for t in board["tiers"]),
-            "score", "safe score", "P(> next)"]
+            "score", "safe score", "P(> next)", *_fullbody_head(board)]
     return markdown_table(pd.DataFrame(rows, columns=head)).rstrip("\n")
 
 
@@ -632,7 +661,7 @@ def markdown(board: Mapping[str, Any]) -> str:
     lines += [note + "\n" for note in headline_notes(board)]
     protocol3 = ["## Scene-balanced success per tier", "", scores_markdown(board), "",
                  "## Safe success / time to goal / normalised score per tier", "", safety_markdown(board), ""]
-    protocol3 += [note + "\n" for note in scores_notes(board)]
+    protocol3 += [note + "\n" for note in scores_notes(board) + fullbody_note(board)]
     protocol3 += ["## Every cell: success (normalised)", "", cells_markdown(board), ""]
     if version >= 3:  # the headline is protocol 3's; the IQM table follows as protocol 2's figure
         at = lines.index("## IQM success per tier")
@@ -898,17 +927,25 @@ def write_leaderboard(board: Mapping[str, Any], out: Path) -> list[Path]:
 
 
 def leaderboard(paths: Sequence[Path], allow_mixed: bool = False, reps: int = REPS, seed: int = SEED,
-                fingerprint: str | None = None, access_log: Path | None = None) -> dict[str, Any]:
+                fingerprint: str | None = None, access_log: Path | None = None,
+                fullbody: Path | None = None) -> dict[str, Any]:
     """The checked leaderboard of the files ``paths`` name (:func:`find_benchmarks`); raises
     :class:`LeaderboardError` on bad input (:func:`check_compatible`, :func:`check_rows`: ``fingerprint`` and
-    ``access_log`` default to this checkout's)."""
+    ``access_log`` default to this checkout's). ``fullbody``: a full-body summary to show as a column
+    (``baselines/results/fullbody/fullbody_paper_op3.json``), read before anything else."""
+    summary = None
+    if fullbody is not None:
+        try:
+            summary = fullbody_column.load_summary(fullbody)
+        except fullbody_column.FullBodyError as exc:
+            raise LeaderboardError(str(exc)) from exc
     files = find_benchmarks(paths)
     if not files:
         raise LeaderboardError("no benchmark.json found in " + ", ".join(map(str, paths)))
     docs = [load_benchmark(p) for p in files]
     check_compatible(docs, files, allow_mixed)
     check_rows(docs, files, fingerprint, access_log)
-    return build(docs, files, reps=reps, seed=seed)
+    return build(docs, files, reps=reps, seed=seed, fullbody=summary)
 
 
 def main_summary(board: Mapping[str, Any], files: Sequence[Path], out: Path) -> str:

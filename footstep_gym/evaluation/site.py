@@ -339,6 +339,8 @@ def _tier_table(data: SiteData, tier: str) -> str:
     scenes = data.board["scenes"]
     per_scene = {(r["policy"], r["scene"]): r for r in data.board.get("per_scene", []) if r["tier"] == tier}
     aggs = {r["policy"]: r for r in data.board.get("aggregates", []) if r["tier"] == tier}
+    fullbody = data.board.get("fullbody")  # the full-body column (docs/fullbody.md), on its tier's table
+    fullbody = fullbody if isinstance(fullbody, dict) and fullbody.get("tier") == tier else None
     rows = []
     for m in data.methods:
         value, ci = tier_figure(data, m.name, tier)
@@ -353,12 +355,19 @@ def _tier_table(data: SiteData, tier: str) -> str:
         for s in scenes:
             r = per_scene.get((m.name, s), {})
             tds.append(interval_td(_num(r.get("success_mean")), r.get("success_ci95")))
+        if fullbody:
+            e = fullbody["policies"].get(m.name)
+            tds.append(num_td(None) if e is None else
+                       f'<td data-v="{float(e["op3_no_fall"]):.6f}" class="num" title="env success '
+                       f'{float(e["env_success"]):.2f} on the same {int(e["episodes"])} episodes">'
+                       f'{float(e["op3_no_fall"]):.2f} <span class="ci">({int(e["episodes"])})</span></td>')
         rows.append(f'<tr class="{row_class(m)}">{"".join(tds)}</tr>')
     cells = ", ".join(f'<a href="{cell_page(tier, *c.split("/", 1))}">{esc(c)}</a>'
                       for c in data.board["tier_cells"][tier])
     about = (data.tiers_config.get(tier) or {}).get("about", "")
     heads = ["method", "track", "runs", esc(tier_label(data)), "optimality gap", "mean success"] + \
-        [f"{esc(s)} success" for s in scenes]
+        [f"{esc(s)} success" for s in scenes] + \
+        ([f"full body ({esc(fullbody['robot'])}): no fall (episodes)"] if fullbody else [])
     return (f'<h3 id="tier-{slug(tier)}">{esc(tier)}</h3><p>{esc(about)}. Cells: {cells}.</p>'
             + table(heads, rows, f"tier-table-{slug(tier)}"))
 

@@ -3,6 +3,7 @@
     python baselines/fullbody.py replay --policy period-aware --env FootstepDoor-v0 --episodes 10 [--video]
     python baselines/fullbody.py nominal            # 20 footsteps of the nominal command (and of 5 cm strides)
     python baselines/fullbody.py agreement          # the env's verdict against the OP3 (docs/fullbody.md §3)
+    python baselines/fullbody.py swing              # steady strides x T_SS on the OP3 against op3-swing's floor
     python baselines/fullbody.py summary            # the board's column: fullbody_paper_op3.json/.csv from the tables
 
 Episodes use the validation split's seeds (configs/eval.yaml), never the test split's. Results go to
@@ -54,16 +55,25 @@ def robot_label(robot: object) -> str:
 
 
 def cmd_replay(args: argparse.Namespace) -> None:
-    from footstep_gym.fullbody.replay import markdown_table, record_episodes, summary, table_rows, walk_episodes, \
-        write_video
+    from footstep_gym.evaluation.fullbody_column import NO_EPISODE
+    from footstep_gym.fullbody.replay import admitted, markdown_table, record_episodes, summary, table_rows, \
+        walk_episodes, write_video
 
     name = "_".join([args.env, args.tier, args.cell or "all", args.policy, robot_label(args.robot)]).replace("/", "-")
     path = _target(args.out / f"{name}.md", args.force)
+    recorded = args.robot if args.recorded_with is None else {} if args.recorded_with == "default" \
+        else args.recorded_with
     episodes = record_episodes(args.policy, args.env, validation_seeds(args.episodes, args.offset), args.tier,
-                               args.cell, args.robot, args.run)
-    rows = table_rows(walk_episodes(episodes, args.robot))
+                               args.cell, recorded, args.run)
+    kept = [ep for ep in episodes if admitted(ep, args.robot)]
+    rows = table_rows(walk_episodes(kept, args.robot))
+    left = [ep.seed for ep in episodes if ep not in kept]
+    note = (f"Recorded with robot {args.recorded_with!r}; walked: the {len(kept)} of {len(episodes)} episodes whose every "
+            f"command lies in {args.robot!r}'s box" + (f" (left out: seeds {left})" if left else "") + ".\n\n"
+            if args.recorded_with is not None else "")
     text = (f"# {args.policy} on {args.env} (tier {args.tier}, cell {args.cell or 'drawn'}), robot {args.robot}, "
-            f"walked on the OP3\n\n" + markdown_table(summary(rows)) + "\n" + markdown_table(rows))
+            f"walked on the OP3\n\n" + note + (markdown_table(summary(rows)) + "\n" + markdown_table(rows)
+                                                 if rows else NO_EPISODE + "\n"))
     path.write_text(text, encoding="utf-8")
     print(text)
     if args.video:
@@ -118,6 +128,17 @@ def cmd_agreement(args: argparse.Namespace) -> None:
                                 "report": report}, indent=1) + "\n", encoding="utf-8")
 
 
+def cmd_swing(args: argparse.Namespace) -> None:
+    from footstep_gym.fullbody.study import swing_grid
+
+    path = _target(args.out / f"swing_grid_{robot_label(args.robot)}.json", args.force)
+    rows = swing_grid(args.robot, args.limited)
+    for r in rows:
+        print(r, flush=True)
+    path.write_text(json.dumps({"robot": args.robot, "limited": args.limited, "rows": rows}, indent=1) + "\n",
+                    encoding="utf-8")
+
+
 def cmd_summary(args: argparse.Namespace) -> None:
     from footstep_gym.evaluation.fullbody_column import write_summary
 
@@ -140,6 +161,9 @@ def main(argv: list[str] | None = None) -> None:
     rp.add_argument("--episodes", type=int, default=10)
     rp.add_argument("--offset", type=int, default=0, help="first validation seed's offset in its split")
     rp.add_argument("--run", default=None, help="an agent's training run (zoo folder or .zip)")
+    rp.add_argument("--recorded-with", default=None, type=robot_arg,
+                    help="record with this robot ('default': configs/robot.yaml, the agents'), walk on --robot the "
+                         "episodes its box admits")
     rp.add_argument("--video", action="store_true", help="an MP4 of the first episode (MUJOCO_GL=osmesa headless)")
     nm = sub.add_parser("nominal", help="the nominal gait")
     nm.add_argument("--steps", type=int, default=20)
@@ -147,10 +171,13 @@ def main(argv: list[str] | None = None) -> None:
     ag.add_argument("--sequences", type=int, default=120)
     ag.add_argument("--seed", type=int, default=2026)
     ag.add_argument("--report-only", action="store_true", help="report the walks saved by an earlier run")
+    sw = sub.add_parser("swing", help="steady strides x T_SS walked on the OP3, beside the swing's floor")
+    sw.add_argument("--limited", default="op3-swing", help="the profile whose swing floor is shown")
     sm = sub.add_parser("summary", help="pool the replay tables of a tier per policy: the board's full-body column")
     sm.add_argument("--tier", default="paper")
     args = parser.parse_args(argv)
-    {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement, "summary": cmd_summary}[args.command](args)
+    {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement, "swing": cmd_swing,
+     "summary": cmd_summary}[args.command](args)
 
 
 if __name__ == "__main__":

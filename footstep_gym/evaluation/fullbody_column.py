@@ -17,6 +17,8 @@ from typing import Any, Mapping
 
 #: The columns an episode row must have (``footstep_gym.fullbody.replay.table_rows``).
 ROW_KEYS = ("env", "tier", "policy", "seed", "env_end", "op3_fell")
+#: What a table says instead of its episode rows when none was walked (none admitted by the robot's box).
+NO_EPISODE = "No episode walked."
 #: The columns of the summary's CSV, one row per policy.
 SUMMARY_KEYS = ("policy", "episodes", "scenes", "op3_no_fall", "env_success", "env_success_and_op3_no_fall")
 
@@ -45,6 +47,8 @@ def episode_rows(path: Path) -> list[dict[str, str]]:
             if any(len(r) != len(head) for r in table[2:]):
                 raise FullBodyError(f"{path}: a row of its episode table has not {len(head)} cells")
             return rows
+    if NO_EPISODE in path.read_text(encoding="utf-8"):
+        return []
     raise FullBodyError(f"{path}: no episode table (a header with {', '.join(ROW_KEYS)})")
 
 

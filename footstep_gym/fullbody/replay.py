@@ -62,6 +62,15 @@ def record_episodes(policy: str, env_id: str, seeds: Sequence[int], tier: str = 
     return out
 
 
+def admitted(episode: Episode, robot: Any = "op3") -> bool:
+    """Whether every command of ``episode`` lies in ``robot``'s command box (an episode recorded with another robot,
+    e.g. an agent's on the default one, can then be walked on the OP3 as it was commanded)."""
+    from footstep_gym.fullbody import as_robot
+
+    rob = as_robot(robot)
+    return bool(np.all(episode.commands >= rob.command_low - 1e-9) and np.all(episode.commands <= rob.command_high + 1e-9))
+
+
 def walk_episodes(episodes: Sequence[Episode], robot: Any = "op3") -> list[tuple[Episode, WalkResult]]:
     """Each episode's commands walked on the OP3 (:func:`footstep_gym.fullbody.walk`)."""
     return [(ep, walk(ep.commands, robot=robot)) for ep in episodes]

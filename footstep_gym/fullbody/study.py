@@ -213,3 +213,42 @@ def agreement_report(records: Sequence[dict[str, Any]], robot_name: str) -> dict
     for rec in records:
         rec["commands"] = rec["commands"].tolist()
     return out
+
+
+#: The steady strides [m] and single-support times [s] of :func:`swing_grid` (docs/fullbody.md §1).
+SWING_STRIDES = (0.03, 0.06, 0.08, 0.1)
+SWING_T_SS = (0.15, 0.2, 0.3, 0.4, 0.5)
+#: Footsteps of each :func:`steady_ramp` held at its command.
+SWING_HOLD = 6
+
+
+def steady_ramp(robot: Robot, S: float, t_ss: float, hold: int = SWING_HOLD) -> np.ndarray:
+    """Stepping in place, then half the stride ``S`` [m], then T_SS cut from the nominal to ``t_ss`` [s] over four
+    steps at that stride (geometrically, so that the LIPM accepts it), then ``hold`` steps of ``[S, nominal L, 0,
+    t_ss, nominal T_DS]``."""
+    L, t_n, t_ds = robot.nominal_side_stride, robot.nominal_t_ss, robot.nominal_t_ds
+    cmds = [[0.0, L, 0.0, t_n, t_ds], [S / 2, L, 0.0, t_n, t_ds]]
+    cmds += [[S, L, 0.0, float(t), t_ds] for t in np.geomspace(t_n, t_ss, 5)[1:]]
+    cmds += [[S, L, 0.0, t_ss, t_ds]] * hold
+    return np.array(cmds)
+
+
+def swing_grid(robot: Robot | str = "op3", limited: Robot | str = "op3-swing") -> list[dict[str, Any]]:
+    """Each (stride, T_SS) of :data:`SWING_STRIDES` x :data:`SWING_T_SS`: :func:`steady_ramp` walked on the OP3
+    with ``robot``'s plan; whether it fell, the smallest CoP margin over the held steps, the env's verdict with
+    ``robot`` and with ``limited`` (the swing's floor)."""
+    rob, lim = (r if isinstance(r, Robot) else load_robot(r) for r in (robot, limited))
+    out = []
+    for S in SWING_STRIDES:
+        for t_ss in SWING_T_SS:
+            cmds = steady_ramp(rob, S, t_ss)
+            res = walk(cmds, robot=rob)
+            held = res.cop_margin[len(cmds) - SWING_HOLD:]
+            out.append({"S": S, "t_ss": t_ss, "floor": round(float(footstep.swing_time_floor(lim, S, math)), 4),
+                        "fell": res.fell, "fell_at": res.fell_at,
+                        "held_min_cop_margin_mm": (round(1000 * float(np.nanmin(held)), 2)
+                                                   if np.any(np.isfinite(held)) else None),
+                        "tipped": bool(res.fell or not np.all(held >= TIP_MARGIN)),
+                        "env": next((v for v in verdict(cmds, rob) if v), None),
+                        "env_limited": next((v for v in verdict(cmds, lim) if v), None)})
+    return out

@@ -5,6 +5,7 @@ Usage::
     python baselines/train_jax.py --timesteps 200000                    # a first, short try (seed 1): runs/ppo-jax/
     python baselines/train_jax.py --seeds 1 2 3 4 5 --ship              # train, ship, write the figures
     python baselines/train_jax.py --report                              # the figures again, from the shipped agents
+    python baselines/train_jax.py --recurrent --agent ppo-jax-gru-noise --ship   # a GRU policy (ppo-jax-gru.yml)
 
 Hyperparameters: ``configs/rl/ppo-jax.yml`` (``--config``). Brax trains whole PPO updates in equal chunks between
 validations, so the env steps are rounded up (:func:`footstep_gym.rl.ppo_jax.planned`); the first line printed says
@@ -40,7 +41,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=int, nargs="+", default=[1], help="training seeds (default 1; the shipped: 1-5)")
     p.add_argument("--env", default="door",
                    help="a scene (door, crossing, crowd) or its env id (FootstepDoor-v0): its entry of the config")
-    p.add_argument("--config", type=Path, default=None, help="hyperparameter file (default configs/rl/ppo-jax.yml)")
+    p.add_argument("--config", type=Path, default=None,
+                   help="hyperparameter file (default configs/rl/ppo-jax.yml; with --recurrent ppo-jax-gru.yml)")
+    p.add_argument("--recurrent", action="store_true",
+                   help="a recurrent (GRU / LSTM) policy, footstep_gym/rl/ppo_jax_rnn.py, instead of Brax's MLP")
     p.add_argument("--timesteps", type=int, default=None,
                    help="env steps per seed (default: the config's), rounded up to whole PPO updates")
     p.add_argument("--runs-dir", type=Path, default=REPO / "runs" / AGENT, help="where runs are written")
@@ -232,9 +236,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         except RuntimeError as exc:  # JAX started before (train_jax.main called in a process that used JAX)
             parser.error(f"--devices {args.devices}: {exc}")
     from footstep_gym.rl import ppo_jax as ppo
+    from footstep_gym.rl import ppo_jax_rnn
 
+    learner = ppo_jax_rnn if args.recurrent else ppo
     try:
-        asked = ppo.load_config(env_id, args.config)
+        asked = learner.load_config(env_id, args.config)
         if args.tier is not None:
             asked = ppo.with_tier(asked, args.tier)
         cfg = ppo.planned(asked, args.timesteps)
@@ -258,7 +264,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         def progress(steps: int, wall: float, rate: float) -> None:
             print(f"  {steps:>10,} env steps  {wall:7.1f} s  validation success {rate:.2f}", flush=True)
 
-        result = ppo.train(cfg, seed, progress=progress)
+        result = learner.train(cfg, seed, progress=progress)
         run = ppo.write_run(result, args.runs_dir, command)
         t = result.time_to(TARGET)
         print(f"  done: {result.timesteps:,} env steps in {result.wall_time_s:.1f} s "

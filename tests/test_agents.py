@@ -212,8 +212,10 @@ def test_every_shipped_agent_loads_and_plays_each_scene_it_was_trained_for(name,
             assert info["steps"] == result.steps
 
 
-# ppo-jax trains in JAX, not by resuming a zoo model (its loading: tests/test_ppo_jax.py).
-@pytest.mark.parametrize("name, run", [(n, r) for n, r in shipped_runs() if AGENTS[n].algo != "ppo_jax"],
+# ppo-jax and its recurrent twin train in JAX, not by resuming a zoo model (their loading: tests/test_ppo_jax.py,
+# tests/test_ppo_jax_rnn.py).
+@pytest.mark.parametrize("name, run", [(n, r) for n, r in shipped_runs()
+                                       if AGENTS[n].algo not in ("ppo_jax", "ppo_jax_rnn")],
                          ids=lambda v: v if isinstance(v, str) else f"{v.parent.name}/{v.name}")
 def test_every_shipped_model_loads_with_the_env_it_trains_on(name, run):
     """Resuming training: ``<Algo>.load(zip, env=...)`` checks the spaces against the env's (finite observation

@@ -36,11 +36,13 @@ from footstep_gym.rl.training import zoo_yaml
 #: in :data:`ALGORITHM_PACKAGES` that package's (sbx: the JAX implementations, trained through
 #: :mod:`footstep_gym.rl.zoo_sbx`).
 ALGORITHMS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "a2c": "A2C", "ddpg": "DDPG",
-              "sac_sbx": "SAC", "td3_sbx": "TD3", "ppo_lstm": "RecurrentPPO", "ppo_jax": "BraxPPO"}
+              "sac_sbx": "SAC", "td3_sbx": "TD3", "ppo_lstm": "RecurrentPPO", "ppo_jax": "BraxPPO",
+              "ppo_jax_rnn": "RecurrentPPOJax"}
 #: The package of an algorithm's class when it is not ``stable_baselines3`` (``ppo_jax``: Brax's PPO trained on the
-#: JAX env, :class:`footstep_gym.rl.ppo_jax.BraxPPO`, loaded and predicting as SB3's models do).
+#: JAX env, :class:`footstep_gym.rl.ppo_jax.BraxPPO`, loaded and predicting as SB3's models do; ``ppo_jax_rnn``: its
+#: recurrent twin, :class:`footstep_gym.rl.ppo_jax_rnn.RecurrentPPOJax`, predicting with its state as RecurrentPPO).
 ALGORITHM_PACKAGES = {"sac_sbx": "sbx", "td3_sbx": "sbx", "ppo_lstm": "sb3_contrib",
-                      "ppo_jax": "footstep_gym.rl.ppo_jax"}
+                      "ppo_jax": "footstep_gym.rl.ppo_jax", "ppo_jax_rnn": "footstep_gym.rl.ppo_jax_rnn"}
 
 
 def algorithm_class(algo: str) -> Any:

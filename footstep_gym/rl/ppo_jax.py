@@ -188,8 +188,10 @@ def plan_line(asked: int, cfg: PPOJaxConfig) -> str:
             f"{cfg.num_envs} envs")
 
 
-def load_config(env_id: str = "FootstepDoor-v0", path: str | Path | None = None) -> PPOJaxConfig:
-    """``env_id``'s entry of the ``ppo-jax`` hyperparameter file (default :func:`default_config_path`), validated."""
+def load_config(env_id: str = "FootstepDoor-v0", path: str | Path | None = None,
+                parse: Callable[[Any, str, str], PPOJaxConfig] = parse_config) -> PPOJaxConfig:
+    """``env_id``'s entry of the ``ppo-jax`` hyperparameter file (default :func:`default_config_path`), validated by
+    ``parse`` (:func:`parse_config`; the recurrent one's for :mod:`footstep_gym.rl.ppo_jax_rnn`)."""
     path = Path(path) if path is not None else default_config_path()
     if not path.is_file():
         raise ConfigError(f"ppo-jax config {str(path)!r} not found")
@@ -198,7 +200,7 @@ def load_config(env_id: str = "FootstepDoor-v0", path: str | Path | None = None)
         raise ConfigError(f"{path}: a mapping of env id -> hyperparameters expected")
     if env_id not in data:
         raise ConfigError(f"{path}: no entry for {env_id!r}; entries: {', '.join(map(str, data)) or 'none'}")
-    return parse_config(data[env_id], env_id, where=str(path))
+    return parse(data[env_id], env_id, str(path))
 
 
 # ---------------------------------------------------------------- the networks and the policy
@@ -233,6 +235,11 @@ class BraxPPO:
     running mean and std it trained with), so a run needs no ``VecNormalize``. The deterministic action is the
     Gaussian's mean, clipped to ``[-1, 1]`` as SB3 clips a Box action.
     """
+
+    #: The run's algorithm (``args.yml``), its policy (``config.yml``) and the manifest's ``library``.
+    algo = ALGO
+    policy_description = "brax MLP (normal, log std)"
+    library = "brax.training.agents.ppo (Brax's PPO trainer) on footstep_gym.jax (FootstepJaxEnv)"
 
     def __init__(self, params: Any, network: dict[str, Any]) -> None:
         from brax.training.acme import running_statistics
@@ -467,10 +474,10 @@ def write_run(result: TrainResult, folder: str | Path, command: str) -> Path:
     result.model.save(run / f"{cfg.env_id}.zip")
     hyper = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items() if k != "env_id"}
     config = {"env_wrapper": [{"gymnasium.wrappers.RescaleAction": {"min_action": -1.0, "max_action": 1.0}}],
-              "n_envs": cfg.num_envs, "n_timesteps": cfg.num_timesteps, "policy": "brax MLP (normal, log std)",
+              "n_envs": cfg.num_envs, "n_timesteps": cfg.num_timesteps, "policy": result.model.policy_description,
               **hyper}
     (run / cfg.env_id / "config.yml").write_text(yaml.safe_dump(config, sort_keys=False), encoding="utf-8")
-    args = {"algo": ALGO, "env": cfg.env_id, "seed": result.seed, "n_timesteps": result.timesteps,
+    args = {"algo": result.model.algo, "env": cfg.env_id, "seed": result.seed, "n_timesteps": result.timesteps,
             "num_threads": -1, "eval_episodes": cfg.validation_episodes}
     (run / cfg.env_id / "args.yml").write_text(yaml.safe_dump(args, sort_keys=False), encoding="utf-8")
     (run / cfg.env_id / "command.txt").write_text(command + "\n", encoding="utf-8")
@@ -515,7 +522,7 @@ def ship(run: str | Path, result: TrainResult, agents_dir: str | Path, agent: st
     manifest = json.loads(path.read_text(encoding="utf-8"))
     t, c = result.time_to(target), result.cpu_time_to(target)
     manifest.update({
-        "library": "brax.training.agents.ppo (Brax's PPO trainer) on footstep_gym.jax (FootstepJaxEnv)",
+        "library": result.model.library,
         "n_envs": result.config.num_envs,
         "jax_devices": jax_devices(),
         "torch_threads": None,

@@ -125,6 +125,12 @@ AGENTS: dict[str, AgentEntry] = {
     "ppo-lstm-noise": AgentEntry("ppo_lstm", "RecurrentPPO (sb3-contrib) trained on each scene's noise tier, tested "
                                              "there only: the in-distribution track", folder="ppo-lstm-noise",
                                  config="ppo-lstm-noise", eval_freq=-1, tier="noise"),
+    "ppo-jax-gru-noise": AgentEntry("ppo_jax_rnn", "PPO with a GRU policy in JAX (footstep_gym/rl/ppo_jax_rnn.py) "
+                                                   "trained on each scene's noise tier at the 2e7-step budget, tested "
+                                                   "there only: the in-distribution track", folder="ppo-jax-gru-noise",
+                                    config=None, eval_freq=-1, tier="noise",
+                                    why_not_trainable="it trains in JAX, not through rl_zoo3: python baselines/"
+                                                      "train_jax.py --recurrent (configs/rl/ppo-jax-gru.yml)"),
 }
 
 #: The environment variable naming the agents folder (:func:`default_agents_dir`).

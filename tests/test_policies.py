@@ -84,7 +84,8 @@ def test_the_factory_takes_a_robot_profile_and_planner_options():
     (lambda: make_policy("teleport"), r"unknown policy 'teleport'; known: .*period-aware-no-waiting-walks.*"
                                       r"paper-period-aware-t0-0.3.*trained agents \(with run=\): ppo, ppo-all, sac, "
                                       r"ppo-fixed-period, td3, ppo-wide, ppo-noisy, ppo-lstm, sac-sb3, td3-b2048, "
-                                      r"ppo-jax, ppo-structure, ppo-noise, ppo-lstm-noise, ppo-jax-gru-noise, or agent:NAME with run=PATH; or a policy of your own as module:attr"),
+                                      r"ppo-jax, ppo-jax-2e7, ppo-jax-2e7-structure, ppo-jax-2e7-noise, ppo-structure, ppo-noise, ppo-lstm-noise, "
+                                      r"ppo-jax-gru-noise, or agent:NAME with run=PATH; or a policy of your own as module:attr"),
     (lambda: make_policy("ppo"), r"policy 'ppo' is a trained agent: pass run= .*agent_runs\('ppo', env_id\)"),
     (lambda: make_policy("agent:mine"), r"policy 'agent:mine' is a trained agent: pass run="),
     (lambda: make_policy("ppo", run="x", rrt_iterations=5), r"planner options \['rrt_iterations'\] do not apply"),

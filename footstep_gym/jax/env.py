@@ -346,7 +346,7 @@ class FootstepJaxEnv:
         zmp_margin = jnp.minimum(hx - jnp.abs(v.p.real), hy - jnp.abs(v.p.imag))
         period = cmd[3] + cmd[4]
         path, bound = walker.path_of(robot, v, cmd, side, origin, rot)
-        rods = self.scene.before_step(state.scene, state.rods, state.time, period)
+        rods, scene = self.scene.before_step(state.scene, state.rods, state.time, period)
         result = shapes.sweep(path, period, bound, p.wall_table, rods, robot.body_radius,
                               cfg.max_check_interval, cfg.collision_motion_fraction, cfg.max_sweep_checks,
                               self.block, active=feasible, cached=state.rods.position if self.scene.moves else None)
@@ -367,7 +367,7 @@ class FootstepJaxEnv:
         swing_idx = 1 - sidx
         feet = jnp.where(moved, state.feet.at[swing_idx].set(new_foot), state.feet)
         new_side = jnp.where(moved, -side, side)
-        rods = jax.tree.map(lambda a, b: jnp.where(feasible, a, b), result.rods, state.rods)
+        rods, scene = jax.tree.map(lambda a, b: jnp.where(feasible, a, b), (result.rods, scene), (state.rods, state.scene))
         time = state.time + elapsed
         steps = state.steps + 1
         d_after = self._goal_distance(feet, p.goal)
@@ -391,7 +391,8 @@ class FootstepJaxEnv:
         new_state = state._replace(feet=feet, support=new_side.astype(jnp.int32),
                                    com=jnp.stack([com_out.real, com_out.imag]).astype(dt),
                                    com_vel=jnp.stack([vel_out.real, vel_out.imag]).astype(dt), time=time,
-                                   steps=steps, previous=cmd, goal_dist=d_after, rods=rods)
+                                   steps=steps, previous=cmd, goal_dist=d_after, rods=rods,
+                                   scene=scene)
         info = {
             "termination": termination, "is_success": termination == 1, "feasible": feasible,
             "collision": collided, "clipped": clipped, "command": cmd, "time": time, "period": period,

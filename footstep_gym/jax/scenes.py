@@ -19,9 +19,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from footstep_gym.jax.shapes import Rods
-from footstep_gym.scenes import PARKED, crossing, crowd, door, uniform
+from footstep_gym.scenes import PARKED, Bodies, crossing, crowd, door, orca, uniform
 
-__all__ = ["PARKED", "SCENES", "Scene", "SceneParams", "cell_arrays", "pad_to"]
+__all__ = ["PARKED", "SCENES", "CrowdParams", "CrowdState", "Scene", "SceneParams", "cell_arrays", "pad_to"]
 
 
 def _arr(x: Any, dtype: Any) -> jax.Array:
@@ -114,13 +114,13 @@ class Scene:
         bodies, scene = mod.start(jnp, p.cell._replace(**drawn), u, self.size)
         return self._rods(p, bodies), scene
 
-    def before_step(self, scene: Any, rods: Rods, t: jax.Array, duration: jax.Array) -> Rods:
-        """The obstacles for the footstep from ``t`` to ``t + duration`` [s] (the reference's ``before_step``)."""
+    def before_step(self, scene: Any, rods: Rods, t: jax.Array, duration: jax.Array) -> tuple[Rods, Any]:
+        """The obstacles for the footstep from ``t`` to ``t + duration`` [s] (the reference's ``before_step``) and
+        the scene state after it (a scene whose obstacles react, as ORCA's pedestrians, carries theirs on)."""
         if not self.moves:
-            return rods
+            return rods, scene
         position, velocity = self.module.before_step(jnp, scene, rods.position, rods.velocity, t, duration)
-        keep = scene.active[:, None]  # a moving scene's state says which of the env's bodies are its (the others parked)
-        return rods._replace(position=jnp.where(keep, position, PARKED), velocity=jnp.where(keep, velocity, 0.0))
+        return _place(rods, scene.active, position, velocity), scene
 
     @staticmethod
     def reference_start(env: Any) -> dict[str, Any]:
@@ -145,6 +145,13 @@ class Scene:
         return self._rods(p, jax.tree.map(cast, bodies)), jax.tree.map(cast, scene)
 
 
+def _place(rods: Rods, active: jax.Array, position: jax.Array, velocity: jax.Array) -> Rods:
+    """``rods`` at ``position`` moving at ``velocity`` where ``active`` ``(M,)``, :data:`PARKED` at rest elsewhere
+    (a moving scene's state says which of the env's bodies are its)."""
+    keep = active[:, None]
+    return rods._replace(position=jnp.where(keep, position, PARKED), velocity=jnp.where(keep, velocity, 0.0))
+
+
 def _pad_draw(x: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     """A reference's uniforms ``x`` filled up to ``shape`` with 0.5 (obstacles it does not have)."""
     out = np.full(shape, 0.5)
@@ -164,16 +171,117 @@ class CrossingScene(Scene):
     name, module = "crossing", crossing
 
 
+class CrowdState(NamedTuple):
+    """A crowd episode's state where the tier has ORCA cells: which model moves it (``orca``), the scripted ring's
+    state (:class:`footstep_gym.scenes.crowd.State`) and the pedestrians' (:class:`~footstep_gym.scenes.crowd.
+    OrcaState`); each env holds both, its episode's model decides which moves the bodies."""
+
+    orca: jax.Array
+    ring: crowd.State
+    pedestrians: crowd.OrcaState
+
+    @property
+    def active(self) -> jax.Array:
+        """The env's bodies that are its episode's members ``(M,)``."""
+        return jnp.where(self.orca, self.pedestrians.active, self.ring.active)
+
+
+class CrowdParams(NamedTuple):
+    """A crowd cell's scene: the scripted ring's ``Cell``, the ORCA layout's ``OrcaCell`` (both as arrays) and which
+    model the cell is (``orca``)."""
+
+    ring: Any
+    orca: Any
+    model: jax.Array
+
+
 class CrowdScene(Scene):
-    """``FootstepCrowd-v0``'s scripted ring (:mod:`footstep_gym.scenes.crowd`). ORCA pedestrians have no batched
-    version."""
+    """``FootstepCrowd-v0``: the scripted ring (:mod:`footstep_gym.scenes.crowd`) and ORCA's pedestrians
+    (``crowd_model: orca``, every ``crowd_layout``; :func:`footstep_gym.scenes.crowd.orca_start`, the ORCA step of
+    :mod:`footstep_gym.scenes.orca`) with the robot invisible to them. A tier without ORCA cells holds the ring's
+    state alone; one with them holds a :class:`CrowdState`."""
 
     name, module = "crowd", crowd
 
+    def __init__(self, cfgs: list[Any], dtype: Any) -> None:
+        super().__init__(cfgs, dtype)
+        #: Whether the cells include ORCA pedestrians (then the state is a :class:`CrowdState`).
+        self.has_orca = any(c.crowd_model == "orca" for c in cfgs)
+        #: ORCA's neighbour slots: the most any cell's pedestrian considers, at most ``size - 1``.
+        self.k = orca.neighbor_slots([c.orca_max_neighbors for c in cfgs if c.crowd_model == "orca"], self.size)
+
     def unsupported(self, cfg: Any) -> str | None:
-        if cfg.crowd_model != "scripted":
-            return f"crowd_model={cfg.crowd_model!r} (ORCA pedestrians have no JAX version)"
+        if cfg.crowd_model == "orca" and cfg.robot_visible:
+            return "crowd_model='orca' with robot_visible=True (the robot as an ORCA agent; the tiers' cells hide it)"
         return super().unsupported(cfg)
+
+    def cell_params(self, cfg: Any) -> SceneParams:
+        p = super().cell_params(cfg)
+        if not self.has_orca:
+            return p
+        return p._replace(cell=CrowdParams(p.cell, cell_arrays(crowd.orca_cell(cfg), self.dtype),
+                                           jnp.asarray(cfg.crowd_model == "orca")))
+
+    def _crowd_rods(self, p: SceneParams, bodies: Any, radius: jax.Array) -> Rods:
+        m = self.size
+        return Rods(*bodies, jnp.broadcast_to(p.a, (m, 2)), jnp.broadcast_to(p.b, (m, 2)), radius)
+
+    def _combine(self, p: SceneParams, ring: tuple, peds: tuple) -> tuple[Rods, CrowdState]:
+        """The ring's and the pedestrians' ``(bodies, state)`` as one env's rods (the cell's model's bodies) and
+        :class:`CrowdState`."""
+        (rb, rs), (pb, ps) = ring, peds
+        model = p.cell.model
+        active = ps.active & model  # a scripted episode has no pedestrians
+        ps = ps._replace(active=active, crowd=ps.crowd._replace(agents=ps.crowd.agents._replace(active=active)))
+        bodies = jax.tree.map(lambda a, b: jnp.where(model, a, b), pb, rb)
+        radius = jnp.where(model, ps.crowd.radius, jnp.broadcast_to(p.r, (self.size,)))
+        return self._crowd_rods(p, bodies, radius), CrowdState(model, rs, ps)
+
+    def draw(self, key: jax.Array, p: SceneParams) -> tuple[Rods, Any]:
+        if not self.has_orca:
+            return super().draw(key, p)
+        k_ring, k_orca = jax.random.split(key)
+        ring_p = p._replace(cell=p.cell.ring)
+        rods, ring = super().draw(k_ring, ring_p)
+        shapes = crowd.orca_draw_shapes(self.size)
+        keys = jax.random.split(k_orca, len(shapes))
+        u = crowd.OrcaDraws(*(jax.random.uniform(kk, shape, self.dtype) for kk, shape in zip(keys, shapes)))
+        peds = crowd.orca_start(jnp, p.cell.orca, u, self.size, self.dtype)
+        return self._combine(p, (Bodies(*rods[:4]), ring), peds)
+
+    def before_step(self, scene: Any, rods: Rods, t: jax.Array, duration: jax.Array) -> tuple[Rods, Any]:
+        if not self.has_orca:
+            return super().before_step(scene, rods, t, duration)
+        ring_pos, ring_vel = crowd.before_step(jnp, scene.ring, rods.position, rods.velocity, t, duration)
+        peds, ped_pos, ped_vel = crowd.orca_before_step(jnp, scene.pedestrians, duration, self.k)
+        position = jnp.where(scene.orca, ped_pos.astype(self.dtype), ring_pos)
+        velocity = jnp.where(scene.orca, ped_vel.astype(self.dtype), ring_vel)
+        return _place(rods, scene.active, position, velocity), scene._replace(pedestrians=peds)
+
+    @staticmethod
+    def reference_start(env: Any) -> dict[str, Any]:
+        return {"draws": env.scenario.draws}
+
+    def start_from(self, start: dict[str, Any], p: SceneParams, cfg: Any) -> tuple[Rods, Any]:
+        if not self.has_orca:
+            return super().start_from(start, p, cfg)
+        m, draws = self.size, start["draws"]
+        orca_cfg = cfg.crowd_model == "orca"
+        ring_shapes, orca_shapes = crowd.draw_shapes(m), crowd.orca_draw_shapes(m)
+        ring_u = type(ring_shapes)(*(np.full(s, 0.5) for s in ring_shapes)) if orca_cfg else type(ring_shapes)(
+            *(_pad_draw(np.asarray(x, np.float64), s) for x, s in zip(draws, ring_shapes)))
+        orca_u = crowd.OrcaDraws(*(_pad_draw(np.asarray(x, np.float64), s) for x, s in zip(draws, orca_shapes))) \
+            if orca_cfg else crowd.OrcaDraws(*(np.full(s, 0.5) for s in orca_shapes))
+        ring = crowd.start(np, crowd.cell(cfg), ring_u, m)
+        peds = crowd.orca_start(np, crowd.orca_cell(cfg), orca_u, m, np.float64)
+
+        def cast(x: Any) -> jax.Array:
+            x = np.asarray(x)
+            keep = x.dtype == np.float32 or not np.issubdtype(x.dtype, np.floating)  # ORCA's float32 agents stay
+            return jnp.asarray(x, None if keep else self.dtype)
+
+        ring, peds = jax.tree.map(cast, ring), jax.tree.map(cast, peds)
+        return self._combine(p, ring, peds)
 
 
 SCENES: dict[str, type[Scene]] = {cls.name: cls for cls in (DoorScene, CrossingScene, CrowdScene)}

@@ -155,46 +155,15 @@ class Crowd(Scenario):
         self.members: list = []
         self.orca: OrcaCrowd | None = None  # built with the world (the robot's radius is the world's)
         if cfg.crowd_model == "orca":
-            self.radii = rng.uniform(*cfg.pedestrian_radius, n)
-            self.speeds = rng.uniform(*cfg.pedestrian_speed, n)
-            self.starts, self.goals = self._layout(rng)
+            #: The episode's uniforms (:func:`footstep_gym.scenes.crowd.orca_draw_numpy`) and each pedestrian's
+            #: radius, preferred speed, start and goal (:func:`footstep_gym.scenes.crowd.orca_layout`).
+            self.draws = scene.orca_draw_numpy(rng, cfg)
+            self.radii, self.speeds, self.starts, self.goals = scene.orca_layout(np, scene.orca_cell(cfg), self.draws, n)
             self._clock = 0.0
             return
         #: The episode's uniforms (:func:`footstep_gym.scenes.crowd.draw_numpy`), its members at 0 s and its ring.
         self.draws = scene.draw_numpy(rng, cfg)
         self.bodies, self.state = scene.start(np, scene.cell(cfg), self.draws, n)
-
-    # ------------------------------------------------------------ the ORCA crowd's layouts
-    def _layout(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """Each pedestrian's start and goal ``(n, 2)`` [m] for ``crowd_layout``, drawn from ``rng``."""
-        c, n = self.cfg, self.cfg.crowd_size
-        start, goal = np.asarray(c.start, dtype=float), np.asarray(c.goal, dtype=float)
-        u = self.direction
-        left = np.array([-u[1], u[0]])  # left of the walking direction
-        i = np.arange(n)
-        if c.crowd_layout in ("ring", "closing_in"):  # around the start, member 0 straight ahead
-            heading = math.atan2(u[1], u[0])
-            ang = 2 * np.pi * i / n + np.radians(c.angle_jitter) * rng.uniform(-1, 1, n) + heading
-            radius = c.ring_radius if c.crowd_layout == "ring" else c.closing_radius
-            starts = start + radius * np.stack([np.cos(ang), np.sin(ang)], axis=1)
-            if c.crowd_layout == "ring":  # each keeps its place on a ring that walks to the goal
-                return starts, starts + (goal - start)
-            along = rng.uniform(*c.closing_goal_along, n)
-            aside = c.closing_goal_spread * rng.uniform(-1, 1, n)
-            return starts, start + along[:, None] * u + aside[:, None] * left
-        lanes = c.flow_lanes
-        if c.crowd_layout == "counter_flow":  # lanes along the path, walking from the goal side past the start
-            lane, rank = i % lanes, i // lanes
-            offset = ((lane - (lanes - 1) / 2) * c.lane_width)[:, None] * left
-            along = c.flow_ahead + rank * c.flow_spacing + c.flow_jitter * rng.uniform(-1, 1, n)
-            return start + along[:, None] * u + offset, start - c.flow_behind * u + offset
-        # crossing_flows: even pedestrians come from the left, odd ones from the right, each stream in lanes
-        side = np.where(i % 2 == 0, 1.0, -1.0)
-        lane, rank = (i // 2) % lanes, (i // 2) // lanes
-        x = np.where(side > 0, c.crossing_points[0], c.crossing_points[1]) + (lane - (lanes - 1) / 2) * c.lane_width
-        lateral = c.flow_ahead + rank * c.flow_spacing + c.flow_jitter * rng.uniform(-1, 1, n)
-        on_path = start + x[:, None] * u
-        return on_path + (side * lateral)[:, None] * left, on_path - (side * c.flow_behind)[:, None] * left
 
     def centre(self, t: float) -> np.ndarray:
         """Ring centre at time ``t`` [s]."""

@@ -351,10 +351,11 @@ def preferred(crowd: Crowd, xp: Any = np) -> tuple[Crowd, Any]:
     return crowd._replace(goal=goal, origin=origin), pref
 
 
-def advance(crowd: Crowd, duration: Any, time_step: float, max_substeps: int, robot: tuple | None = None,
+def advance(crowd: Crowd, duration: Any, time_step: Any, max_substeps: int | None = None, robot: tuple | None = None,
             k: int | None = None, xp: Any = np) -> tuple[Crowd, Any, Any]:
     """:meth:`footstep_gym.scenarios.orca.OrcaCrowd.advance`: ORCA over the next ``duration`` [s] in
-    ``substeps(duration)`` equal steps (at most ``max_substeps``: the loop's fixed length);
+    ``substeps(duration)`` equal steps (at most ``max_substeps`` where given; under ``vmap`` the loop runs as
+    many steps as the batch's longest footstep needs, each crowd keeping its own);
     ``(crowd, start, chords)``: the pedestrians' positions at the start [m] and chord velocities [m/s] over it, in
     the caller's dtype.
 
@@ -385,15 +386,10 @@ def advance(crowd: Crowd, duration: Any, time_step: float, max_substeps: int, ro
         else:
             pref32 = xp.concatenate([pref32, agents.pref_velocity[n:]], axis=0)
         agents = do_step(agents._replace(pref_velocity=pref32), dt, k, xp)
-        new = c2._replace(agents=agents)
-        if _is_numpy(xp):
-            return new
-        live = step < steps
-        import jax
+        return c2._replace(agents=agents)
 
-        return jax.tree.map(lambda a, b: xp.where(live, a, b), new, c)
-
-    crowd = _fori(xp, 0, int(max_substeps) if not _is_numpy(xp) else int(steps), body, crowd)
+    upper = steps if max_substeps is None else xp.minimum(steps, max_substeps)
+    crowd = _fori(xp, 0, int(upper) if _is_numpy(xp) else upper, body, crowd)
     end = xp.asarray(crowd.agents.position[:n], dtype=hi)
     start_hi = xp.asarray(start, dtype=hi)
     chord = (end - start_hi) / duration

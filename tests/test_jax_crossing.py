@@ -57,7 +57,7 @@ def test_traffic_schedule_is_the_references(x64):
         got = np.asarray(crossing_scene.positions(jnp, scene, jnp.asarray(t)))
         assert np.allclose(got, u.scenario.positions(t), rtol=0, atol=1e-12)
     t = 0.6 * loop_time
-    moved = jenv.scene.before_step(scene, rods, jnp.asarray(t), jnp.asarray(0.8))
+    moved, _ = jenv.scene.before_step(scene, rods, jnp.asarray(t), jnp.asarray(0.8))
     u.scenario.before_step(u.world, t, 0.8)
     bodies = [m.body for m in u.scenario.members]
     assert np.allclose(np.asarray(moved.position), [tuple(b.position) for b in bodies], rtol=0, atol=1e-12)

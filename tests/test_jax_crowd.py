@@ -1,5 +1,5 @@
-"""The JAX scripted crowd (footstep_gym.jax.scenes.CrowdScene) against the reference env: replays of reference
-episodes (the tiers' crowd sizes and rings), the sweep's first check against pymunk's cached shapes, the
+"""The JAX crowd (footstep_gym.jax.scenes.CrowdScene: the scripted ring and ORCA's pedestrians) against the reference
+env: replays of reference episodes (the tiers' crowd sizes and rings, the structure tier's ORCA cells), the sweep's first check against pymunk's cached shapes, the
 schedule against ``Crowd.positions``, seeding, unsupported cells (make_vec of the crowd: tests/test_jax_vector.py).
 
 JAX compiles each distinct function once per process: the episodes here are few and short.
@@ -62,7 +62,7 @@ def test_schedule_is_the_reference_crowds(x64):
     for t in (0.0, 0.37, 3.9, 4.0, 11.3):
         got = np.asarray(crowd_scene.positions(jnp, scene, jnp.asarray(t)))
         assert np.allclose(got, u.scenario.positions(t), rtol=0, atol=1e-14)
-    moved = jenv.scene.before_step(scene, rods, jnp.asarray(2.5), jnp.asarray(0.8))
+    moved, _ = jenv.scene.before_step(scene, rods, jnp.asarray(2.5), jnp.asarray(0.8))
     u.scenario.before_step(u.world, 2.5, 0.8)
     for body, p, v in zip((m.body for m in u.scenario.members), np.asarray(moved.position), np.asarray(moved.velocity)):
         assert np.allclose(p, tuple(body.position), rtol=0, atol=1e-14)
@@ -140,9 +140,8 @@ def test_dense_cell_holds_its_members():
 
 
 @pytest.mark.parametrize("kwargs, named", [
-    ({"tier": "structure"}, "tier cell 'counter_flow': crowd_model='orca'"),
-    ({"tier": "structure", "tier_cell": "closing_in"}, "crowd_model='orca'"),
-    ({"crowd_model": "orca"}, "ORCA pedestrians have no JAX version"),
+    ({"crowd_model": "orca"}, "crowd_model='orca' with robot_visible=True"),
+    ({"crowd_model": "orca", "crowd_layout": "closing_in"}, "robot_visible=True"),
     ({"randomize": {"member_radius": [0.06, 0.1]}}, "randomize of member_radius"),
 ])
 def test_unsupported_crowd_cells_raise_one_line(kwargs, named):
@@ -151,3 +150,88 @@ def test_unsupported_crowd_cells_raise_one_line(kwargs, named):
     assert named in str(err.value) and "\n" not in str(err.value)
     with pytest.raises(ConfigError, match="vectorization_mode='sync'"):
         gym.make_vec(CROWD, num_envs=2, vectorization_mode="vector_entry_point", **kwargs)
+
+
+STRUCTURE = {"tier": "structure"}
+ORCA_CELLS = ("counter_flow", "crossing_flows", "closing_in")
+
+
+@pytest.fixture(scope="module")
+def structure64(x64):
+    """A float64 env of the whole structure tier: ORCA cells (6 or 8 pedestrians) and rings (9, 10 members)."""
+    return FootstepJaxEnv("crowd", dtype="float64", **STRUCTURE)
+
+
+def test_replayed_orca_episodes_end_alike(structure64):
+    """Reference episodes of the ORCA cells (walks, fuzz; pyrvo moving the pedestrians) and a ring cell replayed in
+    float64 in one structure-tier env (ORCA in scenes/orca.py, every pedestrian padded to 10 bodies):
+    the same ending at the same step, observations, rewards and clearances within the float64 tolerances (the
+    planner's episodes: baselines/jax_replay.py, whose figures are committed)."""
+    outcomes: set[str] = set()
+    walks = [e for cell in ORCA_CELLS for e in R.record_many(CROWD, range(300, 302), "walk",
+                                                            {**STRUCTURE, "tier_cell": cell}, max_steps=30)]
+    fuzz = R.record_many(CROWD, [300], "fuzz", {**STRUCTURE, "tier_cell": "counter_flow"}, max_steps=30)
+    ring = R.record_many(CROWD, [301], "walk", {**STRUCTURE, "tier_cell": "tight"}, max_steps=30)
+    episodes = walks + fuzz + ring
+    check_replays(R.compare(episodes, R.replay(structure64, episodes, pad_to=30)), outcomes)
+    assert {"collision", "fall"} <= outcomes
+
+
+def test_orca_before_step_is_the_references(structure64):
+    """The pedestrians put before each footstep (where they stand, their chords) against the reference's pyrvo
+    crowd over footsteps of differing lengths, and the scene state carried on between them."""
+    env = gym.make(CROWD, tier="structure", tier_cell="crossing_flows")
+    env.reset(seed=9)
+    u = env.unwrapped
+    rods, scene = R.episode_start(structure64, u.episode_config, structure64.scene.reference_start(u))
+    before = jax.jit(structure64.scene.before_step)
+    n = u.episode_config.crowd_size
+    t = 0.0
+    for duration in (0.8, 0.35, 1.3, 0.62, 0.8):
+        rods, scene = before(scene, rods, jnp.asarray(t), jnp.asarray(duration))
+        u.scenario.before_step(u.world, t, duration)
+        t += duration
+        bodies = [m.body for m in u.scenario.members]
+        assert np.array_equal(np.asarray(rods.position)[:n], [tuple(b.position) for b in bodies])
+        assert np.allclose(np.asarray(rods.velocity)[:n], [tuple(b.velocity) for b in bodies], rtol=0, atol=1e-15)
+        assert np.all(np.asarray(rods.position)[n:] == crowd_scene.PARKED)
+    assert np.array_equal(np.asarray(rods.r)[:n], u.scenario.radii)
+    env.close()
+
+
+def test_orca_cells_reset_their_layouts():
+    """JAX-drawn episodes of each ORCA cell: the cell's pedestrians (no two overlapping, radii and speeds in their
+    ranges, those past the cell's count parked), at rest, and reset seeded."""
+    env = FootstepJaxEnv("crowd", **STRUCTURE)
+    reset = jax.jit(jax.vmap(lambda k: env.reset(k, env.default_params)))
+    state, obs = reset(jax.random.split(jax.random.key(2), 24))
+    again, _ = reset(jax.random.split(jax.random.key(2), 24))
+    assert np.array_equal(np.asarray(state.rods.position), np.asarray(again.rods.position))
+    cells = np.asarray(state.cell)
+    assert set(cells.tolist()) == set(range(len(env.cells)))
+    for i, c in enumerate(cells):
+        cfg = env.cell_configs[c][0]
+        n = cfg.crowd_size
+        pos, r = np.asarray(state.rods.position[i]), np.asarray(state.rods.r[i])
+        assert bool(state.scene.orca[i]) == (cfg.crowd_model == "orca")
+        assert np.all(pos[n:] == crowd_scene.PARKED) and np.all(np.abs(pos[:n]) < 10)
+        if cfg.crowd_model == "orca":
+            gap = np.hypot(*(pos[:n, None] - pos[None, :n]).transpose(2, 0, 1)) - np.add.outer(r[:n], r[:n])
+            assert gap[~np.eye(n, dtype=bool)].min() > 0
+            lo, hi = cfg.pedestrian_radius
+            assert np.all((r[:n] >= lo - 1e-6) & (r[:n] <= hi + 1e-6))
+            speeds = np.asarray(state.scene.pedestrians.crowd.speed[i])[:n]
+            assert np.all((speeds >= cfg.pedestrian_speed[0] - 1e-6) & (speeds <= cfg.pedestrian_speed[1] + 1e-6))
+    assert np.all(np.asarray(state.rods.velocity) == 0.0)
+    assert all(env.observation_space.contains(np.asarray(o)) for o in obs)
+
+
+@pytest.mark.parametrize("scene", ["door", "crossing", "crowd"])
+def test_every_cell_of_every_tier_is_batched(scene):
+    """Every tier of every scene, whole and cell by cell, makes a JAX env (its cells built, none refused)."""
+    from footstep_gym import tiers
+
+    for name in tiers.tier_names():
+        env = FootstepJaxEnv(scene, tier=name)
+        for cell in env.cells:
+            FootstepJaxEnv(scene, tier=name, tier_cell=cell)

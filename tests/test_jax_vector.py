@@ -112,8 +112,7 @@ def test_nan_in_one_env_names_it(next_step):
 
 def test_unsupported_settings_are_one_clear_line():
     with pytest.raises(ConfigError) as err:
-        gym.make_vec("FootstepCrowd-v0", num_envs=2, vectorization_mode="vector_entry_point", tier="structure",
-                     tier_cell="counter_flow")
+        gym.make_vec("FootstepCrowd-v0", num_envs=2, vectorization_mode="vector_entry_point", crowd_model="orca")
     text = str(err.value)
     assert "crowd_model='orca'" in text and "vectorization_mode='sync'" in text and "\n" not in text
     with pytest.raises(gym.error.Error, match="FootstepMix-v0"):
@@ -124,9 +123,11 @@ def test_vector_entry_points_are_the_supported_scenes():
     assert {name for name, cls in SCENARIOS.items() if cls.vector_entry_point} == set(SUPPORTED_SCENES)
 
 
-@pytest.mark.parametrize("env_id, scenario", [("FootstepCrossing-v0", "crossing"), ("FootstepCrowd-v0", "crowd")])
-def test_make_vec_gives_the_batched_crossing_and_crowd(env_id, scenario):
-    envs = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", tier="train")
+@pytest.mark.parametrize("env_id, scenario, tier", [("FootstepCrossing-v0", "crossing", "train"),
+                                                    ("FootstepCrowd-v0", "crowd", "structure")])
+def test_make_vec_gives_the_batched_crossing_and_crowd(env_id, scenario, tier):
+    """The crossing's train tier and the crowd's structure tier (ORCA pedestrians and rings) through make_vec."""
+    envs = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", tier=tier)
     try:
         assert isinstance(envs, FootstepVectorEnv) and envs.jax_env.scenario == scenario
         obs, _ = envs.reset(seed=3)

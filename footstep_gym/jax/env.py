@@ -9,12 +9,12 @@ action box and float32 handling, the same observation layout, reward terms, term
 
 Supported (the scenes of :mod:`footstep_gym.jax.scenes`, each with the ``randomize`` keys it lists):
 ``FootstepDoor-v0`` with one door or two, ``FootstepCrossing-v0`` (the timed car and the traffic lanes) and
-``FootstepCrowd-v0``'s scripted ring (any size and ring), every other setting of their YAMLs including the
+``FootstepCrowd-v0``'s scripted ring (any size and ring) and ORCA pedestrians (every ``crowd_layout``, the robot
+invisible to them), every other setting of their YAMLs including the
 sensing options (noise, range, field of view: :mod:`footstep_gym.jax.sensing`, the noise drawn from the step's
-key), and the tiers whose cells are such: every tier of the door, ``paper``, ``train``, ``shifted`` and ``noise``
-of the crossing and the crowd, and the structure tier's cells but the ORCA crowd's by ``tier_cell``. Cells with
-different walls (one door and two) each have their own (:class:`EnvParams`). Anything else (the
-ORCA crowd, ``fixed_period``, a tier whose cells sense differently) raises
+key), and the tiers whose cells are such: every cell of every tier of the three scenes. Cells with
+different walls (one door and two) each have their own (:class:`EnvParams`). Anything else (ORCA pedestrians that
+see the robot, ``fixed_period``, a tier whose cells sense differently) raises
 :class:`~footstep_gym.errors.ConfigError` in one line naming it.
 
 Precision: float32 by default; ``dtype="float64"`` needs JAX's 64-bit mode (``JAX_ENABLE_X64=1`` or
@@ -114,7 +114,7 @@ class State(NamedTuple):
 def _unsupported(what: str) -> ConfigError:
     scenes = "; ".join(f"{name} (randomize of {', '.join(cls.randomizable)})" for name, cls in SCENES.items())
     return ConfigError(f"FootstepJaxEnv: {what} is not supported by the batched JAX backend yet (supported: "
-                       f"{scenes}; the scripted crowd); use the reference env")
+                       f"{scenes}); use the reference env")
 
 
 def _dtype(dtype: Any) -> Any:

@@ -143,7 +143,7 @@ class Crowd(Scenario):
     Config = CrowdConfig
     env_id = "FootstepCrowd-v0"
     sweep_axes = {"crowd_speed": "m/s"}
-    vector_entry_point = "footstep_gym.jax.vector:FootstepVectorEnv"  # the batched JAX backend (scripted ring only)
+    vector_entry_point = "footstep_gym.jax.vector:FootstepVectorEnv"  # the batched JAX backend (ORCA: robot invisible)
 
     def __init__(self, cfg: CrowdConfig, rng: np.random.Generator) -> None:
         super().__init__(cfg, rng)

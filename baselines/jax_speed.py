@@ -2,6 +2,7 @@
 
     python baselines/jax_speed.py                                  # the door: N = 1, 64, 1024, 4096, 16384; both workloads
     python baselines/jax_speed.py --scene crowd                    # the scripted crowd
+    python baselines/jax_speed.py --scene crowd --tier structure --tier-cell counter_flow   # an ORCA cell
     python baselines/jax_speed.py --sizes 4096 --workloads walk --repeats 5
     python baselines/jax_speed.py --dtype float64                  # (sets JAX's 64-bit mode)
     python baselines/jax_speed.py --devices 1                      # the batch on one core (default: split over all)
@@ -37,6 +38,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="reference envs in the SyncVectorEnv timed beside (0: none)")
     p.add_argument("--scene", default="door", help="door, crossing or crowd (footstep_gym.jax.scenes.SCENES)")
     p.add_argument("--tier", default="train", help="benchmark tier of the scene (default train)")
+    p.add_argument("--tier-cell", default=None, help="one cell of the tier (default: a cell drawn per episode)")
     p.add_argument("--dtype", default="float32", choices=("float32", "float64"))
     p.add_argument("--vector", action="store_true",
                    help="also step each N through gymnasium.make_vec (numpy in and out) in the same run")
@@ -83,17 +85,19 @@ def main(argv: list[str] | None = None) -> int:
     from footstep_gym.jax.shapes import DEFAULT_BLOCK
 
     args.block = args.block or DEFAULT_BLOCK
-    env = FootstepJaxEnv(args.scene, dtype=args.dtype, tier=args.tier, block=args.block)
-    print(f"{env_id} tier={args.tier} dtype={args.dtype} block={args.block} chunk={args.chunk}; jax {jax.__version__} on "
+    tier = {"tier": args.tier} if args.tier_cell is None else {"tier": args.tier, "tier_cell": args.tier_cell}
+    env = FootstepJaxEnv(args.scene, dtype=args.dtype, block=args.block, **tier)
+    where = " ".join(f"{k}={v}" for k, v in tier.items())
+    print(f"{env_id} {where} dtype={args.dtype} block={args.block} chunk={args.chunk}; jax {jax.__version__} on "
           f"{jax.devices()[0].platform} x {devices} device(s) ({os.cpu_count()} CPUs), "
           f"{platform.processor() or platform.machine()}; "
           f"load average {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
     for workload in args.workloads:
-        ref = speed.reference_rate(args.reference_steps, workload, {"tier": args.tier}, env_id=env_id)
+        ref = speed.reference_rate(args.reference_steps, workload, tier, env_id=env_id)
         print(f"\n{workload}: reference env (one FootstepEnv) {ref:,.0f} steps/s")
         if args.sync_envs:
             sync = speed.sync_vector_rate(max(1, args.reference_steps // args.sync_envs), workload,
-                                          {"tier": args.tier}, args.sync_envs, env_id=env_id)
+                                          tier, args.sync_envs, env_id=env_id)
             print(f"{workload}: Gymnasium SyncVectorEnv of {args.sync_envs} reference envs {sync:,.0f} env steps/s")
         vec_head = (f" {'+obs/s':>12} {'make_vec/s':>12} {'vec/jax':>7} {'vec/+obs':>8} {'vec x ref':>9}"
                     if args.vector else "")
@@ -107,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.vector:
                 o = speed.measure(env, n, steps, args.repeats, workload, chunk=args.chunk, devices=d, observe=True)
                 v = speed.vector_rate(env_id, n, max(8, steps // 4), args.repeats, workload,
-                                      {"tier": args.tier, "dtype": args.dtype, "block": args.block,
+                                      {**tier, "dtype": args.dtype, "block": args.block,
                                        "chunk": args.chunk}, devices=d)
                 vec = (f" {o.steps_per_s:>12,.0f} {v.steps_per_s:>12,.0f} {v.steps_per_s / r.steps_per_s:>7.2f} "
                        f"{v.steps_per_s / o.steps_per_s:>8.2f} {v.steps_per_s / ref:>9.0f}")

@@ -227,6 +227,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--timesteps must be >= 1")
     if args.devices < 1:
         parser.error("--devices must be >= 1")
+    if args.recurrent and args.devices != 1:
+        parser.error("--devices: the recurrent trainer runs on one device")
     from footstep_gym.jax import speed
 
     if args.devices > 1:

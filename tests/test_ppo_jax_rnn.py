@@ -246,3 +246,18 @@ def test_a_tiny_training_writes_a_run_that_the_evaluation_plays_with_its_state(t
     assert agent._state is None
     env.close()
 
+
+
+def test_train_jax_takes_the_recurrent_config_and_refuses_several_devices(capsys, tmp_path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("train_jax", REPO / "baselines" / "train_jax.py")
+    train_jax = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(train_jax)
+    with pytest.raises(SystemExit):
+        train_jax.main(["--recurrent", "--devices", "2"])
+    assert "--devices: the recurrent trainer runs on one device" in capsys.readouterr().err
+    # The MLP's config has no recurrent cell: refused before anything is trained or written.
+    code = train_jax.main(["--recurrent", "--config", str(REPO / "configs" / "rl" / "ppo-jax.yml"),
+                           "--runs-dir", str(tmp_path / "runs")])
+    assert code == 2 and "missing key(s) rnn_cell" in capsys.readouterr().err and not (tmp_path / "runs").exists()

@@ -480,3 +480,47 @@ def test_the_full_body_column_from_replay_tables(tmp_path, capsys):
         script.main([str(bench), "--out", str(tmp_path / "board2"), "--fullbody", str(json_path)])
     assert exc.value.code == 2 and "no episodes" in capsys.readouterr().err
     assert not (tmp_path / "board2").exists()
+
+
+# ---------------------------------------------------------------- the compute protocol's columns
+def _shipped_run(agents: Path, agent: str, name: str, timesteps: int, curve: list[float], episodes: int = 20,
+                 cpu: float | None = None) -> Path:
+    run = agents / agent / name
+    run.mkdir(parents=True)
+    (run / "manifest.json").write_text(json.dumps({"env_id": name.rsplit("_", 1)[0], "timesteps": timesteps,
+                                                   "wall_time_s": 60.0 * timesteps / 1e5, "cpu_time_s": cpu}))
+    (run / "validation.csv").write_text("timesteps,wall_time_s,success_rate,episodes\n" + "".join(
+        f"{i},{i},{s:.4f},{episodes}\n" for i, s in enumerate(curve)))
+    return run
+
+
+def test_learned_rows_show_their_budget_and_converged_runs_from_the_shipped_agents(tmp_path):
+    agents = tmp_path / "agents"
+    # run 1 flat (19, 20, 20 of 20), run 2 still rising (10, 14, 18 of 20): 1/2 converged
+    runs = [_shipped_run(agents, "agent", "FootstepDoor-v0_1", 300_000, [0.1, 0.95, 1.0, 1.0], cpu=30.0),
+            _shipped_run(agents, "agent", "FootstepDoor-v0_2", 600_000, [0.5, 0.7, 0.9], cpu=50.0)]
+    elsewhere = [f"/another/machine/baselines/agents/agent/{r.name}" for r in runs]
+    agent = {**document("agent", AGENT), "run": {"command": "fake", "agent_runs": elsewhere}}
+    at_budget = {**document("agent-noise", {k: w for k, w in AGENT.items() if k[1] != "default"}),
+                 "track": "in-distribution", "trained_on_tier": "hard", "complete": True,
+                 "run": {"command": "fake", "agent_runs": [str(_shipped_run(agents, "agent-noise", "FootstepDoor-v0_1",
+                                                                            20_000_000, [0.9, 0.9, 0.925, 0.9],
+                                                                            episodes=40)), "/gone/agent-noise/X_2"]}}
+    board = lb.build([document("planner", PLANNER), agent, at_budget], reps=REPS, agents_dir=agents)
+    rows = {p["policy"]: p for p in board["policies"] + board["in_distribution"]}
+    assert rows["planner"]["training"] is None
+    t = rows["agent"]["training"]
+    assert (t["runs"], t["env_steps_per_run"], t["declared_budget"], t["at_budget"]) == (2, [300_000, 600_000],
+                                                                                       20_000_000, False)
+    assert (t["converged"], t["with_curve"], t["cpu_time_s"], t["missing_runs"]) == (1, 2, 80.0, [])
+    table = squash(lb.training_markdown(board))
+    assert table[0] == ("| policy | trained on | runs | env steps per run | declared budget | at budget | converged | "
+                        "median wall s per run | CPU s (all runs) |")
+    assert table[2] == "| agent | train | 2 | 3e5-6e5 | 2e7 | no | 1/2 | 360 | 80 |"
+    # the in-distribution row: a tier without a declared budget (configs/compute.yaml: none for "hard"), one run gone
+    assert table[3] == "| agent-noise | hard | 1 | 2e7 | – | – | 1/1 | 12,000 | – |"
+    text = lb.markdown(board)
+    assert "## Training budget of the learned rows" in text and "4 of 40" not in text
+    assert "0.100 at 40, 0.150 at 20" in text and "not shipped here (not counted): agent-noise (1)" in text
+    no_learning = lb.build([document("planner", PLANNER)], reps=REPS, agents_dir=agents)
+    assert lb.training_markdown(no_learning) == "" and "Training budget" not in lb.markdown(no_learning)

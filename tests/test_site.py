@@ -222,3 +222,43 @@ def test_a_board_with_a_full_body_summary_shows_its_column(tmp_path: Path) -> No
     assert re.findall(r'<td[^>]*data-v="([^"]*)"', row)[-1] == "0.333000" and "(9)" in row
     other = index[index.index('id="tier-table-train"'):]
     assert "full body" not in other[:other.index("</table>")]
+
+
+def test_the_board_shows_each_learned_rows_budget_and_converged_runs(built: Path) -> None:
+    """From the shipped agents' manifests and validation curves, checked here with the rule written out again: the
+    last three points within ceil(0.5 sqrt(n)) of one another, in episodes."""
+    import csv
+    import math
+
+    index = (built / "index.html").read_text()
+    data = site.load_site_data(ROOT)
+    agents = [m for m in data.methods if m.kind == "agent" and m.manifests]
+    assert agents
+    for m in agents:
+        runs = sorted((ROOT / "baselines/agents" / m.name).glob("*/manifest.json"))
+        steps = sorted({json.loads(p.read_text())["timesteps"] for p in runs})
+        converged = with_curve = 0
+        for p in runs:
+            path = p.parent / "validation.csv"
+            if not path.is_file():
+                continue
+            rows = list(csv.DictReader(path.open()))
+            n = int(rows[-1]["episodes"])
+            wins = [round(float(r["success_rate"]) * n) for r in rows[-3:]]
+            with_curve += 1
+            converged += len(rows) >= 3 and max(wins) - min(wins) <= math.ceil(0.5 * math.sqrt(n))
+        assert m.training["env_steps_per_run"] == steps, m.name
+        if with_curve == len(runs):  # every run has a validation curve: the count is the rule's on them
+            assert (m.training["converged"], m.training["with_curve"]) == (converged, with_curve), m.name
+        text, _ = site.budget(m)
+        assert f"{m.training['converged']}/{m.training['with_curve']} converged" in text
+        assert "(below 2e7)" in text or "(at budget)" in text
+        assert html_escape(text) in index, m.name
+        page = (built / m.page).read_text()
+        assert "converged (compute protocol)" in page and "CPU time [s]" in page
+
+
+def html_escape(text: str) -> str:
+    import html
+
+    return html.escape(text)

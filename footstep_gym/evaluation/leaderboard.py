@@ -294,12 +294,37 @@ def _label(doc: Mapping[str, Any]) -> str:
     return label
 
 
+def default_agents_dir() -> Path | None:
+    """This checkout's shipped agents, ``baselines/agents/`` (None outside a source checkout)."""
+    root = row_protocol.repo_root()
+    return None if root is None else root / "baselines" / "agents"
+
+
+def training_of(doc: Mapping[str, Any], agents_dir: Path | None) -> dict[str, Any] | None:
+    """A learned row's training under the compute protocol (:func:`footstep_gym.rl.compute.row_training`: env steps
+    per run against its track's declared budget, runs converged) from its shipped agents' manifests and curves;
+    None for a row that does not learn."""
+    from footstep_gym.rl import compute
+
+    runs = (doc.get("run") or {}).get("agent_runs") or []
+    if not runs:
+        return None
+    proto = compute.load_protocol()
+    trained_on = doc.get("trained_on_tier") if doc.get("track") == IN_DISTRIBUTION else None
+    return compute.row_training(runs, agents_dir if agents_dir is not None else Path("baselines/agents"),
+                                proto.budget(trained_on), proto.window)
+
+
 def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None, reps: int = REPS,
-          seed: int = SEED, fullbody: Mapping[str, Any] | None = None) -> dict[str, Any]:
+          seed: int = SEED, fullbody: Mapping[str, Any] | None = None,
+          agents_dir: Path | None = None) -> dict[str, Any]:
     """The leaderboard of ``docs`` (checked files): what ``leaderboard.json`` holds, and all the tables and
     figures are drawn from. Policies are ordered: complete runs by the mean of their tiers' IQMs (best first),
     then partial runs, then upper bounds. ``fullbody``: a full-body summary
-    (:func:`footstep_gym.evaluation.fullbody_column.load_summary`), shown as a column beside its tier."""
+    (:func:`footstep_gym.evaluation.fullbody_column.load_summary`), shown as a column beside its tier. A learned
+    row's ``training`` (:func:`training_of`) reads its shipped agents under ``agents_dir`` (default
+    :func:`default_agents_dir`)."""
+    agents_dir = agents_dir if agents_dir is not None else default_agents_dir()
     cells = tier_cells(docs)
     tiers = list(cells)
     scenes = _ordered([c.split("/")[0] for cs in cells.values() for c in cs])
@@ -338,6 +363,7 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
             "runs": sorted({r["runs"] for r in rows}),
             "source": None if path is None else _shown(path),
             "description": doc.get("description", ""),
+            "training": training_of(doc, agents_dir),
         })
 
     def rank(p: Mapping[str, Any]) -> tuple:
@@ -523,6 +549,53 @@ def in_distribution_notes(board: Mapping[str, Any]) -> list[str]:
     return notes
 
 
+def training_markdown(board: Mapping[str, Any]) -> str:
+    """The learned rows' training under the compute protocol (docs/benchmark.md): per row (both tracks) its
+    env steps per run against its track's declared budget, the runs whose validation curve converged, the median
+    wall time per run and the CPU time of all its runs; empty text without learned rows."""
+    from footstep_gym.rl.compute import short_steps, steps_text
+
+    rows = []
+    for p in [*board["policies"], *(board.get("in_distribution") or [])]:
+        t = p.get("training")
+        if not t:
+            continue
+        rows.append([p["label"], p["trained_on_tier"] or "train", str(t["runs"]), steps_text(t),
+                     short_steps(t["declared_budget"]) if t["declared_budget"] else DASH,
+                     DASH if t["at_budget"] is None else ("yes" if t["at_budget"] else "no"),
+                     f"{t['converged']}/{t['with_curve']}" if t["with_curve"] else "no curves",
+                     DASH if t["median_wall_time_s"] is None else f"{t['median_wall_time_s']:,.0f}",
+                     DASH if t["cpu_time_s"] is None else f"{t['cpu_time_s']:,.0f}"])
+    if not rows:
+        return ""
+    table = pd.DataFrame(rows, columns=["policy", "trained on", "runs", "env steps per run", "declared budget",
+                                        "at budget", "converged", "median wall s per run", "CPU s (all runs)"])
+    return markdown_table(table, left=2).rstrip("\n")
+
+
+def training_notes(board: Mapping[str, Any]) -> list[str]:
+    """The lines under the training table: the rule, the curves' sources, the runs not found."""
+    from footstep_gym.rl.compute import plateau_tolerance
+
+    learned = [p for p in [*board["policies"], *(board.get("in_distribution") or [])] if p.get("training")]
+    if not learned:
+        return []
+    notes = ["Compute protocol (docs/benchmark.md): the budget is declared per track in env steps per training run "
+             "(configs/compute.yaml); rows below it stay, labelled with their budget (the sample-efficiency view). "
+             "Converged: the run's last 3 validation points within ceil(0.5 sqrt(n)) / n of one another, n the "
+             f"episodes per point ({plateau_tolerance(40):.3f} at 40, {plateau_tolerance(20):.3f} at 20). CPU s: "
+             "where every run's manifest records it (ppo-jax and later runs)."]
+    zoo = [p["label"] for p in learned if "zoo evaluation" in p["training"]["curve_sources"]]
+    if zoo:
+        notes.append(f"{', '.join(zoo)}: some runs have no validation curve; their convergence is read from rl_zoo3's "
+                     "periodic evaluation (its eval env's seeds, not the validation split).")
+    missing = [f"{p['label']} ({len(p['training']['missing_runs'])})" for p in learned
+               if p["training"]["missing_runs"]]
+    if missing:
+        notes.append(f"Runs named by the benchmark file but not shipped here (not counted): {', '.join(missing)}.")
+    return notes
+
+
 def _ranked_order(board: Mapping[str, Any]) -> list[Mapping[str, Any]]:
     """The board's generalisation rows, the ranked ones first in rank order (protocol 3's score), then the others in
     the board's order."""
@@ -671,6 +744,9 @@ def markdown(board: Mapping[str, Any]) -> str:
     if board.get("in_distribution"):
         lines += ["## In-distribution track", "", in_distribution_markdown(board), ""]
         lines += [note + "\n" for note in in_distribution_notes(board)]
+    if training_markdown(board):
+        lines += ["## Training budget of the learned rows", "", training_markdown(board), ""]
+        lines += [note + "\n" for note in training_notes(board)]
     lines += ["## Per scene", "", scene_markdown(board), "",
               "Mean success over the scene's cells of the tier (each cell's success pooled over the training runs) "
               "[95 % Wilson interval of all those episodes pooled, runs and cells: it counts the episodes as "
@@ -928,11 +1004,12 @@ def write_leaderboard(board: Mapping[str, Any], out: Path) -> list[Path]:
 
 def leaderboard(paths: Sequence[Path], allow_mixed: bool = False, reps: int = REPS, seed: int = SEED,
                 fingerprint: str | None = None, access_log: Path | None = None,
-                fullbody: Path | None = None) -> dict[str, Any]:
+                fullbody: Path | None = None, agents_dir: Path | None = None) -> dict[str, Any]:
     """The checked leaderboard of the files ``paths`` name (:func:`find_benchmarks`); raises
     :class:`LeaderboardError` on bad input (:func:`check_compatible`, :func:`check_rows`: ``fingerprint`` and
     ``access_log`` default to this checkout's). ``fullbody``: a full-body summary to show as a column
-    (``baselines/results/fullbody/fullbody_paper_op3.json``), read before anything else."""
+    (``baselines/results/fullbody/fullbody_paper_op3.json``), read before anything else. ``agents_dir``: the
+    shipped agents the learned rows' training is read from (default :func:`default_agents_dir`)."""
     summary = None
     if fullbody is not None:
         try:
@@ -945,7 +1022,7 @@ def leaderboard(paths: Sequence[Path], allow_mixed: bool = False, reps: int = RE
     docs = [load_benchmark(p) for p in files]
     check_compatible(docs, files, allow_mixed)
     check_rows(docs, files, fingerprint, access_log)
-    return build(docs, files, reps=reps, seed=seed, fullbody=summary)
+    return build(docs, files, reps=reps, seed=seed, fullbody=summary, agents_dir=agents_dir)
 
 
 def main_summary(board: Mapping[str, Any], files: Sequence[Path], out: Path) -> str:

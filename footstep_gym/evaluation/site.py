@@ -54,6 +54,10 @@ class Method:
     source: Path | None
     bench: dict[str, Any] = field(default_factory=dict)  # its benchmark.json ({} when absent)
     manifests: list[dict[str, Any]] = field(default_factory=list)
+    #: The compute protocol's view of its shipped runs (:func:`footstep_gym.rl.compute.row_training`); None: none.
+    training: dict[str, Any] | None = None
+    #: Each shipped run's :func:`footstep_gym.rl.compute.run_status`, by its folder's name.
+    run_status: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @property
     def page(self) -> str:
@@ -140,17 +144,36 @@ def load_site_data(root: Path, board_dir: Path | None = None) -> SiteData:
         path = (root / source) if source and not Path(source).is_absolute() else board_dir / name / "benchmark.json"
         bench = _read_json(path) if path.is_file() else {}
         agents = root / "baselines/agents" / name
-        manifests = [_read_json(p) for p in sorted(agents.glob("*/manifest.json"))] if agents.is_dir() else []
+        found = sorted(agents.glob("*/manifest.json")) if agents.is_dir() else []
+        manifests = [_read_json(p) for p in found]
         runs = row.get("runs") or [1]
-        methods.append(Method(name, row.get("label", name), _kind(row, baselines), row.get("track", "generalisation"),
-                              row.get("trained_on_tier"), row.get("description", ""), bool(row.get("complete", True)),
-                              int(max(runs)), path if path.is_file() else None, bench, manifests))
+        method = Method(name, row.get("label", name), _kind(row, baselines), row.get("track", "generalisation"),
+                        row.get("trained_on_tier"), row.get("description", ""), bool(row.get("complete", True)),
+                        int(max(runs)), path if path.is_file() else None, bench, manifests)
+        if found:
+            method.training, method.run_status = _training(root, row, [p.parent for p in found])
+        methods.append(method)
     cells = [(t, *c.split("/", 1)) for t in board["tiers"] for c in board["tier_cells"][t]]
     tiers_path = root / "configs/benchmark.yaml"
     tiers_config = yaml.safe_load(tiers_path.read_text(encoding="utf-8")) if tiers_path.is_file() else {}
     videos_path = root / VIDEOS_DIR / "videos.json"
     videos = _read_json(videos_path) if videos_path.is_file() else {}
     return SiteData(root, board, board_path, methods, cells, tiers_config, videos)
+
+
+def _training(root: Path, row: Mapping[str, Any], runs: Sequence[Path]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """A row's shipped runs under the compute protocol (``configs/compute.yaml``, read from ``root``): the row's
+    summary (:func:`~footstep_gym.rl.compute.row_training`) and each run's status, from the manifests and curves."""
+    from footstep_gym.rl import compute
+
+    conf = (root / "configs" / "compute.yaml").resolve()
+    proto = compute.load_protocol(conf if conf.is_file() else None)
+    trained_on = row.get("trained_on_tier") if row.get("track") == "in-distribution" else None
+    try:
+        return (compute.row_training(runs, root / "baselines/agents", proto.budget(trained_on), proto.window),
+                {r.name: compute.run_status(r, proto.window) for r in runs})
+    except ValueError as exc:  # a curve that is not a success rate of whole episodes
+        raise SiteError(f"{row.get('policy')}: {exc}") from None
 
 
 # ---------------------------------------------------------------- figures of a row
@@ -262,11 +285,14 @@ def track_td(m: Method) -> str:
 
 
 def budget(m: Method) -> tuple[str, float]:
-    """The training budget as text and as a sort key (env steps)."""
-    if not m.manifests:
+    """The training budget as text (env steps per run against the track's declared budget, runs converged, the
+    wall time of all runs) and as a sort key (the largest env steps per run)."""
+    from footstep_gym.rl.compute import training_text
+
+    if not m.manifests or not m.training:
         return ("no training", 0.0) if m.kind != "agent" else ("not shipped", 0.0)
-    steps = m.train_steps
-    return f"{steps / 1e6:.1f}M steps, {m.train_hours:.1f} h", float(steps)
+    steps = m.training["env_steps_per_run"]
+    return f"{training_text(m.training)}; {m.train_hours:.1f} h", float(steps[-1] if steps else 0)
 
 
 def act_ms(m: Method) -> float | None:
@@ -287,7 +313,10 @@ def board_page(data: SiteData) -> str:
              f'<b>{esc(proto.get("split", "test"))}</b> split; configs <code>{esc(str(proto.get("env_configs_sha256", ""))[:12])}'
              f'</code>{_fingerprint(proto)}. Each tier: {esc(label)} with its 95 % interval. Upper bounds (italic) read the true '
              f'future and are not baselines; baselines are grey. Track: gen. = '
-             f'generalisation (trained on <code>train</code>). Click a column to sort; '
+             f'generalisation (trained on <code>train</code>). Training budget: env steps per training run against '
+             f'the track\'s declared budget and how many runs converged (the compute protocol of docs/benchmark.md, '
+             f'read from the shipped agents\' manifests and learning curves), then the wall time of all runs. '
+             f'Click a column to sort; '
              f'<a href="cells.html">every cell</a> is on its own page. Source: <code>{esc(_rel(data, data.board_path))}'
              f'</code>.</p>')
     ranking = {r["policy"]: r for r in (data.board.get("scores") or {}).get("ranking", [])} \
@@ -447,12 +476,19 @@ def method_page(data: SiteData, m: Method, figures: dict[str, str]) -> str:
                         f'{cell_page(tier, scene, cell)}">{esc(cell)}</a></td>{"".join(_cell_tds(rec))}</tr>')
     body += "<h2>Cells</h2>" + table(["tier", "scene", "cell"] + CELL_HEADS, rows, "method-cells")
     if m.manifests:
+        def converged(mf: Mapping[str, Any]) -> str:
+            st = m.run_status.get(f"{mf.get('env_id')}_{mf.get('seed')}") or {}
+            c = st.get("converged")
+            return "no curve" if c is None else ("yes" if c else "no") + f" ({st['points']} points of {st['episodes']})"
+
         runs = [f"<tr><td>{esc(mf.get('env_id'))}</td><td class='num'>{esc(mf.get('seed'))}</td><td class='num'>"
                 f"{esc(mf.get('timesteps'))}</td><td class='num'>{esc(mf.get('wall_time_s'))}</td><td class='num'>"
-                f"{esc(mf.get('n_envs'))}</td><td class='num'>{esc(mf.get('final_eval_success'))}</td></tr>"
-                for mf in m.manifests]
-        body += ("<h2>Training runs and cost</h2>" + table(["env", "seed", "env steps", "wall time [s]", "envs",
-                                                            "final validation success"], runs, "method-runs")
+                f"{esc(mf.get('cpu_time_s', '–'))}</td><td class='num'>"
+                f"{esc(mf.get('n_envs'))}</td><td class='num'>{esc(mf.get('final_eval_success'))}</td>"
+                f"<td>{esc(converged(mf))}</td></tr>" for mf in m.manifests]
+        body += ("<h2>Training runs and cost</h2>" + table(["env", "seed", "env steps", "wall time [s]", "CPU time [s]",
+                                                            "envs", "final validation success",
+                                                            "converged (compute protocol)"], runs, "method-runs")
                  + "<h2>Hyperparameters</h2>" + _hyperparameters(data, m))
     planner_yaml = data.root / "configs/planner.yaml"
     if m.kind in ("planner", "upper bound") and planner_yaml.is_file():

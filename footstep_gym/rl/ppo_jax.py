@@ -79,6 +79,7 @@ class PPOJaxConfig:
     num_evals: int
     validation_episodes: int
     chunk: int
+    vf_loss_coefficient: float = 0.5
 
     @property
     def steps_per_update(self) -> int:
@@ -89,7 +90,12 @@ class PPOJaxConfig:
 _INTS = ("num_timesteps", "num_envs", "unroll_length", "batch_size", "num_minibatches", "num_updates_per_batch",
          "num_evals", "validation_episodes", "chunk")
 _FLOATS = ("learning_rate", "entropy_cost", "discounting", "gae_lambda", "clipping_epsilon", "reward_scaling",
-           "max_grad_norm", "init_noise_std")
+           "max_grad_norm", "init_noise_std", "vf_loss_coefficient")
+#: Keys a config may leave out, with their defaults (Brax's own): the value loss's weight, Brax multiplying the mean
+#: squared error by ``0.5 * vf_loss_coefficient`` (SB3's ``vf_coef`` multiplies it by itself: 0.5 there is 1.0 here).
+_OPTIONAL = {"vf_loss_coefficient": 0.5}
+#: Keys that may be 0 (no entropy bonus, as SB3's ``ent_coef: 0.0``).
+_MAY_BE_ZERO = ("entropy_cost",)
 
 
 def parse_config(entry: Any, env_id: str, where: str = "ppo-jax config") -> PPOJaxConfig:
@@ -100,6 +106,7 @@ def parse_config(entry: Any, env_id: str, where: str = "ppo-jax config") -> PPOJ
     unknown = sorted(set(entry) - set(names))
     if unknown:
         raise ConfigError(f"{where}: {env_id}: unknown key(s) {', '.join(unknown)}; known: {', '.join(names)}")
+    entry = {**_OPTIONAL, **entry}
     missing = [n for n in names if n not in entry]
     if missing:
         raise ConfigError(f"{where}: {env_id}: missing key(s) {', '.join(missing)}")
@@ -113,8 +120,10 @@ def parse_config(entry: Any, env_id: str, where: str = "ppo-jax config") -> PPOJ
         values[name] = v
     for name in _FLOATS:
         v = entry[name]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or v <= 0:
-            raise ConfigError(f"{where}: {env_id}.{name} must be a number > 0, got {v!r}")
+        low = name in _MAY_BE_ZERO
+        bad = isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v)
+        if bad or v < 0 or (v == 0 and not low):
+            raise ConfigError(f"{where}: {env_id}.{name} must be a number {'>=' if low else '>'} 0, got {v!r}")
         values[name] = float(v)
     for name in ("discounting", "gae_lambda"):
         if values[name] > 1:
@@ -453,6 +462,7 @@ def train(cfg: PPOJaxConfig, seed: int, *, validation_seeds: list[int] | None = 
         num_minibatches=cfg.num_minibatches, num_updates_per_batch=cfg.num_updates_per_batch,
         normalize_observations=cfg.normalize_observations, reward_scaling=cfg.reward_scaling,
         clipping_epsilon=cfg.clipping_epsilon, gae_lambda=cfg.gae_lambda, max_grad_norm=cfg.max_grad_norm,
+        vf_loss_coefficient=cfg.vf_loss_coefficient,
         network_factory=_network_factory(network), seed=seed, num_evals=cfg.num_evals, num_eval_envs=1,
         run_evals=False, policy_params_fn=on_params)
     wall = time.perf_counter() - start - clock["validating"]
@@ -511,7 +521,8 @@ def jax_devices() -> str:
 def ship(run: str | Path, result: TrainResult, agents_dir: str | Path, agent: str = "ppo-jax",
          target: float = 0.95) -> Path:
     """Ship ``run`` to ``<agents_dir>/<agent>/`` (:func:`footstep_gym.rl.training.ship`, replacing a shipped run:
-    the caller checked) with ``ppo-jax``'s figures added to its manifest: the devices, the validation time, the
+    the caller checked) with ``ppo-jax``'s figures added to its manifest: the devices, the machine
+    (:func:`footstep_gym.rl.training.hardware`, this process's: the one that trained), the validation time, the
     load average, the CPU time, the wall and CPU times to ``target`` validation success, the versions."""
     import platform
 
@@ -525,6 +536,7 @@ def ship(run: str | Path, result: TrainResult, agents_dir: str | Path, agent: st
         "library": result.model.library,
         "n_envs": result.config.num_envs,
         "jax_devices": jax_devices(),
+        "hardware": training.hardware(),
         "torch_threads": None,
         "wall_time_includes": "start-up and JAX compilation; not the validation episodes in the reference env",
         "validation_time_s": round(result.validation_time_s, 1),

@@ -4,7 +4,7 @@ The training itself is rl_zoo3's (``python -m rl_zoo3.train``, hyperparameters i
 ``configs/rl/<algo>.yml``, one entry per env id). This module adds what the zoo does not:
 several training seeds in a row with one torch thread each, the run's progress on the
 console while it trains (its full output goes to a log file), an evaluation at the end of
-a run shorter than the evaluation period, the wall time and throughput of each run,
+a run shorter than the evaluation period, the wall time, CPU time, machine and throughput of each run,
 shipping: a copy of the run's small files under ``<agents>/<agent>/<EnvId>_<seed>/``
 (``<agent>``: the registry's folder of the agent, :class:`~footstep_gym.rl.registry.AgentEntry`;
 the algorithm's name by default; model ``.zip``,
@@ -178,7 +178,7 @@ def train(algo: str, env_id: str, seed: int, log_folder: str | Path, log_file: s
         note = f"; the run is shorter than --eval-freq {asked}: one evaluation, at its end"
     print(f"{name}: {total:,} env steps; log {log_file}{note}", file=sys.stderr, flush=True)
     env = dict(os.environ, PYTHONUNBUFFERED="1")  # the zoo's lines as they are printed
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), _children_cpu_s()
     evaluation: list[str] = []
     with open(log_file, "w", encoding="utf-8") as fh, \
             tqdm(total=total, desc=f"{algo}/{env_id}/{seed}", unit="step", file=sys.stderr, dynamic_ncols=True,
@@ -197,10 +197,39 @@ def train(algo: str, env_id: str, seed: int, log_folder: str | Path, log_file: s
                 bar.write(f"  {name}: " + ", ".join(evaluation), file=sys.stderr)
                 evaluation = []
         returncode = proc.wait()
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, _children_cpu_s() - cpu0
     if returncode != 0:
         raise RuntimeError(f"rl_zoo3 training of {name} failed with exit code {returncode}; see {log_file}")
-    return latest_run(log_folder, algo, env_id), wall
+    run = latest_run(log_folder, algo, env_id)
+    cost = {"wall_time_s": round(wall, 1), "cpu_time_s": round(cpu, 1), "hardware": hardware()}
+    (run / COST_FILE).write_text(json.dumps(cost, indent=2) + "\n", encoding="utf-8")
+    return run, wall
+
+
+#: What :func:`train` measured of a run's cost (wall and CPU time, the machine), written in the run folder.
+COST_FILE = "cost.json"
+
+
+def _children_cpu_s() -> float:
+    """User + system CPU time [s] of this process's finished (waited-for) child processes, all threads."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def hardware() -> dict[str, Any]:
+    """The machine a run trained on: its CPU model (``/proc/cpuinfo``'s model name where there is one), logical
+    CPUs, architecture, operating system and the 1-minute load average (a shared machine's) when asked."""
+    model = platform.processor() or None
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            model = next((line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")), model)
+    except OSError:
+        pass
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    return {"cpu_model": model, "logical_cpus": os.cpu_count(), "machine": platform.machine(),
+            "system": platform.system(), "load_average_1min": None if load is None else round(load, 2)}
 
 
 def zoo_yaml(path: Path) -> dict[str, Any]:
@@ -298,7 +327,9 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
     The manifest records the agent's folder, the algorithm, env id and kwargs (the env
     options the agent was trained with, e.g. ``fixed_period``), timesteps, seed, ``n_envs``,
     the wall time and the training throughput (env steps per second of wall time, start-up
-    and periodic evaluations included), the final evaluation's success rate and the versions.
+    and periodic evaluations included), the CPU time of the training process and its children and the
+    machine (:func:`hardware`) where :func:`train` recorded them (``cost.json``, shipped too; None
+    otherwise), the final evaluation's success rate and the versions.
     An agent already there is replaced only by a run at least as long and as good
     (:func:`replace_problem`), or with ``force``; else :class:`ShipRefused` is raised before
     anything is written. The new agent is put together beside the old one and swapped in.
@@ -323,6 +354,8 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
     curve = eval_curve(run)
     final_success = curve["success"][-1] if curve["success"] else None
     final_episodes, final_on = int(args.get("eval_episodes", 0)), "the zoo's eval env"
+    cost_path = run / COST_FILE
+    cost = json.loads(cost_path.read_text(encoding="utf-8")) if cost_path.is_file() else {}
     validation = validation_curve(run)
     if validation["success"]:  # the validation split's seeds (callbacks.ValidationCallback) over the zoo's eval
         final_success, final_episodes, final_on = validation["success"][-1], validation["episodes"], "validation split"
@@ -352,6 +385,7 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
         "seed": seed,
         "wall_time_s": round(wall_time_s, 1),
         "env_steps_per_s": round(timesteps / wall_time_s, 1),
+        "cpu_time_s": cost.get("cpu_time_s"),
         "torch_threads": int(args.get("num_threads", -1)),
         "final_eval_success": final_success,
         "final_eval_episodes": final_episodes,
@@ -361,6 +395,7 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
         "versions": {d: version(d) for d in ("footstep_gym", "stable_baselines3", "rl_zoo3", "torch", "gymnasium")},
         "python": platform.python_version(),
         "machine": platform.machine(),
+        "hardware": cost.get("hardware"),  # None: the run was not trained by train() (its machine is not known)
     }
     dest.parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".partial", dir=dest.parent))
@@ -373,7 +408,7 @@ def ship(run: str | Path, agents_dir: str | Path, wall_time_s: float, seed: int 
         for name in SHIPPED_IN_ENV_FOLDER:
             if (folder / name).is_file():
                 shutil.copy2(folder / name, stage / env_id / name)
-        for name in ("evaluations.npz", VALIDATION_CURVE):
+        for name in ("evaluations.npz", VALIDATION_CURVE, COST_FILE):
             if (run / name).is_file():
                 shutil.copy2(run / name, stage / name)
         (stage / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")

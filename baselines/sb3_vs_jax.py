@@ -117,30 +117,46 @@ def report(args: argparse.Namespace) -> list[Path]:
     args.results.mkdir(parents=True, exist_ok=True)
     stem = args.results / f"sb3_vs_jax_{scene}"
     data = {"env_id": args.env, "env_kwargs": records["sb3"][0]["env_kwargs"], "validation_episodes": n,
+            "command": "python baselines/sb3_vs_jax.py --trainer {sb3,jax} --seeds 1 2 3; --report",
             "plateau_tolerance": plateau_tolerance(n), "differences": list(matched.DIFFERENCES),
             "summary": summary, "runs": {t: rs for t, rs in records.items()}}
     Path(f"{stem}.json").write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
     matched.plot(curves, f"{stem}.png", f"{args.env} ({data['env_kwargs']}): SB3 PPO vs ppo-jax, matched "
                                         f"hyperparameters, {n} validation seeds per point")
+    total = max(r["curve"][-1][0] for rs in records.values() for r in rs if r["complete"]) if any(
+        r["complete"] for rs in records.values() for r in rs) else None
+    partial = [f"{TRAINERS[t]} seed {r['seed']} ({r['curve'][-1][0]:,} env steps)" for t, rs in records.items()
+               for r in rs if not r["complete"]]
+
+    def listed(values: Sequence, spec: str) -> str:
+        return ", ".join("–" if v is None else format(v, spec) for v in values)
+
     lines = [f"# The same learner across trainers on {args.env}", "",
              f"Written by `python baselines/sb3_vs_jax.py --report`. Both trainers on the JAX scene "
-             f"({data['env_kwargs']}), SB3 PPO's hyperparameters (configs/rl/ppo.yml) in both; each point: the "
-             f"deterministic policy on the validation split's first {n} seeds in the reference env, after the same "
-             f"PPO updates. Times: training only (validation left out), on the shared 2-core machine.", "",
-             "| trainer | seeds | final success per seed | mean final | plateaued (tolerance "
-             f"{plateau_tolerance(n):.3f}) | env steps to 0.9 | wall s to 0.9 | wall s (all) | CPU s (all) |",
-             "|---|---:|---|---:|---|---|---|---|---|"]
+             f"({data['env_kwargs']}), SB3 PPO's hyperparameters (configs/rl/ppo.yml) in both, over SB3's budget "
+             f"({'' if total is None else f'{total:,} env steps: '}whole updates between validations); each point: "
+             f"the deterministic policy on the validation split's first {n} seeds in the reference env, after the "
+             f"same PPO updates. Times: training only (validation left out; ppo-jax's include its jit), on a shared "
+             f"2-core machine whose load average was 15-25 during these runs: CPU time is the fairer cost.", ""]
+    if partial:
+        lines += [f"**Partial**: still training when this was written: {'; '.join(partial)}; their curves stop "
+                  "there (rerun `--report` when they end).", ""]
+    lines += ["| trainer | seeds | env steps reached | latest success | plateaued (last 3 within "
+              f"{plateau_tolerance(n):.3f}) | env steps to 0.9 | CPU s to 0.9 | CPU s (all) |",
+              "|---|---:|---|---|---|---|---|---|"]
     for name, s in summary.items():
-        lines.append(f"| {name} | {s['seeds']} | {', '.join(f'{v:.3f}' for v in s['final_success'])} | "
-                     f"{sum(s['final_success']) / s['seeds']:.3f} | {sum(s['plateaued'])}/{s['seeds']} | "
-                     f"{', '.join('never' if v is None else f'{v:,}' for v in s['steps_to_0.9'])} | "
-                     f"{', '.join('never' if v is None else f'{v:,.0f}' for v in s['wall_s_to_0.9'])} | "
-                     f"{', '.join(f'{v:,.0f}' for v in s['wall_s'])} | {', '.join(f'{v:,.0f}' for v in s['cpu_s'])} |")
-    steps = next(iter(summary.values()))["steps"]
-    lines += ["", "Mean success per validation point:", "", "| env steps | "
-              + " | ".join(summary) + " |", "|---:|" + "---:|" * len(summary)]
-    for i, st in enumerate(steps):
-        lines.append(f"| {st:,} | " + " | ".join(f"{s['mean_success'][i]:.3f}" for s in summary.values()) + " |")
+        lines.append(f"| {name} | {s['seeds']} | {listed(s['reached_steps'], ',')} | "
+                     f"{listed(s['latest_success'], '.3f')} | {sum(s['plateaued'])}/{s['seeds']} | "
+                     f"{listed(s['steps_to_0.9'], ',')} | {listed(s['cpu_s_to_0.9'], ',.0f')} | "
+                     f"{listed(s['cpu_s'], ',.0f')} |")
+    names = list(summary)
+    longest = max((s["steps"] for s in summary.values()), key=len)
+    lines += ["", "Mean success per validation point (seeds that reached it):", "",
+              "| env steps | " + " | ".join(names) + " |", "|---:|" + "---:|" * len(names)]
+    for i, st in enumerate(longest):
+        cells = [f"{s['mean_success'][i]:.3f} ({s['seeds_per_point'][i]})" if i < len(s["steps"]) else "–"
+                 for s in summary.values()]
+        lines.append(f"| {st:,} | " + " | ".join(cells) + " |")
     lines += ["", "What Brax's PPO does otherwise:", ""] + [f"- {d}" for d in matched.DIFFERENCES]
     lines += ["", f"![curves]({Path(f'{stem}.png').name})", ""]
     Path(f"{stem}.md").write_text("\n".join(lines), encoding="utf-8")

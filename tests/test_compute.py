@@ -241,3 +241,49 @@ def test_train_measures_the_childs_cpu_time():
     before = training._children_cpu_s()
     subprocess.run([sys.executable, "-c", "sum(i * i for i in range(3_000_000))"], check=True)
     assert training._children_cpu_s() - before > 0.05
+
+
+def test_sb3_ppo_on_the_jax_scene_is_validated_after_whole_updates():
+    """A tiny SB3 run (2 envs, 32 steps each per update): its points at 0, after 1 and after 2 updates, each the
+    validation episodes' success in the reference env."""
+    from footstep_gym.rl import matched
+
+    sb3 = {**matched.sb3_hyperparameters("FootstepDoor-v0"), "n_envs": 2, "n_steps": 32, "batch_size": 32,
+           "n_epochs": 1}
+    seen = []
+    model, curve = matched.train_sb3(sb3, "FootstepDoor-v0", {"tier": "train"}, 1, 100, 3, [10_000],
+                                     progress=seen.append)
+    assert [p[0] for p in curve] == [0, 64, 128] and seen == curve
+    assert all(p[2] in (0.0, 1.0) for p in curve) and all(p[1] >= 0 and p[3] >= 0 for p in curve)
+    assert model.n_envs == 2 and model.action_space.high.tolist() == [1.0] * 5
+
+
+def _record(trainer: str, seed: int, successes: list[float], complete: bool = True) -> dict:
+    return {"trainer": trainer, "env_id": "FootstepDoor-v0", "env_kwargs": {"tier": "train"}, "seed": seed,
+            "episodes": 40, "complete": complete, "hyperparameters": {},
+            "curve": [[i * 51_200, 10.0 * i, s, 5.0 * i] for i, s in enumerate(successes)]}
+
+
+def test_the_comparison_report_from_curve_files(tmp_path, capsys):
+    from script_helpers import load_script
+
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for rec in (_record("sb3", 1, [0.0, 0.5, 0.9, 0.925, 0.95]), _record("sb3", 2, [0.0, 0.25], complete=False),
+                _record("jax", 1, [0.0, 0.75, 1.0, 1.0, 1.0]), _record("jax", 2, [0.0, 0.5, 0.8, 0.95, 1.0])):
+        (runs / f"{rec['trainer']}_FootstepDoor-v0_{rec['seed']}.json").write_text(json.dumps(rec))
+    script = load_script("sb3_vs_jax")
+    assert script.main(["--report", "--runs-dir", str(runs), "--results", str(tmp_path / "out")]) == 0
+    data = json.loads((tmp_path / "out" / "sb3_vs_jax_door.json").read_text())
+    sb3, jax_ = data["summary"]["SB3 PPO"], data["summary"]["ppo-jax (Brax PPO)"]
+    assert sb3["reached_steps"] == [204_800, 51_200] and sb3["plateaued"] == [True, False]
+    assert sb3["mean_success"] == [0.0, 0.375, 0.9, 0.925, 0.95] and sb3["seeds_per_point"] == [2, 2, 1, 1, 1]
+    assert jax_["steps_to_0.9"] == [102_400, 153_600] and jax_["cpu_s_to_0.9"] == [10.0, 15.0]
+    md = (tmp_path / "out" / "sb3_vs_jax_door.md").read_text()
+    assert "**Partial**" in md and "SB3 PPO seed 2 (51,200 env steps)" in md
+    assert "| 102,400 | 0.900 (1) | 0.900 (2) |" in md
+    png = (tmp_path / "out" / "sb3_vs_jax_door.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and int.from_bytes(png[16:20], "big") <= 900
+    with pytest.raises(SystemExit):
+        script.main(["--report", "--trainer", "sb3"])
+    assert "one of --trainer or --report" in capsys.readouterr().err

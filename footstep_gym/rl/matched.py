@@ -215,22 +215,31 @@ def types_namespace(env_id: str, env_kwargs: dict[str, Any]) -> Any:
 
 
 def summarise(curves: dict[str, list[list[Point]]], episodes: int, target: float = 0.9) -> dict[str, Any]:
-    """Per trainer (``curves``: trainer -> one curve per seed, points at the same env steps): the mean success per
-    point, the final success per seed, the env steps and wall time at which each seed first reached ``target``
-    (None: never), and whether each curve plateaued (:func:`~footstep_gym.rl.compute.plateaued`)."""
+    """Per trainer (``curves``: trainer -> one curve per seed, points at the same env steps; a run still training
+    has fewer): the env steps each seed reached, its latest success, the mean success per point over the seeds that
+    reached it, the env steps, wall and CPU time [s] at which each seed first reached ``target`` (None: not yet),
+    and whether each curve plateaued (:func:`~footstep_gym.rl.compute.plateaued`). CPU times are None where a
+    point has none."""
     out: dict[str, Any] = {}
     for name, runs in curves.items():
-        if not runs:
-            raise ValueError(f"summarise: no runs of {name}")
-        n = min(len(c) for c in runs)
-        steps = [p[0] for p in runs[0][:n]]
+        if not runs or not all(runs):
+            raise ValueError(f"summarise: no runs of {name}, or a run without a point")
+        longest = max(runs, key=len)
+
+        def first(c: list[Point], i: int) -> Any:
+            return next((p[i] for p in c if p[2] >= target), None)
+
         out[name] = {
-            "seeds": len(runs), "steps": steps,
-            "mean_success": [round(float(np.mean([c[i][2] for c in runs])), 4) for i in range(n)],
-            "final_success": [c[-1][2] for c in runs],
-            f"steps_to_{target}": [next((p[0] for p in c if p[2] >= target), None) for c in runs],
-            f"wall_s_to_{target}": [next((round(p[1], 1) for p in c if p[2] >= target), None) for c in runs],
-            "wall_s": [round(c[-1][1], 1) for c in runs], "cpu_s": [round(c[-1][3], 1) for c in runs],
+            "seeds": len(runs), "steps": [p[0] for p in longest],
+            "mean_success": [round(float(np.mean([c[i][2] for c in runs if len(c) > i])), 4)
+                             for i in range(len(longest))],
+            "seeds_per_point": [sum(len(c) > i for c in runs) for i in range(len(longest))],
+            "reached_steps": [c[-1][0] for c in runs], "latest_success": [c[-1][2] for c in runs],
+            f"steps_to_{target}": [first(c, 0) for c in runs],
+            f"wall_s_to_{target}": [None if first(c, 1) is None else round(first(c, 1), 1) for c in runs],
+            f"cpu_s_to_{target}": [None if first(c, 3) is None else round(first(c, 3), 1) for c in runs],
+            "wall_s": [round(c[-1][1], 1) for c in runs],
+            "cpu_s": [None if c[-1][3] is None else round(c[-1][3], 1) for c in runs],
             "plateaued": [plateaued([p[2] for p in c], episodes) for c in runs],
         }
     return out
@@ -247,7 +256,7 @@ def plot(curves: dict[str, list[list[Point]]], out: str | Path, title: str) -> P
     for (name, runs), color in zip(curves.items(), ("tab:blue", "tab:orange", "tab:green")):
         for c in runs:
             ax.plot([p[0] / 1e3 for p in c], [p[2] for p in c], color=color, lw=0.8, alpha=0.45)
-        n = min(len(c) for c in runs)
+        n = min(len(c) for c in runs)  # the mean over the points every seed reached
         ax.plot([p[0] / 1e3 for p in runs[0][:n]], np.mean([[p[2] for p in c[:n]] for c in runs], axis=0),
                 color=color, lw=2.4, marker="o", ms=3, label=f"{name}: mean of {len(runs)} seeds")
     ax.set_xlabel("env steps (thousands)")

@@ -121,8 +121,9 @@ def report(args: argparse.Namespace) -> list[Path]:
             "plateau_tolerance": plateau_tolerance(n), "differences": list(matched.DIFFERENCES),
             "summary": summary, "runs": {t: rs for t, rs in records.items()}}
     Path(f"{stem}.json").write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-    matched.plot(curves, f"{stem}.png", f"{args.env} ({data['env_kwargs']}): SB3 PPO vs ppo-jax, matched "
-                                        f"hyperparameters, {n} validation seeds per point")
+    tier = data["env_kwargs"].get("tier", "")
+    matched.plot(curves, f"{stem}.png", f"{args.env}, {tier} tier: SB3 PPO vs ppo-jax, matched hyperparameters "
+                                        f"({n} validation seeds per point)")
     total = max(r["curve"][-1][0] for rs in records.values() for r in rs if r["complete"]) if any(
         r["complete"] for rs in records.values() for r in rs) else None
     partial = [f"{TRAINERS[t]} seed {r['seed']} ({r['curve'][-1][0]:,} env steps)" for t, rs in records.items()

@@ -33,8 +33,8 @@ DIFFERENCES = (
     "steps (8 segments of 32 steps make SB3's 256-transition minibatch)",
     "advantages: SB3 computes GAE once per rollout (512 steps per env) with the rollout's values; Brax recomputes it "
     "in every minibatch with the current value network, per 32-step segment bootstrapped at its end",
-    "a time-limit truncation: SB3 adds gamma * V(last observation) to the reward; Brax drops the truncated step from "
-    "the loss and does not bootstrap across it",
+    "a time-limit truncation: SB3 adds gamma * V(last observation) to the step's reward; Brax sets the truncated "
+    "step's advantage and value error to 0 and cuts the lambda-return there",
     "observation normalisation: SB3's VecNormalize updates its running mean and variance every env step and clips "
     "to +-10 (epsilon 1e-8); Brax's running statistics update once per PPO update, before its gradient steps, "
     "without clipping",

@@ -79,7 +79,7 @@ class PPOJaxConfig:
     num_evals: int
     validation_episodes: int
     chunk: int
-    vf_loss_coefficient: float = 0.5
+    vf_loss_coefficient: float  # a config may leave it out: :data:`_OPTIONAL`
 
     @property
     def steps_per_update(self) -> int:

@@ -45,8 +45,6 @@ from footstep_gym.rl import ppo_jax as ppo
 ALGO = "ppo_jax_rnn"
 #: Recurrent cells a config may name (``flax.linen``'s ``GRUCell`` and ``OptimizedLSTMCell``).
 CELLS = ("gru", "lstm")
-#: Brax's value-loss coefficient (``vf_loss_coefficient``), kept so that the loss is Brax's.
-VF_COEFFICIENT = 0.5
 
 
 def default_config_path() -> Path:
@@ -255,7 +253,7 @@ def ppo_loss(net: Any, norm: Any, data: Segments, apply: Callable[..., Any], net
     ratio = jnp.exp(_log_prob(mean[:-1], log_std, data.action) - data.log_prob)
     clipped = jnp.clip(ratio, 1 - cfg.clipping_epsilon, 1 + cfg.clipping_epsilon)
     policy_loss = -jnp.mean(jnp.minimum(ratio * advantages, clipped * advantages))
-    v_loss = jnp.mean((vs - baseline) ** 2) * 0.5 * VF_COEFFICIENT
+    v_loss = jnp.mean((vs - baseline) ** 2) * 0.5 * cfg.vf_loss_coefficient  # Brax's form (0.5 by default)
     entropy_loss = -cfg.entropy_cost * _entropy(log_std)
     return policy_loss + v_loss + entropy_loss, {"policy_loss": policy_loss, "v_loss": v_loss,
                                                  "entropy_loss": entropy_loss}

@@ -258,10 +258,6 @@ class CrowdScene(Scene):
         velocity = jnp.where(scene.orca, ped_vel.astype(self.dtype), ring_vel)
         return _place(rods, scene.active, position, velocity), scene._replace(pedestrians=peds)
 
-    @staticmethod
-    def reference_start(env: Any) -> dict[str, Any]:
-        return {"draws": env.scenario.draws}
-
     def start_from(self, start: dict[str, Any], p: SceneParams, cfg: Any) -> tuple[Rods, Any]:
         if not self.has_orca:
             return super().start_from(start, p, cfg)

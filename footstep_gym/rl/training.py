@@ -225,7 +225,7 @@ def hardware() -> dict[str, Any]:
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as fh:
             model = next((line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")), model)
-    except OSError:
+    except OSError:  # no /proc (not Linux): platform.processor()'s answer stands
         pass
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
     return {"cpu_model": model, "logical_cpus": os.cpu_count(), "machine": platform.machine(),

@@ -140,9 +140,13 @@ def cmd_swing(args: argparse.Namespace) -> None:
 
 
 def cmd_summary(args: argparse.Namespace) -> None:
-    from footstep_gym.evaluation.fullbody_column import write_summary
+    from footstep_gym.evaluation.fullbody_column import FullBodyError, write_summary
 
-    for path in write_summary(args.out, args.tier, robot_label(args.robot)):
+    try:
+        paths = write_summary(args.out, args.tier, robot_label(args.robot))
+    except FullBodyError as exc:
+        sys.exit(str(exc))
+    for path in paths:
         print("wrote", path)
 
 

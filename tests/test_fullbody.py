@@ -135,3 +135,16 @@ def test_recorded_episodes_replay_in_the_env_and_tabulate():
     rows = table_rows([(short, walked)])
     assert rows[0]["footsteps"] == 2 and rows[0]["op3_fell"] is walked.fell and rows[0]["env_end"] == ep.termination
     assert summary(rows)[0]["op3_no_fall"] == (0.0 if walked.fell else 1.0) and "| op3_fell |" in markdown_table(rows)
+
+
+def test_an_episode_is_admitted_where_the_robots_box_holds_its_commands():
+    """An agent's default-robot episode is walked on the OP3 only if every command lies in op3's box: a side stride
+    of 7.5 cm (robot.yaml allows 7 cm, op3 8 cm, its soles' width + clearance) keeps it out."""
+    from footstep_gym.fullbody.replay import Episode, admitted
+
+    ok = np.array([[0.05, 0.09, 0.0, 0.6, 0.2], [0.1, 0.12, 0.1, 0.1, 0.1]])
+    narrow = np.vstack([ok, [[0.05, 0.075, 0.0, 0.6, 0.2]]])
+    ep = Episode("FootstepDoor-v0", "paper", None, "ppo", 10000, ok, "goal", None)
+    assert admitted(ep, "op3") and admitted(ep, {})
+    ep = Episode("FootstepDoor-v0", "paper", None, "ppo", 10000, narrow, "goal", None)
+    assert not admitted(ep, "op3") and admitted(ep, {})

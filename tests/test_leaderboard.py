@@ -433,13 +433,13 @@ def test_the_committed_protocol_2_board_still_builds_labelled_protocol_2():
 
 
 # ---------------------------------------------------------------- the full-body column
-def _replay_table(path: Path, env: str, policy: str, outcomes: list[tuple[str, bool]]) -> None:
+def _replay_table(path: Path, env: str, policy: str, outcomes: list[tuple[str, bool]], note: str = "") -> None:
     """A replay table as ``baselines/fullbody.py replay`` writes it (a summary table, then a row per episode)."""
     head = ("| env | tier | cell | policy | seed | footsteps | env_end | env_fall | op3_fell | op3_fell_at | "
             "median_foot_error_mm | min_cop_margin_mm | sim_time_s | wall_time_s |")
     rows = [f"| {env} | paper |  | {policy} | {10000 + i} | 12 | {end} |  | {fell} | {3 if fell else ''} | 1.0 | "
             f"2.0 | 9.6 | 4.0 |" for i, (end, fell) in enumerate(outcomes)]
-    path.write_text(f"# {policy}\n\n| env | cell | policy | episodes |\n|---|---|---|---|\n| {env} |  | {policy} | "
+    path.write_text(f"# {policy} on {env}\n\n{note}| env | cell | policy | episodes |\n|---|---|---|---|\n| {env} |  | {policy} | "
                     f"{len(rows)} |\n\n" + "\n".join([head, "|" + "---|" * 14, *rows]) + "\n", encoding="utf-8")
 
 
@@ -454,7 +454,8 @@ def test_the_full_body_column_from_replay_tables(tmp_path, capsys):
                   [("goal", False), ("goal", True), ("collision", False)])
     _replay_table(tables / "FootstepCrossing-v0_paper_all_planner_op3.md", "FootstepCrossing-v0", "planner",
                   [("goal", False)])
-    _replay_table(tables / "FootstepDoor-v0_paper_all_agent_op3.md", "FootstepDoor-v0", "agent", [("collision", True)])
+    _replay_table(tables / "FootstepDoor-v0_paper_all_agent_op3.md", "FootstepDoor-v0", "agent", [("collision", True)],
+                  "Recorded with robot 'default'; walked: the 1 of 3 episodes whose every command lies in op3's box.\n\n")
     _replay_table(tables / "FootstepDoor-v0_paper_all_agent_op3-swing.md", "FootstepDoor-v0", "agent", [("goal", False)])
     json_path, csv_path = fc.write_summary(tables)
     summary = fc.load_summary(json_path)
@@ -462,6 +463,7 @@ def test_the_full_body_column_from_replay_tables(tmp_path, capsys):
                                               "op3_no_fall": 0.75, "env_success": 0.75,
                                               "env_success_and_op3_no_fall": 0.5}
     assert summary["policies"]["agent"]["episodes"] == 1 and summary["policies"]["agent"]["op3_no_fall"] == 0.0
+    assert summary["policies"]["agent"]["not_admitted"] == 2 and "not_admitted" not in summary["policies"]["planner"]
     assert csv_path.read_text(encoding="utf-8").splitlines()[0] == ",".join(fc.SUMMARY_KEYS)
     script = load_script("make_leaderboard")
     bench = write_fakes(tmp_path / "bench")
@@ -470,7 +472,7 @@ def test_the_full_body_column_from_replay_tables(tmp_path, capsys):
     table = squash(capsys.readouterr().out)
     assert table[0] == "| policy | runs | paper (2 cells) | hard (3 cells) | full body (OP3, paper) |"
     cells = {line.split(" | ")[0].strip("| *"): line.split(" | ")[-1].rstrip(" |") for line in table[2:6]}
-    assert cells["planner"] == "0.75 (0.75, 4)" and cells["agent"] == "0.00 (0.00, 1)"
+    assert cells["planner"] == "0.75 (0.75, 4)" and cells["agent"] == "0.00 (0.00, 1 + 2 not admitted)"
     assert cells["partial (partial)"] == "–"
     board = json.loads((tmp_path / "board" / "leaderboard.json").read_text(encoding="utf-8"))
     assert board["fullbody"]["policies"]["planner"]["op3_no_fall"] == 0.75

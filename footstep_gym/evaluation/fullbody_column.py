@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -19,8 +20,11 @@ from typing import Any, Mapping
 ROW_KEYS = ("env", "tier", "policy", "seed", "env_end", "op3_fell")
 #: What a table says instead of its episode rows when none was walked (none admitted by the robot's box).
 NO_EPISODE = "No episode walked."
+#: What a table recorded with another robot says of the episodes it walked (:data:`NO_EPISODE` when none).
+ADMITTED = re.compile(r"walked: the (\d+) of (\d+) episodes")
 #: The columns of the summary's CSV, one row per policy.
-SUMMARY_KEYS = ("policy", "episodes", "scenes", "op3_no_fall", "env_success", "env_success_and_op3_no_fall")
+SUMMARY_KEYS = ("policy", "episodes", "scenes", "op3_no_fall", "env_success", "env_success_and_op3_no_fall",
+                "not_admitted")
 
 
 class FullBodyError(ValueError):
@@ -61,9 +65,17 @@ def _flag(text: str, path: Path) -> bool:
 def summarise(folder: Path, tier: str = "paper", robot: str = "op3") -> dict[str, dict[str, Any]]:
     """``policy -> {episodes, scenes, op3_no_fall, env_success, env_success_and_op3_no_fall}`` pooled over the
     replay tables ``<env>_<tier>_<cell>_<policy>_<robot>.md`` in ``folder`` (every scene and cell); an episode
-    (scene, policy, seed) replayed in two tables counts once, from the later file name."""
+    (scene, policy, seed) replayed in two tables counts once, from the later file name. A policy whose episodes were
+    recorded with another robot (an agent's, ``--recorded-with``) also gets ``not_admitted``: those its tables left
+    out because the robot's box does not hold their commands."""
     episodes: dict[tuple[str, str, str], tuple[bool, bool]] = {}
+    left_out: dict[str, int] = {}  # per policy: episodes recorded with another robot whose box the robot's does not hold
     for path in sorted(folder.glob(f"*_{tier}_*_{robot}.md")):
+        text = path.read_text(encoding="utf-8")
+        note = ADMITTED.search(text)
+        if note:  # the title: "# <policy> on <env> ..."
+            policy = text.splitlines()[0].removeprefix("# ").split(" on ")[0]
+            left_out[policy] = left_out.get(policy, 0) + int(note.group(2)) - int(note.group(1))
         for r in episode_rows(path):
             if r["tier"] != tier:
                 raise FullBodyError(f"{path}: an episode of tier {r['tier']!r} in a table named for {tier!r}")
@@ -76,6 +88,9 @@ def summarise(folder: Path, tier: str = "paper", robot: str = "op3") -> dict[str
         e["_s"] += success
         e["_w"] += walked
         e["_b"] += success and walked
+    for policy, n in left_out.items():
+        if policy in out:
+            out[policy]["not_admitted"] = n
     for e in out.values():
         n = e["episodes"]
         e["op3_no_fall"] = round(e.pop("_w") / n, 3)
@@ -101,7 +116,7 @@ def write_summary(folder: Path, tier: str = "paper", robot: str = "op3") -> list
     writer.writerow(SUMMARY_KEYS)
     for name, e in policies.items():
         writer.writerow([name, e["episodes"], " ".join(e["scenes"]), e["op3_no_fall"], e["env_success"],
-                         e["env_success_and_op3_no_fall"]])
+                         e["env_success_and_op3_no_fall"], e.get("not_admitted", "")])
     csv_path.write_text(buf.getvalue(), encoding="utf-8")
     return [json_path, csv_path]
 
@@ -117,14 +132,16 @@ def load_summary(path: Path) -> dict[str, Any]:
         raise FullBodyError(f"{path}: not a full-body summary (footstep_gym.evaluation.fullbody_column)")
     for name, e in doc["policies"].items():
         if not (isinstance(e, Mapping) and isinstance(e.get("episodes"), int) and e["episodes"] > 0
-                and all(0.0 <= float(e.get(k, -1)) <= 1.0 for k in SUMMARY_KEYS[3:])):
+                and all(0.0 <= float(e.get(k, -1)) <= 1.0 for k in SUMMARY_KEYS[3:6])):
             raise FullBodyError(f"{path}: policy {name!r} has no episodes or a share outside [0, 1]")
     return {"tier": doc["tier"], "robot": doc["robot"], "policies": dict(doc["policies"]), "source": path.name}
 
 
 def cell(summary: Mapping[str, Any] | None, policy: str) -> str | None:
-    """The column's text for ``policy``: ``"<no fall> (<env success>, n)"``, or None if it was not replayed."""
+    """The column's text for ``policy``: ``"<no fall> (<env success>, n)"`` (``n + k not admitted``: episodes
+    recorded with another robot that this one's box does not hold), or None if it was not replayed."""
     if not summary or policy not in summary["policies"]:
         return None
     e = summary["policies"][policy]
-    return f"{e['op3_no_fall']:.2f} ({e['env_success']:.2f}, {e['episodes']})"
+    left = f" + {e['not_admitted']} not admitted" if e.get("not_admitted") else ""
+    return f"{e['op3_no_fall']:.2f} ({e['env_success']:.2f}, {e['episodes']}{left})"

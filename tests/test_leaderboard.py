@@ -526,3 +526,13 @@ def test_learned_rows_show_their_budget_and_converged_runs_from_the_shipped_agen
     assert "0.100 at 40, 0.150 at 20" in text and "not shipped here (not counted): agent-noise (1)" in text
     no_learning = lb.build([document("planner", PLANNER)], reps=REPS, agents_dir=agents)
     assert lb.training_markdown(no_learning) == "" and "Training budget" not in lb.markdown(no_learning)
+
+def test_the_committed_full_body_summary_is_its_tables():
+    """baselines/results/fullbody/fullbody_paper_op3.json is what the committed replay tables pool to (re-write it with
+    ``python baselines/fullbody.py summary``)."""
+    from footstep_gym.evaluation import fullbody_column as fc
+
+    folder = Path(__file__).resolve().parent.parent / "baselines" / "results" / "fullbody"
+    for robot in ("op3", "op3-swing"):
+        committed = fc.load_summary(folder / f"{fc.summary_name('paper', robot)}.json")
+        assert committed["policies"] == fc.summarise(folder, "paper", robot) and committed["robot"] == robot

@@ -16,7 +16,7 @@ from footstep_gym import config
 from footstep_gym.footstep import LEFT, RIGHT
 from footstep_gym.fullbody.model import PREFIX, LegIK, Op3, load_model, yaw_matrix
 from footstep_gym.fullbody.walker import TORSO_HEIGHT
-from footstep_gym.robot import load_robot
+from footstep_gym.robot import Robot, load_robot
 
 #: The leg may stretch to this share of its full hip-pitch-to-ankle length (the knee never straight).
 REACH_SHARE = 0.99
@@ -131,7 +131,7 @@ def derive_profile() -> dict[str, tuple[object, str]]:
 
 
 def _swing_limits(m: "mujoco.MjModel", op3: Op3, d: "mujoco.MjData", hip: int, foot_length: float,
-                  base: object) -> tuple[float, float, dict[str, str]]:
+                  base: Robot) -> tuple[float, float, dict[str, str]]:
     """The swing foot's peak speed and acceleration the OP3 can give it, from the model in the walking posture
     ``d`` (both soles on the floor, forward kinematics done).
 
@@ -152,8 +152,8 @@ def _swing_limits(m: "mujoco.MjModel", op3: Op3, d: "mujoco.MjData", hip: int, f
     mass, m_leg = float(m.body_subtreemass[op3.torso]), float(m.body_subtreemass[leg])
     z_leg, z_all = float(d.subtree_com[leg][2]), float(d.subtree_com[op3.torso][2])
     h = (mass * z_all - m_leg * z_leg) / (mass - m_leg) - z_leg
-    room = 0.5 * foot_length * (1.0 - base.zmp_region_scale)  # type: ignore[attr-defined]
-    gravity = base.gravity  # type: ignore[attr-defined]
+    room = 0.5 * foot_length * (1.0 - base.zmp_region_scale)
+    gravity = base.gravity
     acceleration = math.floor(10 * mass * gravity * room / (m_leg * h)) / 10
     return speed, acceleration, {
         "speed": (f"the swing hip's servo range ({torque:g} N m) over its joint damping ({damping:g} N m s/rad) "

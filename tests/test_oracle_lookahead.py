@@ -163,3 +163,19 @@ def test_calibration_runs_merge_into_one_certification_table():
            "oracle-lookahead 5.0 | yes |" in table
     with pytest.raises(ValueError, match="disagree: 98/100 .* 97/100"):
         cal.scores_from_runs([first, run("oracle", 97, [], 1.0)])
+
+
+def test_the_streams_schedule_at_many_times_is_its_schedule_at_each():
+    env = gym.make("FootstepCrossing-v0", tier="structure", tier_cell="wide_cars")
+    env.reset(seed=10000)
+    scenario = env.unwrapped.scenario
+    times = np.array([0.0, 0.1, 3.7, 12.345, 80.0, 400.0])  # the last ones past a loop of the stream
+    expected = np.stack([scenario.positions(float(t)) for t in times])
+    np.testing.assert_array_equal(scenario.positions_at(times), expected)
+    u = env.unwrapped
+    views = true_snapshot(u).obstacles
+    centres, *_ = TruthModel(u, views, 30.0).boundaries(0.7)  # the truth reads the schedule at a walk's boundaries
+    taus = 0.7 * np.arange(len(centres))
+    places = np.stack([scenario.positions(u.time + float(tau)) for tau in taus])
+    columns = [i for i, v in enumerate(views) if not v.static]
+    np.testing.assert_array_equal(centres[:, columns], places[..., 0] + 1j * places[..., 1])

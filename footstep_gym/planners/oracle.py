@@ -157,8 +157,16 @@ class TruthModel:
 
     # ------------------------------------------------------------ the models
     def _schedule_model(self, scenario: Any) -> Callable[[np.ndarray], np.ndarray]:
-        """``taus (K,) -> (K, n)`` complex centres: the scenario's own schedule, ``positions(t)``."""
+        """``taus (K,) -> (K, n)`` complex centres: the scenario's own schedule, ``positions(t)`` (``positions_at``,
+        all the times in one call, where the scenario has it)."""
         t0 = self.t0
+        many = getattr(scenario, "positions_at", None)
+        if callable(many):
+            def model_at(taus: np.ndarray) -> np.ndarray:
+                rows = np.asarray(many(t0 + np.asarray(taus, dtype=float)), dtype=float)
+                return (rows[..., 0] + 1j * rows[..., 1]).reshape(len(taus), -1)
+
+            return model_at
 
         def model(taus: np.ndarray) -> np.ndarray:
             rows = [np.asarray(scenario.positions(t0 + float(tau)), dtype=float) for tau in taus]

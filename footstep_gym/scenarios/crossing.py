@@ -127,6 +127,13 @@ class CrossingTraffic(Crossing):
         """Car centres ``(n, 2)`` [m] at time ``t`` [s] (lane by lane, car by car)."""
         return scene.positions(np, self.state, t)
 
+    def positions_at(self, times: np.ndarray) -> np.ndarray:
+        """Car centres ``(K, n, 2)`` [m] at each of ``times (K,)`` [s]: :meth:`positions` at each, in one call (the
+        same function on the schedule broadcast over the times, so the same numbers)."""
+        times = np.asarray(times, dtype=float).reshape(-1, 1)
+        lanes = np.broadcast_to(self.state.x, (len(times), np.size(self.state.x)))
+        return scene.positions(np, self.state._replace(x=lanes), times).transpose(0, 2, 1)
+
     def before_step(self, world: World, t: float, duration: float, robot: RobotMotion | None = None) -> None:
         for m, p in zip(self.members, self.positions(t).tolist()):
             m.body.position = tuple(p)

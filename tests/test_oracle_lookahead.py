@@ -161,8 +161,18 @@ def test_calibration_runs_merge_into_one_certification_table():
     table = cal.certification_table(scores, cost)
     assert "| structure/door/any_phase | 0.98 (98/100) | 0.91 (91/100) | oracle 0.98 | oracle 1.0, " \
            "oracle-lookahead 5.0 | yes |" in table
-    with pytest.raises(ValueError, match="disagree: 98/100 .* 97/100"):
+    with pytest.raises(ValueError, match="disagree: 98/100 and 97/100"):
         cal.scores_from_runs([first, run("oracle", 97, [], 1.0)])
+    # a calibration split over processes: disjoint seed ranges add up; overlapping ones are refused
+    halves = [dict(run("oracle-lookahead", 46, [10007], 4.0), offset=0),
+              dict(run("oracle-lookahead", 47, [10130], 6.0), offset=100)]
+    for h in halves:
+        h["scores"][0]["episodes"] = 50
+    (joined,), cost = cal.scores_from_runs(halves)
+    assert (joined.successes, joined.episodes, [seed for seed, _ in joined.failed]) == (93, 100, [10007, 10130])
+    assert cost == {("structure/door/any_phase", "oracle-lookahead"): 5.0}
+    with pytest.raises(ValueError, match="overlap"):
+        cal.scores_from_runs([halves[0], dict(halves[1], offset=25)])
 
 
 def test_the_streams_schedule_at_many_times_is_its_schedule_at_each():

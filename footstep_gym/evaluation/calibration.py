@@ -173,11 +173,14 @@ def markdown_table(scores: Sequence[CellScore]) -> str:
 
 def scores_from_runs(docs: Sequence[dict]) -> tuple[list[CellScore], dict[tuple[str, str], float]]:
     """The scores of several ``calibrate.py`` runs (their ``calibration.json`` documents) as one list, and each
-    (cell name, policy)'s cost in wall seconds per episode (its run's). A (cell, policy, seeds) scored by two runs
-    must agree (the episodes are seeded); the score that keeps its failures' seeds is kept. ``ValueError`` where
-    two runs disagree or a run names a cell the benchmark does not have."""
+    (cell name, policy)'s cost in wall seconds per episode (its runs', weighted by episodes).
+
+    Runs of a (cell, policy) on disjoint seed ranges (``offset``, ``episodes``: a calibration split over
+    processes) add up; on the same range they must agree (the episodes are seeded) and the score that keeps its
+    failures' seeds is kept. ``ValueError`` where two runs disagree, their ranges overlap otherwise, or a run
+    names a cell the benchmark does not have."""
     cells = {cell_name(c): c for c in benchmark_cells()}
-    kept: dict[tuple[str, str], tuple[CellScore, int, float]] = {}
+    parts: dict[tuple[str, str], list[tuple[CellScore, int, float]]] = {}
     for doc in docs:
         offset = int(doc.get("offset", 0))
         for row in doc["scores"]:
@@ -187,17 +190,33 @@ def scores_from_runs(docs: Sequence[dict]) -> tuple[list[CellScore], dict[tuple[
             score = CellScore(cells[name], row["policy"], int(row["successes"]), int(row["episodes"]),
                               tuple((int(f["seed"]), str(f["outcome"])) for f in row.get("failed", ())))
             run_cost = doc.get("cost", {}).get(row["policy"], doc.get("cost", {}).get("null baselines", {}))
+            spent = float(run_cost.get("s_per_episode", float("nan")))
             key = (name, score.policy)
-            if key in kept:
-                old, old_offset, _ = kept[key]
-                if (old.successes, old.episodes, old_offset) != (score.successes, score.episodes, offset):
+            kept = parts.setdefault(key, [])
+            same = [i for i, (old, old_offset, _) in enumerate(kept)
+                    if (old_offset, old.episodes) == (offset, score.episodes)]
+            if same:
+                old = kept[same[0]][0]
+                if old.successes != score.successes:
                     raise ValueError(f"two calibration runs of {score.policy} on {name} disagree: "
-                                     f"{old.successes}/{old.episodes} (offset {old_offset}) and "
-                                     f"{score.successes}/{score.episodes} (offset {offset})")
-                if old.failed or not score.failed:
-                    continue
-            kept[key] = (score, offset, float(run_cost.get("s_per_episode", float("nan"))))
-    return [v[0] for v in kept.values()], {k: v[2] for k, v in kept.items()}
+                                     f"{old.successes}/{old.episodes} and {score.successes}/{score.episodes} "
+                                     f"(offset {offset})")
+                if score.failed and not old.failed:
+                    kept[same[0]] = (score, offset, spent)
+                continue
+            for old, old_offset, _ in kept:
+                if offset < old_offset + old.episodes and old_offset < offset + score.episodes:
+                    raise ValueError(f"two calibration runs of {score.policy} on {name} overlap: seeds "
+                                     f"{old_offset}+{old.episodes} and {offset}+{score.episodes} into the split")
+            kept.append((score, offset, spent))
+    scores, cost = [], {}
+    for key, kept in parts.items():
+        first = kept[0][0]
+        episodes = sum(k[0].episodes for k in kept)
+        scores.append(CellScore(first.cell, first.policy, sum(k[0].successes for k in kept), episodes,
+                                tuple(sorted(f for k in kept for f in k[0].failed))))
+        cost[key] = sum(k[0].episodes * k[2] for k in kept) / episodes
+    return scores, cost
 
 
 def certification_table(scores: Sequence[CellScore], cost: dict[tuple[str, str], float]) -> str:

@@ -279,9 +279,9 @@ class TruthPredictor(ObstaclePredictor):
         # is its place plus a zero velocity times the time).
         fixed = ~moving & (truth.velocity == 0) & (truth.omega == 0)
         self._fixed, self._moves = np.flatnonzero(fixed), np.flatnonzero(~fixed)
-        rot = np.exp(1j * truth.angle[fixed])
-        self._fixed_line = (truth.position[fixed] + rot * self._la[fixed], rot * self._lab[fixed])
-        ends = np.stack([self._fixed_line[0], self._fixed_line[0] + self._fixed_line[1]])
+        self._fixed_pose = (truth.position[fixed], np.exp(1j * truth.angle[fixed]))
+        origin = self._fixed_pose[0] + self._fixed_pose[1] * self._la[fixed]
+        ends = np.stack([origin, origin + self._fixed_pose[1] * self._lab[fixed]])
         self._fixed_box = (ends.real.min(axis=0), ends.real.max(axis=0), ends.imag.min(axis=0), ends.imag.max(axis=0))
 
     def _near_fixed(self, points: np.ndarray, reach: float) -> np.ndarray:
@@ -301,15 +301,11 @@ class TruthPredictor(ObstaclePredictor):
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         p = pts[:, 0] + 1j * pts[:, 1]
         tt = np.broadcast_to(np.asarray(times, dtype=float), p.shape)
-        origin, ab_world = self._fixed_line
-        ab2 = self._lab2[self._fixed]
+        f = self._fixed if near is None else self._fixed[near]
+        centre, rot = self._fixed_pose
         if near is not None:
-            origin, ab_world, ab2 = origin[near], ab_world[near], ab2[near]
-        ap = p[:, None] - origin
-        u = (ap * ab_world.conj()).real / np.where(ab2 > 0, ab2, 1.0)
-        np.clip(u, 0.0, 1.0, out=u)
-        d = ap - u * ab_world
-        fixed = d.real ** 2 + d.imag ** 2
+            centre, rot = centre[near], rot[near]
+        fixed = centre_line_gap2(p, centre, rot, self._la[f], self._lab[f], self._lab2[f])
         m = self._moves
         if not m.size:
             return fixed, np.empty((len(p), 0))

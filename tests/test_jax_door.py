@@ -219,8 +219,8 @@ def test_reset_is_seeded_jittable_and_vmappable():
 
 @pytest.mark.parametrize("kwargs, named", [
     ({"scenario": "mix"}, "scene 'mix'"),
-    ({"scenario": "crowd", "tier": "structure", "tier_cell": "crossing_flows"}, "crowd_model='orca'"),
-    ({"scenario": "crowd", "tier": "structure"}, "crowd_model='orca'"),
+    ({"scenario": "crowd", "crowd_model": "orca", "crowd_layout": "counter_flow"},
+     "crowd_model='orca' with robot_visible=True"),
     ({"fixed_period": True}, "fixed_period"),
     ({"randomize": {"door_radius": [0.4, 0.5]}}, "randomize of door_radius"),
     ({"dtype": "float16"}, "dtype must be"),

@@ -48,10 +48,10 @@ DIFFERENCES = (
 def sb3_hyperparameters(env_id: str = "FootstepDoor-v0", conf_file: str | Path | None = None) -> dict[str, Any]:
     """SB3 PPO's hyperparameters for ``env_id`` from the zoo's file (default ``configs/rl/ppo.yml``), SB3's defaults
     filled in for the keys the file leaves out (``max_grad_norm`` 0.5, ``tanh`` activation, ``log_std_init`` 0)."""
-    from footstep_gym.rl.training import zoo_entry
+    from footstep_gym.rl.training import zoo_entry, zoo_policy_kwargs
 
     entry = zoo_entry("ppo", env_id, conf_file)
-    policy_kwargs = eval(entry["policy_kwargs"]) if isinstance(entry.get("policy_kwargs"), str) else {}  # zoo format
+    policy_kwargs = zoo_policy_kwargs(entry)
     arch = policy_kwargs.get("net_arch", {"pi": [64, 64], "vf": [64, 64]})
     normalize = entry.get("normalize", False)
     normalize = eval(normalize) if isinstance(normalize, str) else normalize  # the zoo's string form
@@ -252,6 +252,8 @@ def plot(curves: dict[str, list[list[Point]]], out: str | Path, title: str) -> P
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from footstep_gym.rl.training import save_success_figure
+
     fig, ax = plt.subplots(figsize=(8, 4), dpi=100, layout="constrained")
     for (name, runs), color in zip(curves.items(), ("tab:blue", "tab:orange", "tab:green")):
         for c in runs:
@@ -259,17 +261,7 @@ def plot(curves: dict[str, list[list[Point]]], out: str | Path, title: str) -> P
         n = min(len(c) for c in runs)  # the mean over the points every seed reached
         ax.plot([p[0] / 1e3 for p in runs[0][:n]], np.mean([[p[2] for p in c[:n]] for c in runs], axis=0),
                 color=color, lw=2.4, marker="o", ms=3, label=f"{name}: mean of {len(runs)} seeds")
-    ax.set_xlabel("env steps (thousands)")
-    ax.set_ylabel("validation success (deterministic policy)")
-    ax.set_ylim(-0.03, 1.03)
-    ax.grid(alpha=0.3)
-    ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8, loc="lower right")
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    return save_success_figure(fig, ax, out, title, "validation success (deterministic policy)", legend_size=8)
 
 
 __all__ = ["DIFFERENCES", "matched_jax_config", "plot", "rescaled_vec_env", "sb3_hyperparameters",

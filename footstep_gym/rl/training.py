@@ -451,17 +451,33 @@ def learning_curves(runs: Sequence[str | Path], out: str | Path, title: str,
                 marker="o" if n <= SHORT_CURVE else None)
     for (label, rate), style in zip((reference or {}).items(), ("--", ":", "-.", (0, (5, 1)))):
         ax.axhline(rate, ls=style, color="tab:red", lw=1.2, label=f"{label} ({rate:.2f})")
+    return save_success_figure(fig, ax, out, title, "success rate (deterministic evaluation)", legend_size=7, dpi=110)
+
+
+def save_success_figure(fig: Any, ax: Any, out: str | Path, title: str, ylabel: str, legend_size: int,
+                        dpi: float | None = None) -> Path:
+    """Frame a success-against-env-steps plot (x in thousands of env steps, y in [0, 1] with a margin, grid,
+    title, legend lower right), write it to ``out`` (its folder made) and close it; ``out``."""
+    import matplotlib.pyplot as plt
+
     ax.set_xlabel("env steps (thousands)")
-    ax.set_ylabel("success rate (deterministic evaluation)")
+    ax.set_ylabel(ylabel)
     ax.set_ylim(-0.03, 1.03)
     ax.grid(alpha=0.3)
     ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=legend_size, loc="lower right")
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, **({} if dpi is None else {"dpi": dpi}))
     plt.close(fig)
     return out
+
+
+def zoo_policy_kwargs(entry: dict[str, Any]) -> dict[str, Any]:
+    """The ``policy_kwargs`` of a zoo entry (:func:`zoo_entry`): rl_zoo3 writes them as a Python expression
+    string (``"dict(log_std_init=-0.5, net_arch=...)"``), evaluated as the zoo does; ``{}`` when absent."""
+    kwargs = entry.get("policy_kwargs")
+    return eval(kwargs) if isinstance(kwargs, str) else {}  # the zoo's own format, read as rl_zoo3 reads it
 
 
 def zoo_entry(algo: str, env_id: str, conf_file: str | Path | None = None) -> dict[str, Any]:
@@ -503,7 +519,7 @@ def ppo_throughput(env_id: str, n_envs: int, timesteps: int = 8192, hyperparams_
                         norm_obs=True, norm_reward=False)
     keys = ("n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "learning_rate", "clip_range", "ent_coef")
     kwargs = {k: entry[k] for k in keys if k in entry}
-    policy_kwargs = eval(entry["policy_kwargs"]) if isinstance(entry.get("policy_kwargs"), str) else {}  # zoo format
+    policy_kwargs = zoo_policy_kwargs(entry)
     if discrete:
         policy_kwargs.pop("log_std_init", None)
     model = PPO(entry.get("policy", "MlpPolicy"), venv, policy_kwargs=policy_kwargs, seed=0, device="cpu", **kwargs)

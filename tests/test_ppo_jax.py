@@ -324,3 +324,33 @@ def test_brax_is_imported_without_mujocos_warp_messages():
         direct = subprocess.run([sys.executable, "-c", "import brax"], capture_output=True, text=True, timeout=300,
                                 cwd=REPO, env=env)
         assert "Failed to import mujoco_warp: No module named 'warp'" in direct.stdout, direct.stdout
+
+
+def test_the_validation_clock_counts_training_and_leaves_the_validations_out(monkeypatch):
+    """On a hand-driven clock: each point's wall and CPU time is the time before it less the earlier validations;
+    the validations' own time is kept apart, and progress sees each point."""
+    import types
+
+    now = {"wall": 100.0, "cpu": 50.0}
+    monkeypatch.setattr(ppo, "time", types.SimpleNamespace(perf_counter=lambda: now["wall"],
+                                                           process_time=lambda: now["cpu"]))
+    seen = []
+    clock = ppo.ValidationClock(lambda *p: seen.append(p))
+
+    def validation(wall: float, cpu: float, success: float):
+        def rate() -> float:
+            now["wall"] += wall
+            now["cpu"] += cpu
+            return success
+        return rate
+
+    now["wall"], now["cpu"] = 103.0, 51.0  # 3 s of training (1 s CPU)
+    clock.measure(0, validation(10.0, 4.0, 0.25))
+    now["wall"] += 5.0  # 5 s more training (2 s CPU)
+    now["cpu"] += 2.0
+    clock.measure(4096, validation(7.0, 1.0, 0.5))
+    assert clock.curve == [(0, 3.0, 0.25, 1.0), (4096, 8.0, 0.5, 3.0)]
+    assert seen == [(0, 3.0, 0.25), (4096, 8.0, 0.5)]
+    assert (clock.validating, clock.validating_cpu) == (17.0, 5.0)
+    now["wall"] += 2.0
+    assert clock.training_time() == (10.0, 3.0)

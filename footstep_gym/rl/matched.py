@@ -16,7 +16,6 @@ same env steps (after the same number of PPO updates) on the same validation-spl
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -155,7 +154,7 @@ def train_sb3(sb3: dict[str, Any], env_id: str, env_kwargs: dict[str, Any], seed
     from stable_baselines3.common.vec_env import VecNormalize
 
     from footstep_gym.rl.callbacks import play
-    from footstep_gym.rl.ppo_jax import validation_env
+    from footstep_gym.rl.ppo_jax import ValidationClock, validation_env
     from footstep_gym.rl.sb3_jax import FootstepSB3VecEnv
 
     scenes = {v: k for k, v in footstep_gym.ENV_IDS.items()}
@@ -165,23 +164,21 @@ def train_sb3(sb3: dict[str, Any], env_id: str, env_kwargs: dict[str, Any], seed
     venv = VecNormalize(venv, norm_obs=sb3["norm_obs"], norm_reward=sb3["norm_reward"], gamma=sb3["gamma"])
     ref_env = validation_env(types_namespace(env_id, env_kwargs))
     seeds = [int(s) for s in validation_seeds]
-    curve: list[Point] = []
 
     class Validate(BaseCallback):
         def __init__(self) -> None:
             super().__init__()
-            self.skip, self.skip_cpu, self.next = 0.0, 0.0, 0
+            self.next = 0
 
         def measure(self) -> None:
-            t0, c0 = time.perf_counter(), time.process_time()
-            episodes = play(self.model, ref_env, seeds, venv)
-            curve.append((self.num_timesteps, t0 - start - self.skip, sum(w for w, _ in episodes) / len(episodes),
-                          c0 - cpu_start - self.skip_cpu))
-            self.skip += time.perf_counter() - t0
-            self.skip_cpu += time.process_time() - c0
+            def rate() -> float:
+                episodes = play(self.model, ref_env, seeds, venv)
+                return sum(w for w, _ in episodes) / len(episodes)
+
+            clock.measure(self.num_timesteps, rate)
             self.next += every
             if progress is not None:
-                progress(curve[-1])
+                progress(clock.curve[-1])
 
         def _on_rollout_start(self) -> None:
             if self.num_timesteps >= self.next:
@@ -194,7 +191,7 @@ def train_sb3(sb3: dict[str, Any], env_id: str, env_kwargs: dict[str, Any], seed
             if self.num_timesteps >= self.next:
                 self.measure()
 
-    start, cpu_start = time.perf_counter(), time.process_time()
+    clock = ValidationClock()
     model = PPO("MlpPolicy", venv, n_steps=sb3["n_steps"], batch_size=sb3["batch_size"], n_epochs=sb3["n_epochs"],
                 learning_rate=sb3["learning_rate"], gamma=sb3["gamma"], gae_lambda=sb3["gae_lambda"],
                 clip_range=sb3["clip_range"], ent_coef=sb3["ent_coef"], vf_coef=sb3["vf_coef"],
@@ -204,7 +201,7 @@ def train_sb3(sb3: dict[str, Any], env_id: str, env_kwargs: dict[str, Any], seed
     model.learn(total, callback=Validate())
     ref_env.close()
     venv.close()
-    return model, curve
+    return model, clock.curve
 
 
 def types_namespace(env_id: str, env_kwargs: dict[str, Any]) -> Any:

@@ -400,6 +400,38 @@ class TrainResult:
         return next((c for _, _, s, c in self.curve if s >= success), None)
 
 
+class ValidationClock:
+    """A training run's clock that leaves its validations out, started when built.
+
+    :meth:`measure` runs one validation (``rate()``, the success rate) and appends ``(env steps, training wall
+    time [s], success, training CPU time [s])`` to :attr:`curve`, the times counting what was spent before it
+    less the earlier validations; the validation's own wall and CPU time add to :attr:`validating` and
+    :attr:`validating_cpu`. ``progress(steps, wall_s, success)`` is called after each.
+    """
+
+    def __init__(self, progress: Callable[[int, float, float], None] | None = None) -> None:
+        self.curve: list[tuple[int, float, float, float]] = []
+        self.validating = 0.0
+        self.validating_cpu = 0.0
+        self.progress = progress
+        self.start, self.cpu_start = time.perf_counter(), time.process_time()
+
+    def measure(self, step: int, rate: Callable[[], float]) -> None:
+        t0, c0 = time.perf_counter(), time.process_time()
+        wall, cpu = t0 - self.start - self.validating, c0 - self.cpu_start - self.validating_cpu
+        success = rate()
+        self.curve.append((int(step), wall, success, cpu))
+        self.validating += time.perf_counter() - t0
+        self.validating_cpu += time.process_time() - c0
+        if self.progress is not None:
+            self.progress(int(step), wall, success)
+
+    def training_time(self) -> tuple[float, float]:
+        """``(wall, CPU)`` seconds since the start, the validations left out."""
+        return (time.perf_counter() - self.start - self.validating,
+                time.process_time() - self.cpu_start - self.validating_cpu)
+
+
 def make_env(cfg: PPOJaxConfig) -> Any:
     """:class:`~footstep_gym.rl.brax_env.FootstepBraxEnv` of ``cfg``'s env (float32)."""
     import footstep_gym
@@ -434,25 +466,19 @@ def train(cfg: PPOJaxConfig, seed: int, *, validation_seeds: list[int] | None = 
     env = make_env(cfg)
     network = network_of(cfg, env.observation_size, env.action_size)
     ref_env = validation_env(cfg)
-    curve: list[tuple[int, float, float, float]] = []
-    clock = {"validating": 0.0, "validating_cpu": 0.0}
     load_start = os.getloadavg()[0]
-    start, cpu_start = time.perf_counter(), time.process_time()
+    clock = ValidationClock(progress)
 
     policy: list[BraxPPO] = []  # one compiled policy, its parameters replaced at each validation
 
     def on_params(step: int, make_policy: Any, params: Any) -> None:
-        t0, c0 = time.perf_counter(), time.process_time()
-        wall, cpu = t0 - start - clock["validating"], c0 - cpu_start - clock["validating_cpu"]
-        if not policy:
-            policy.append(BraxPPO(params, network))
-        policy[0].params = params
-        rate = validation_success(policy[0], ref_env, seeds)
-        curve.append((int(step), wall, rate, cpu))
-        clock["validating"] += time.perf_counter() - t0
-        clock["validating_cpu"] += time.process_time() - c0
-        if progress is not None:
-            progress(int(step), wall, rate)
+        def rate() -> float:
+            if not policy:
+                policy.append(BraxPPO(params, network))
+            policy[0].params = params
+            return validation_success(policy[0], ref_env, seeds)
+
+        clock.measure(step, rate)
 
     _, params, _ = brax_ppo_train()(
         environment=env, num_timesteps=cfg.num_timesteps,
@@ -465,11 +491,10 @@ def train(cfg: PPOJaxConfig, seed: int, *, validation_seeds: list[int] | None = 
         vf_loss_coefficient=cfg.vf_loss_coefficient,
         network_factory=_network_factory(network), seed=seed, num_evals=cfg.num_evals, num_eval_envs=1,
         run_evals=False, policy_params_fn=on_params)
-    wall = time.perf_counter() - start - clock["validating"]
-    cpu = time.process_time() - cpu_start - clock["validating_cpu"]
+    wall, cpu = clock.training_time()
     ref_env.close()
-    steps = curve[-1][0] if curve else cfg.num_timesteps
-    return TrainResult(BraxPPO(params, network), curve, wall, steps, clock["validating"], seed, cfg,
+    steps = clock.curve[-1][0] if clock.curve else cfg.num_timesteps
+    return TrainResult(BraxPPO(params, network), clock.curve, wall, steps, clock.validating, seed, cfg,
                        (load_start, os.getloadavg()[0]), cpu)
 
 

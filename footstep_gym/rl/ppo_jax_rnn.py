@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 import os
-import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable, NamedTuple
@@ -365,33 +364,26 @@ def train(cfg: RecurrentConfig, seed: int, *, validation_seeds: list[int] | None
     updates = cfg.num_timesteps // cfg.steps_per_update
     chunks = max(cfg.num_evals - 1, 1)
     per_chunk = updates // chunks
-    curve: list[tuple[int, float, float, float]] = []
-    validating = [0.0, 0.0]
     load_start = os.getloadavg()[0]
-    start, cpu_start = time.perf_counter(), time.process_time()
+    clock = ppo.ValidationClock(progress)
     init, run = _trainer(cfg, env, network)
     state = init(jax.random.PRNGKey(seed))
     model = RecurrentPPOJax((state.norm, state.net), network)
 
     def validate(step: int) -> None:
-        t0, c0 = time.perf_counter(), time.process_time()
-        wall, cpu = t0 - start - validating[0], c0 - cpu_start - validating[1]
-        model.params = jax.device_get((state.norm, state.net))
-        rate = ppo.validation_success(model, ref_env, seeds)
-        curve.append((step, wall, rate, cpu))
-        validating[0] += time.perf_counter() - t0
-        validating[1] += time.process_time() - c0
-        if progress is not None:
-            progress(step, wall, rate)
+        def rate() -> float:
+            model.params = jax.device_get((state.norm, state.net))
+            return ppo.validation_success(model, ref_env, seeds)
+
+        clock.measure(step, rate)
 
     jax.block_until_ready(state)
     validate(0)
     for i in range(chunks):
         state = jax.block_until_ready(run(state, per_chunk))
         validate((i + 1) * per_chunk * cfg.steps_per_update)
-    wall = time.perf_counter() - start - validating[0]
-    cpu = time.process_time() - cpu_start - validating[1]
+    wall, cpu = clock.training_time()
     ref_env.close()
-    return ppo.TrainResult(model, curve, wall, curve[-1][0], validating[0], seed, cfg,
+    return ppo.TrainResult(model, clock.curve, wall, clock.curve[-1][0], clock.validating, seed, cfg,
                            (load_start, os.getloadavg()[0]), cpu)
 

@@ -42,11 +42,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--results", type=Path, default=REPO / "baselines" / "results" / "learning_curves",
                    help="where sb3_vs_jax_<scene>.{json,md,png} go (--report)")
     p.add_argument("--report", action="store_true", help="write the comparison from the curves in --runs-dir")
+    p.add_argument("--force", action="store_true", help="with --trainer: replace curves already in --runs-dir")
     return p
 
 
 def run_path(runs_dir: Path, trainer: str, env_id: str, seed: int) -> Path:
     return runs_dir / f"{trainer}_{env_id}_{seed}.json"
+
+
+def row(point: Sequence[float]) -> list:
+    """A curve point as the run file keeps it: env steps, wall [s] and CPU [s] to 0.1 s (CPU None: not measured)."""
+    steps, wall, rate, cpu = point
+    return [int(steps), round(wall, 1), rate, None if cpu is None else round(cpu, 1)]
 
 
 def train(args: argparse.Namespace) -> None:
@@ -60,6 +67,9 @@ def train(args: argparse.Namespace) -> None:
     total, every = matched.schedule(sb3, timesteps, args.points)
     print(f"{TRAINERS[args.trainer]} on {args.env} (tier {args.tier}): {total:,} env steps, a validation every "
           f"{every:,} on {args.episodes} validation seeds", flush=True)
+    taken = [str(p) for seed in args.seeds if (p := run_path(args.runs_dir, args.trainer, args.env, seed)).exists()]
+    if taken and not args.force:
+        raise SystemExit(f"sb3_vs_jax.py: curves already there, not replaced (--force replaces them): {', '.join(taken)}")
     args.runs_dir.mkdir(parents=True, exist_ok=True)
     for seed in args.seeds:
         path = run_path(args.runs_dir, args.trainer, args.env, seed)
@@ -68,11 +78,10 @@ def train(args: argparse.Namespace) -> None:
                   "machine": {"python": platform.python_version(), "machine": platform.machine(),
                               "logical_cpus": os.cpu_count(), "load_average_start": os.getloadavg()[0]}}
 
-        def save(point: Sequence[float], done: bool = False) -> None:
-            steps, wall, rate, cpu = point
-            record["curve"].append([int(steps), round(wall, 1), rate, None if cpu is None else round(cpu, 1)])
-            if not done:
-                print(f"  seed {seed}: {steps:>8,} env steps  {wall:7.1f} s  success {rate:.3f}", flush=True)
+        def save(point: Sequence[float]) -> None:
+            steps, wall, rate, _ = point
+            record["curve"].append(row(point))
+            print(f"  seed {seed}: {steps:>8,} env steps  {wall:7.1f} s  success {rate:.3f}", flush=True)
             path.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
 
         if args.trainer == "sb3":
@@ -88,9 +97,7 @@ def train(args: argparse.Namespace) -> None:
             result = ppo_jax.train(cfg, seed, validation_seeds=seeds,
                                    progress=lambda steps, wall, rate: save((steps, wall, rate, None)))
             curve = result.curve
-        record["curve"] = []
-        for point in curve:
-            save(point, done=True)
+        record["curve"] = [row(point) for point in curve]
         record["complete"] = True
         record["machine"]["load_average_end"] = os.getloadavg()[0]
         path.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
@@ -129,6 +136,11 @@ def report(args: argparse.Namespace) -> list[Path]:
     partial = [f"{TRAINERS[t]} seed {r['seed']} ({r['curve'][-1][0]:,} env steps)" for t, rs in records.items()
                for r in rs if not r["complete"]]
 
+    machines = [r["machine"] for rs in records.values() for r in rs]
+    machine = machines[0]
+    load = (min(m["load_average_start"] for m in machines),
+            max(m.get("load_average_end", m["load_average_start"]) for m in machines))
+
     def listed(values: Sequence, spec: str) -> str:
         return ", ".join("–" if v is None else format(v, spec) for v in values)
 
@@ -138,7 +150,8 @@ def report(args: argparse.Namespace) -> list[Path]:
              f"({'' if total is None else f'{total:,} env steps: '}whole updates between validations); each point: "
              f"the deterministic policy on the validation split's first {n} seeds in the reference env, after the "
              f"same PPO updates. Times: training only (validation left out; ppo-jax's include its jit), on a shared "
-             f"2-core machine whose load average was 15-25 during these runs: CPU time is the fairer cost.", ""]
+             f"{machine['logical_cpus']}-core machine whose load average was {load[0]:.0f}-{load[1]:.0f} during "
+             f"these runs: CPU time is the fairer cost.", ""]
     if partial:
         lines += [f"**Partial**: still training when this was written: {'; '.join(partial)}; their curves stop "
                   "there (rerun `--report` when they end).", ""]

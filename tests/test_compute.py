@@ -261,6 +261,8 @@ def test_sb3_ppo_on_the_jax_scene_is_validated_after_whole_updates():
 def _record(trainer: str, seed: int, successes: list[float], complete: bool = True) -> dict:
     return {"trainer": trainer, "env_id": "FootstepDoor-v0", "env_kwargs": {"tier": "train"}, "seed": seed,
             "episodes": 40, "complete": complete, "hyperparameters": {},
+            "machine": {"python": "3.11.7", "machine": "x86_64", "logical_cpus": 2, "load_average_start": 1.0 + seed,
+                        "load_average_end": 3.0 * seed},
             "curve": [[i * 51_200, 10.0 * i, s, 5.0 * i] for i, s in enumerate(successes)]}
 
 
@@ -282,8 +284,13 @@ def test_the_comparison_report_from_curve_files(tmp_path, capsys):
     md = (tmp_path / "out" / "sb3_vs_jax_door.md").read_text()
     assert "**Partial**" in md and "SB3 PPO seed 2 (51,200 env steps)" in md
     assert "| 102,400 | 0.900 (1) | 0.900 (2) |" in md
+    assert "2-core machine whose load average was 2-6 during these runs" in md  # the runs' own load averages
     png = (tmp_path / "out" / "sb3_vs_jax_door.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and int.from_bytes(png[16:20], "big") <= 900
     with pytest.raises(SystemExit):
         script.main(["--report", "--trainer", "sb3"])
     assert "one of --trainer or --report" in capsys.readouterr().err
+    before = (runs / "sb3_FootstepDoor-v0_1.json").read_text()
+    with pytest.raises(SystemExit, match="already there, not replaced"):  # refused before any training
+        script.main(["--trainer", "sb3", "--seeds", "1", "--runs-dir", str(runs)])
+    assert (runs / "sb3_FootstepDoor-v0_1.json").read_text() == before

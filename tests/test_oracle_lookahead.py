@@ -112,10 +112,12 @@ def test_the_calibration_runs_named_cells_and_keeps_the_seeds_of_its_failures():
 
 
 @pytest.mark.parametrize("env_id, kwargs", [("FootstepDoor-v0", {"tier": "structure", "tier_cell": "two_doors"}),
-                                            ("FootstepCrowd-v0", {})])
+                                            ("FootstepCrowd-v0", {}),
+                                            ("FootstepCrossing-v0", {"tier": "structure", "tier_cell": "wide_cars"})])
 def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
-    """The truth places a shape at rest once and leaves out walls no point comes near: the same numbers, bit for
-    bit, as every shape's pose at every point's time (TruthModel.poses) through the centre-line distance."""
+    """The truth places a shape at rest once, leaves out walls no point comes near and turns shapes that never turn
+    (the crowd's circles, the stream's cars) once: the same numbers, bit for bit, as every shape's pose at every
+    point's time (TruthModel.poses) through the centre-line distance."""
     from footstep_gym.kernels.numpy_kernels import centre_line_gap2
     from footstep_gym.planners.oracle import TruthPredictor
 
@@ -138,6 +140,7 @@ def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
         d2[times[:, None] > truth._truth_horizon] = np.inf
         if env_id == "FootstepDoor-v0" and spread < 1:  # the pruning is exercised: a small box leaves walls out
             assert len(truth._near_fixed(points, 0.4)) < truth._fixed.size
+        assert (truth._moves_rot is None) == (env_id == "FootstepDoor-v0")  # only the door's rods turn
         for safe in (0.0, 0.15, 0.4):
             np.testing.assert_array_equal(truth.free_at(points, times, safe, period),
                                           (d2 >= (truth._r + safe) ** 2).all(axis=1))
@@ -173,6 +176,28 @@ def test_calibration_runs_merge_into_one_certification_table():
     assert cost == {("structure/door/any_phase", "oracle-lookahead"): 5.0}
     with pytest.raises(ValueError, match="overlap"):
         cal.scores_from_runs([halves[0], dict(halves[1], offset=25)])
+
+
+def test_the_centre_line_distance_of_circles_is_the_distance_to_their_centres():
+    """Circles only (every centre line a point): the squared distance to the turned centre, bit for bit."""
+    from footstep_gym.kernels.numpy_kernels import centre_line_gap2
+
+    rng = np.random.default_rng(5)
+    p = rng.uniform(-2, 2, 50) + 1j * rng.uniform(-2, 2, 50)
+    centre = rng.uniform(-2, 2, (50, 4)) + 1j * rng.uniform(-2, 2, (50, 4))
+    rot = np.exp(1j * rng.uniform(-np.pi, np.pi, 4))
+    a = np.array([0, 0.1, -0.2j, 0.05 + 0.05j])  # a circle off its body's centre
+    got = centre_line_gap2(p, centre, rot, a, np.zeros(4, complex), np.zeros(4))
+    world = centre + rot * a
+    np.testing.assert_array_equal(got, (p.real[:, None] - world.real) ** 2 + (p.imag[:, None] - world.imag) ** 2)
+
+
+def test_the_crowds_schedule_at_many_times_is_its_schedule_at_each():
+    env = gym.make("FootstepCrowd-v0", tier="structure", tier_cell="dense")
+    env.reset(seed=10000)
+    scenario = env.unwrapped.scenario
+    times = np.concatenate([[0.0, 0.05, 3.7, 12.345, 80.0], 1.3 + 0.1 * np.arange(80)])  # before and after the ramp
+    np.testing.assert_array_equal(scenario.positions_at(times), np.stack([scenario.positions(float(t)) for t in times]))
 
 
 def test_the_streams_schedule_at_many_times_is_its_schedule_at_each():

@@ -24,6 +24,8 @@ def centre_line_gap2(p: np.ndarray, centre: np.ndarray, rot: np.ndarray, a: np.n
     line runs from ``a`` to ``a + ab`` in the body frame, ``ab2 = |ab|^2`` (a circle: ``ab = 0``).
     """
     ap = p[:, None] - (centre + rot * a)
+    if not np.any(ab2):  # circles only: the nearest point of each centre line is its one point (u = 0 below)
+        return ap.real ** 2 + ap.imag ** 2
     ab_world = rot * ab
     u = (ap * ab_world.conj()).real / np.where(ab2 > 0, ab2, 1.0)
     np.clip(u, 0.0, 1.0, out=u)

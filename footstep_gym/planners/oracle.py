@@ -246,10 +246,16 @@ class TruthModel:
         if columns is not None:
             centres, angles = centres[:, columns], angles[:, columns]
             velocities, omegas = velocities[:, columns], omegas[:, columns]
-        x = np.maximum(np.asarray(taus, dtype=float), 0.0) / float(period)
-        k = np.minimum(np.floor(x).astype(int), len(centres) - 1)
-        dt = ((x - k) * float(period))[:, None]
+        k, dt = _step_of(taus, period, len(centres))
         return centres[k] + velocities[k] * dt, angles[k] + omegas[k] * dt
+
+
+def _step_of(taus: np.ndarray, period: float, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """For times ``taus (N,)`` [s] of a walk of period ``period`` [s]: each one's step ``k (N,)`` (at most
+    ``steps - 1``, the last row of :meth:`TruthModel.boundaries`) and its time into that step ``(N, 1)`` [s]."""
+    x = np.maximum(np.asarray(taus, dtype=float), 0.0) / float(period)
+    k = np.minimum(np.floor(x).astype(int), steps - 1)
+    return k, ((x - k) * float(period))[:, None]
 
 
 class TruthPredictor(ObstaclePredictor):
@@ -279,6 +285,15 @@ class TruthPredictor(ObstaclePredictor):
         # is its place plus a zero velocity times the time).
         fixed = ~moving & (truth.velocity == 0) & (truth.omega == 0)
         self._fixed, self._moves = np.flatnonzero(fixed), np.flatnonzero(~fixed)
+        m = self._moves
+        self._r_moves = self._r[m]
+        self._moves_horizon = self._truth_horizon[m] if np.isfinite(self._truth_horizon[m]).any() else None
+        # Moving shapes none of which turns (no angular velocity; a scheduled shape keeps its angle): each one's
+        # angle at any time is its angle now plus zero, so it is turned once, not at every point's time (the same
+        # numbers: exp(i (angle + 0)) is exp(i angle)).
+        self._moves_rot = np.exp(1j * truth.angle[m]) if not truth.omega[m].any() else None
+        #: Per walk period: the truth's boundaries of the moving shapes (TruthModel.boundaries' columns ``m``).
+        self._tables: dict[float, tuple[np.ndarray, ...]] = {}
         self._fixed_pose = (truth.position[fixed], np.exp(1j * truth.angle[fixed]))
         origin = self._fixed_pose[0] + self._fixed_pose[1] * self._la[fixed]
         ends = np.stack([origin, origin + self._fixed_pose[1] * self._lab[fixed]])
@@ -309,12 +324,22 @@ class TruthPredictor(ObstaclePredictor):
         m = self._moves
         if not m.size:
             return fixed, np.empty((len(p), 0))
-        centre, angle = self.truth.poses(tt, period, m)
-        moving = centre_line_gap2(p, centre, np.exp(1j * angle), self._la[m], self._lab[m], self._lab2[m])
-        horizon = self._truth_horizon[m]
-        if np.isfinite(horizon).any():
-            moving[tt[:, None] > horizon] = np.inf
+        centres, angles, velocities, omegas = self._moving_table(period)
+        k, dt = _step_of(tt, period, len(centres))
+        centre = centres[k] + velocities[k] * dt  # TruthModel.poses, of the moving shapes
+        rot = self._moves_rot if self._moves_rot is not None else np.exp(1j * (angles[k] + omegas[k] * dt))
+        moving = centre_line_gap2(p, centre, rot, self._la[m], self._lab[m], self._lab2[m])
+        if self._moves_horizon is not None:
+            moving[tt[:, None] > self._moves_horizon] = np.inf
         return fixed, moving
+
+    def _moving_table(self, period: float) -> tuple[np.ndarray, ...]:
+        """:meth:`TruthModel.boundaries` at ``period`` [s], the moving shapes' columns only (remembered per period)."""
+        key = float(period)
+        table = self._tables.get(key)
+        if table is None:
+            table = self._tables[key] = tuple(a[:, self._moves] for a in self.truth.boundaries(key))
+        return table
 
     def free_at(self, points: np.ndarray, times: np.ndarray, safe_distance: float, period: float) -> np.ndarray:
         """``clearance >= safe_distance`` for each point at its time, a walk of period ``period`` [s]: ``(N,)`` bool."""
@@ -326,7 +351,7 @@ class TruthPredictor(ObstaclePredictor):
         fixed, moving = self._gap2_at(pts, times, period, near)
         r_fixed = r_fixed if near is None else r_fixed[near]
         return ((fixed >= (r_fixed + safe_distance) ** 2).all(axis=1)
-                & (moving >= (self._r[self._moves] + safe_distance) ** 2).all(axis=1))
+                & (moving >= (self._r_moves + safe_distance) ** 2).all(axis=1))
 
     def clearance_at(self, points: np.ndarray, times: np.ndarray, period: float) -> np.ndarray:
         """Distance [m] from each point (at its time, a walk of period ``period``) to the nearest shape, ``(N,)``."""
@@ -335,7 +360,7 @@ class TruthPredictor(ObstaclePredictor):
             return np.full(len(pts), np.inf)
         fixed, moving = self._gap2_at(pts, times, period)
         return np.minimum((np.sqrt(fixed) - self._r[self._fixed]).min(axis=1, initial=np.inf),
-                          (np.sqrt(moving) - self._r[self._moves]).min(axis=1, initial=np.inf))
+                          (np.sqrt(moving) - self._r_moves).min(axis=1, initial=np.inf))
 
     def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
         raise TypeError("the oracle's truth depends on the walk's period: use free_at (TruthBody passes it)")

@@ -173,6 +173,11 @@ class Crowd(Scenario):
         """Member centres ``(n, 2)`` [m] at time ``t`` [s]."""
         return scene.positions(np, self.state, t)
 
+    def positions_at(self, times: np.ndarray) -> np.ndarray:
+        """Member centres ``(K, n, 2)`` [m] at each of ``times (K,)`` [s]: :meth:`positions` at each, in one call (the
+        same function on the schedule broadcast over the times, so the same numbers)."""
+        return scene.positions(np, self.state, np.asarray(times, dtype=float).reshape(-1, 1))
+
     def build(self, world: World) -> None:
         c = self.cfg
         if c.crowd_model == "orca":

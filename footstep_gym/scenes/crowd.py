@@ -118,7 +118,7 @@ def start(xp: Any, c: Cell, u: Draws, m: int) -> tuple[Bodies, State]:
 
 
 def centre(xp: Any, s: State, t: Any) -> Any:
-    """The ring's centre ``(2,)`` [m] at time ``t`` [s]."""
+    """The ring's centre ``(2,)`` [m] at time ``t`` [s] (``(..., 2)`` at times ``(..., 1)``)."""
     ta = s.accel_time
     along = s.speed * xp.where(t < ta, 0.5 * t * t / ta, t - 0.5 * ta)
     return s.start + along * s.direction
@@ -126,10 +126,11 @@ def centre(xp: Any, s: State, t: Any) -> Any:
 
 def positions(xp: Any, s: State, t: Any) -> Any:
     """Member centres ``(M, 2)`` [m] at time ``t`` [s] on their schedule (``active`` or not: an env that holds
-    more members than its cell parks the others itself)."""
+    more members than its cell parks the others itself); ``(..., M, 2)`` at times ``t (..., 1)``, each time's
+    numbers those of a call at that time alone."""
     radius = s.radius + s.amplitudes * xp.sin(2 * math.pi * t / s.periods + s.phases)
     ang = s.angles + s.heading  # the ring turns with the walking direction, so member 0 is always ahead
-    return centre(xp, s, t) + radius[:, None] * xp.stack([xp.cos(ang), xp.sin(ang)], axis=1)
+    return centre(xp, s, t)[..., None, :] + radius[..., None] * xp.stack([xp.cos(ang), xp.sin(ang)], axis=-1)
 
 
 def before_step(xp: Any, s: State, position: Any, velocity: Any, t: Any, duration: Any) -> tuple[Any, Any]:

@@ -115,9 +115,10 @@ def test_the_calibration_runs_named_cells_and_keeps_the_seeds_of_its_failures():
                                             ("FootstepCrowd-v0", {}),
                                             ("FootstepCrossing-v0", {"tier": "structure", "tier_cell": "wide_cars"})])
 def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
-    """The truth places a shape at rest once, leaves out walls no point comes near and turns shapes that never turn
-    (the crowd's circles, the stream's cars) once: the same numbers, bit for bit, as every shape's pose at every
-    point's time (TruthModel.poses) through the centre-line distance."""
+    """The truth places a shape at rest once, leaves out walls no run of points comes near, turns shapes that never
+    turn (the crowd's circles, the stream's cars) once and places the moving ones once per time a library's walks
+    share: the same numbers, bit for bit, as every shape's pose at every point's time (TruthModel.poses) through the
+    centre-line distance."""
     from footstep_gym.kernels.numpy_kernels import centre_line_gap2
     from footstep_gym.planners.oracle import TruthPredictor
 
@@ -135,11 +136,14 @@ def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
     for spread in (0.05, 0.5, 3.0):  # points in a small box (most walls pruned), a wide one (none)
         points = centre + rng.uniform(-spread, spread, (300, 2))
         times = rng.uniform(0.0, 8.0, 300)
+        if spread == 0.5:  # 10 walks of 30 points at the same 30 times (a library's walks share their times)
+            times = np.tile(times[:30], 10)
         c, a = model.poses(times, period)
         d2 = centre_line_gap2(points[:, 0] + 1j * points[:, 1], c, np.exp(1j * a), truth._la, truth._lab, truth._lab2)
         d2[times[:, None] > truth._truth_horizon] = np.inf
         if env_id == "FootstepDoor-v0" and spread < 1:  # the pruning is exercised: a small box leaves walls out
-            assert len(truth._near_fixed(points, 0.4)) < truth._fixed.size
+            runs, shapes = truth._near_pairs(points, truth._r[truth._fixed] + 0.4)
+            assert len(shapes) < len(set(runs[:, 0].tolist())) * truth._fixed.size
         assert (truth._moves_rot is None) == (env_id == "FootstepDoor-v0")  # only the door's rods turn
         for safe in (0.0, 0.15, 0.4):
             np.testing.assert_array_equal(truth.free_at(points, times, safe, period),

@@ -84,6 +84,10 @@ from footstep_gym.sensing import ObstacleView, Snapshot
 #: robot's motion dominates what the pedestrians do.
 ORCA_HORIZON_S = 5.0
 
+#: Consecutive points whose bounding box :meth:`TruthPredictor.free_at` tests against each wall's before it checks
+#: them one by one (a walk's points lie close together).
+RUN = 16
+
 #: The registry's one line on it (``eval_planner.py --help``, the tables).
 DESCRIPTION = ("UPPER BOUND, not a baseline: period-aware told every obstacle's true future (the scenario's "
                "schedule, ORCA run forward) and the noise-free state; runs only where the evaluation binds it "
@@ -250,6 +254,27 @@ class TruthModel:
         return centres[k] + velocities[k] * dt, angles[k] + omegas[k] * dt
 
 
+def _complex_points(points: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points ``(N, 2)`` [m] as complex ``(N,)`` and their times ``(N,)`` [s] (a scalar time broadcast)."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    p = pts[:, 0] + 1j * pts[:, 1]
+    return p, np.broadcast_to(np.asarray(times, dtype=float), p.shape)
+
+
+def _repeated_row(times: np.ndarray, shortest: int = 64) -> int:
+    """The length ``L`` of the row of times that ``times (N,)`` repeats (``N / L`` copies of ``times[:L]``, as a
+    library's walks share their steps' times), or ``N`` where it repeats none (or ``N < shortest``: not worth it)."""
+    n = len(times)
+    if n < shortest:
+        return n
+    again = np.flatnonzero(times[1:] == times[0])
+    if again.size:
+        row = int(again[0]) + 1
+        if n % row == 0 and (times.reshape(-1, row) == times[:row]).all():
+            return row
+    return n
+
+
 def _step_of(taus: np.ndarray, period: float, steps: int) -> tuple[np.ndarray, np.ndarray]:
     """For times ``taus (N,)`` [s] of a walk of period ``period`` [s]: each one's step ``k (N,)`` (at most
     ``steps - 1``, the last row of :meth:`TruthModel.boundaries`) and its time into that step ``(N, 1)`` [s]."""
@@ -299,39 +324,56 @@ class TruthPredictor(ObstaclePredictor):
         ends = np.stack([origin, origin + self._fixed_pose[1] * self._lab[fixed]])
         self._fixed_box = (ends.real.min(axis=0), ends.real.max(axis=0), ends.imag.min(axis=0), ends.imag.max(axis=0))
 
-    def _near_fixed(self, points: np.ndarray, reach: float) -> np.ndarray:
-        """Indices (into the fixed shapes) of those whose centre line may come within ``reach`` [m] of a point of
-        ``points (N, 2)``: the others' centre lines lie farther than ``reach`` (plus a micrometre) from every point
-        (their bounding boxes are that far apart), so no check of these points can find them nearer."""
+    def _near_pairs(self, points: np.ndarray, reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The (points, fixed shape) pairs to check: ``(P, RUN)`` indices into ``points (N, 2)`` and ``(P,)`` indices
+        into the fixed shapes. The points are taken in runs of :data:`RUN` consecutive ones (a walk's points lie
+        together; the last run repeats the last point), and a run is paired with a fixed shape unless their bounding
+        boxes lie farther apart than the shape's ``reach (F,)`` [m] (plus a micrometre): then the shape's centre line
+        lies that far from every point of the run, and no check of these points can find it nearer."""
+        n = len(points)
+        starts = np.arange(0, n, RUN)
         lo_x, hi_x, lo_y, hi_y = self._fixed_box
-        gap_x = np.maximum(np.maximum(lo_x - points[:, 0].max(), points[:, 0].min() - hi_x), 0.0)
-        gap_y = np.maximum(np.maximum(lo_y - points[:, 1].max(), points[:, 1].min() - hi_y), 0.0)
-        return np.flatnonzero(np.hypot(gap_x, gap_y) <= reach + 1e-6)
+        gaps = []
+        for axis, lo, hi in ((0, lo_x, hi_x), (1, lo_y, hi_y)):
+            run_lo = np.minimum.reduceat(points[:, axis], starts)[:, None]
+            run_hi = np.maximum.reduceat(points[:, axis], starts)[:, None]
+            gaps.append(np.maximum(np.maximum(lo - run_hi, run_lo - hi), 0.0))
+        run, shape = np.nonzero(np.hypot(*gaps) <= reach + 1e-6)
+        return np.minimum(starts[run][:, None] + np.arange(RUN), n - 1), shape
 
-    def _gap2_at(self, points: np.ndarray, times: np.ndarray, period: float, near: np.ndarray | None = None
-                 ) -> tuple[np.ndarray, np.ndarray]:
-        """Squared distances from each point to each shape's centre line at its time: to the fixed shapes
-        ``(N, F)`` (``near``: only these of them) and to the others ``(N, M)`` (``inf``: beyond the shape's
-        horizon, not checked), the columns in ``self._fixed``'s (or ``near``'s) and ``self._moves``' order."""
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        p = pts[:, 0] + 1j * pts[:, 1]
-        tt = np.broadcast_to(np.asarray(times, dtype=float), p.shape)
-        f = self._fixed if near is None else self._fixed[near]
+    def _fixed_gap2(self, p: np.ndarray, shapes: np.ndarray | None = None) -> np.ndarray:
+        """Squared distances from each point ``p (N,)`` (complex) to the fixed shapes' centre lines, ``(N, F)``; or,
+        with ``shapes (N,)`` (indices into the fixed shapes), from each point to its own shape, ``(N,)``."""
         centre, rot = self._fixed_pose
-        if near is not None:
-            centre, rot = centre[near], rot[near]
-        fixed = centre_line_gap2(p, centre, rot, self._la[f], self._lab[f], self._lab2[f])
+        f = self._fixed
+        if shapes is None:
+            return centre_line_gap2(p, centre, rot, self._la[f], self._lab[f], self._lab2[f])
+        f = f[shapes][:, None]
+        return centre_line_gap2(p, centre[shapes][:, None], rot[shapes][:, None], self._la[f], self._lab[f],
+                                self._lab2[f])[:, 0]
+
+    def _moving_gap2(self, p: np.ndarray, times: np.ndarray, period: float) -> np.ndarray:
+        """Squared distances ``(N, M)`` from each point ``p (N,)`` (complex) at its time ``times (N,)`` [s] to each
+        moving shape's centre line where the truth puts it for a walk of period ``period`` [s], ``inf`` beyond the
+        shape's horizon (not checked); the columns in ``self._moves``' order."""
         m = self._moves
         if not m.size:
-            return fixed, np.empty((len(p), 0))
+            return np.empty((len(p), 0))
         centres, angles, velocities, omegas = self._moving_table(period)
-        k, dt = _step_of(tt, period, len(centres))
+        # The poses at the times of one row: the walks of a library share their steps' times, and a shape's pose
+        # depends on the time alone, so each is computed once and repeated for every walk (the same numbers).
+        row = _repeated_row(times)
+        k, dt = _step_of(times[:row], period, len(centres))
         centre = centres[k] + velocities[k] * dt  # TruthModel.poses, of the moving shapes
         rot = self._moves_rot if self._moves_rot is not None else np.exp(1j * (angles[k] + omegas[k] * dt))
+        if row < len(times):
+            rows = (len(times) // row, 1)
+            centre = np.tile(centre, rows)
+            rot = rot if rot.ndim == 1 else np.tile(rot, rows)
         moving = centre_line_gap2(p, centre, rot, self._la[m], self._lab[m], self._lab2[m])
         if self._moves_horizon is not None:
-            moving[tt[:, None] > self._moves_horizon] = np.inf
-        return fixed, moving
+            moving[times[:, None] > self._moves_horizon] = np.inf
+        return moving
 
     def _moving_table(self, period: float) -> tuple[np.ndarray, ...]:
         """:meth:`TruthModel.boundaries` at ``period`` [s], the moving shapes' columns only (remembered per period)."""
@@ -343,24 +385,24 @@ class TruthPredictor(ObstaclePredictor):
 
     def free_at(self, points: np.ndarray, times: np.ndarray, safe_distance: float, period: float) -> np.ndarray:
         """``clearance >= safe_distance`` for each point at its time, a walk of period ``period`` [s]: ``(N,)`` bool."""
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        if not self._r.size:
-            return np.ones(len(pts), dtype=bool)
-        r_fixed = self._r[self._fixed]
-        near = self._near_fixed(pts, float(r_fixed.max(initial=0.0)) + float(safe_distance)) if len(pts) else None
-        fixed, moving = self._gap2_at(pts, times, period, near)
-        r_fixed = r_fixed if near is None else r_fixed[near]
-        return ((fixed >= (r_fixed + safe_distance) ** 2).all(axis=1)
-                & (moving >= (self._r_moves + safe_distance) ** 2).all(axis=1))
+        p, tt = _complex_points(points, times)
+        free = np.ones(len(p), dtype=bool)
+        if self._fixed.size and len(p):
+            reach = self._r[self._fixed] + safe_distance
+            runs, shapes = self._near_pairs(np.stack([p.real, p.imag], axis=1), reach)
+            if shapes.size:
+                pairs = runs.ravel()
+                shapes = np.repeat(shapes, RUN)
+                free[pairs[~(self._fixed_gap2(p[pairs], shapes) >= reach[shapes] ** 2)]] = False
+        if self._moves.size:
+            free &= (self._moving_gap2(p, tt, period) >= (self._r_moves + safe_distance) ** 2).all(axis=1)
+        return free
 
     def clearance_at(self, points: np.ndarray, times: np.ndarray, period: float) -> np.ndarray:
         """Distance [m] from each point (at its time, a walk of period ``period``) to the nearest shape, ``(N,)``."""
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        if not self._r.size:
-            return np.full(len(pts), np.inf)
-        fixed, moving = self._gap2_at(pts, times, period)
-        return np.minimum((np.sqrt(fixed) - self._r[self._fixed]).min(axis=1, initial=np.inf),
-                          (np.sqrt(moving) - self._r_moves).min(axis=1, initial=np.inf))
+        p, tt = _complex_points(points, times)
+        return np.minimum((np.sqrt(self._fixed_gap2(p)) - self._r[self._fixed]).min(axis=1, initial=np.inf),
+                          (np.sqrt(self._moving_gap2(p, tt, period)) - self._r_moves).min(axis=1, initial=np.inf))
 
     def free(self, points: np.ndarray, times: np.ndarray, safe_distance: float) -> np.ndarray:
         raise TypeError("the oracle's truth depends on the walk's period: use free_at (TruthBody passes it)")

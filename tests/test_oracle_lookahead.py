@@ -218,3 +218,26 @@ def test_the_streams_schedule_at_many_times_is_its_schedule_at_each():
     places = np.stack([scenario.positions(u.time + float(tau)) for tau in taus])
     columns = [i for i, v in enumerate(views) if not v.static]
     np.testing.assert_array_equal(centres[:, columns], places[..., 0] + 1j * places[..., 1])
+
+
+def test_the_rollouts_read_the_truth_the_oracle_has_just_planned_on():
+    """One truth per footstep: the rollouts reuse the greedy oracle's model (built from the same env at the same
+    instant), whose tables are those of a model built afresh (an ORCA crowd's forward run included)."""
+    env = gym.make("FootstepCrowd-v0", tier="structure", tier_cell="closing_in")
+    obs, _ = env.reset(seed=10000)
+    policy = make_policy("oracle-lookahead", env.unwrapped.robot, seed=10000)
+    policy.reset(seed=10000)
+    bind_truth(policy, env)
+    obs, *_ = env.step(policy.act(obs, None))
+    u = env.unwrapped
+    snap = true_snapshot(u)
+    policy.greedy.act(None, snap)
+    truth = policy._rollout_predictor(snap).truth
+    assert truth is policy.greedy.predictor.truth and truth.t0 == u.time
+    fresh = TruthModel(u, snap.obstacles, policy.config.prediction.horizon_s)
+    for period in (TRUTH_STEP_S, 0.7):
+        for ours, theirs in zip(truth.boundaries(period), fresh.boundaries(period)):
+            np.testing.assert_array_equal(ours, theirs)
+    now = u.time
+    policy.act(obs, None)  # each footstep plans on a truth of its own instant
+    assert policy.greedy.predictor.truth is not truth and policy.greedy.predictor.truth.t0 == now

@@ -120,6 +120,7 @@ class TruthModel:
 
         self.t0 = float(env.time)
         self.horizon = float(horizon)
+        self.orca_horizon = float(orca_horizon)
         n = len(views)
         self.position = np.array([complex(*v.position) for v in views], dtype=complex).reshape(n)
         self.velocity = np.array([complex(*v.velocity) for v in views], dtype=complex).reshape(n)
@@ -478,6 +479,7 @@ class OraclePlanner(TruthBound, PeriodAwarePlanner):
         """The body checks of the RRT and of the period search over the true future of the obstacles."""
         truth = TruthModel(self._env, snapshot.obstacles, self.horizon, self.orca_horizon)
         predictor = TruthPredictor(snapshot, truth, self.horizon)
+        self.predictor = predictor
         body = TruthBody(predictor, self.robot, self.margin, sway=self.com_sway)
         search_body = TruthBody(predictor, self.robot, self.search_margin, sway=self.com_sway)
         return body, search_body, 0

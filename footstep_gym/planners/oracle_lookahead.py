@@ -77,6 +77,13 @@ class OracleLookaheadPlanner(TruthBound, LookaheadPlanner):
         self._env = self.greedy._env = getattr(env, "unwrapped", env)
 
     def _rollout_predictor(self, snapshot: Snapshot) -> ObstaclePredictor:
+        """The truth the greedy oracle has just planned on (this call's, built from the same env at the same instant
+        with the same horizons: the same model, not built twice; an ORCA crowd's forward run is the costly part), read
+        on the :data:`TRUTH_STEP_S` grid."""
         horizon = self.config.prediction.horizon_s
-        truth = TruthModel(self._env, snapshot.obstacles, horizon, ORCA_HORIZON_S)
+        greedy = self.greedy.predictor
+        truth = greedy.truth if isinstance(greedy, TruthPredictor) else None
+        if (truth is None or truth.t0 != float(self._env.time) or truth.horizon != float(horizon)
+                or truth.orca_horizon != ORCA_HORIZON_S):
+            truth = TruthModel(self._env, snapshot.obstacles, horizon, ORCA_HORIZON_S)
         return ScheduleTruth(snapshot, truth, horizon)

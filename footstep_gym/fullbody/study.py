@@ -222,13 +222,14 @@ SWING_T_SS = (0.15, 0.2, 0.3, 0.4, 0.5)
 SWING_HOLD = 6
 
 
-def steady_ramp(robot: Robot, S: float, t_ss: float, hold: int = SWING_HOLD) -> np.ndarray:
+def steady_ramp(robot: Robot, S: float, t_ss: float, hold: int = SWING_HOLD, t_ds: float | None = None) -> np.ndarray:
     """Stepping in place, then half the stride ``S`` [m], then T_SS cut from the nominal to ``t_ss`` [s] over four
     steps at that stride (geometrically, so that the LIPM accepts it), then ``hold`` steps of ``[S, nominal L, 0,
-    t_ss, nominal T_DS]``."""
-    L, t_n, t_ds = robot.nominal_side_stride, robot.nominal_t_ss, robot.nominal_t_ds
-    cmds = [[0.0, L, 0.0, t_n, t_ds], [S / 2, L, 0.0, t_n, t_ds]]
-    cmds += [[S, L, 0.0, float(t), t_ds] for t in np.geomspace(t_n, t_ss, 5)[1:]]
+    t_ss, t_ds]``; ``t_ds`` [s] (``None``: the nominal) is cut from the nominal alongside T_SS."""
+    L, t_n, t_dn = robot.nominal_side_stride, robot.nominal_t_ss, robot.nominal_t_ds
+    t_ds = t_dn if t_ds is None else t_ds
+    cmds = [[0.0, L, 0.0, t_n, t_dn], [S / 2, L, 0.0, t_n, t_dn]]
+    cmds += [[S, L, 0.0, float(a), float(b)] for a, b in zip(np.geomspace(t_n, t_ss, 5)[1:], np.geomspace(t_dn, t_ds, 5)[1:])]
     cmds += [[S, L, 0.0, t_ss, t_ds]] * hold
     return np.array(cmds)
 
@@ -251,4 +252,35 @@ def swing_grid(robot: Robot | str = "op3", limited: Robot | str = "op3-swing") -
                         "tipped": bool(res.fell or not np.all(held >= TIP_MARGIN)),
                         "env": next((v for v in verdict(cmds, rob) if v), None),
                         "env_limited": next((v for v in verdict(cmds, lim) if v), None)})
+    return out
+
+
+#: The double-support times [s] of :func:`double_support_grid`, around op3-swing's shortest (``t_ds``'s lower end).
+DS_T_DS = (0.2, 0.15, 0.11, 0.1, 0.08, 0.05, 0.02)
+#: :func:`double_support_grid` holds each stride at its swing floor (up to 10 ms) and at this many times it.
+DS_FLOOR_SHARES = (1.0, 1.25)
+
+
+def double_support_grid(robot: Robot | str = "op3", limited: Robot | str = "op3-swing") -> list[dict[str, Any]]:
+    """Each stride of :data:`SWING_STRIDES` at T_SS its swing floor under ``limited`` (up to 10 ms) times each of
+    :data:`DS_FLOOR_SHARES`, and each T_DS of :data:`DS_T_DS`: :func:`steady_ramp` walked on the OP3 with
+    ``robot``'s plan (its T_DS range widened to the grid's); whether it fell, the smallest CoP margin over the held
+    steps, the gait's speed ``S / (T_SS + T_DS)``, and the env's verdict with ``robot``'s LIPM."""
+    rob, lim = (r if isinstance(r, Robot) else load_robot(r) for r in (robot, limited))
+    wide = dataclasses.replace(rob, t_ds=(min(min(DS_T_DS), rob.t_ds[0]), max(max(DS_T_DS), rob.t_ds[1])))
+    out = []
+    for S in SWING_STRIDES:
+        floor = math.ceil(round(footstep.swing_time_floor(lim, S, math) * 100, 6)) / 100
+        for share in DS_FLOOR_SHARES:
+            t_ss = round(floor * share, 2)
+            for t_ds in DS_T_DS:
+                cmds = steady_ramp(wide, S, t_ss, t_ds=t_ds)
+                res = walk(cmds, robot=wide)
+                held = res.cop_margin[len(cmds) - SWING_HOLD:]
+                out.append({"S": S, "t_ss": t_ss, "floor_share": share, "t_ds": t_ds,
+                            "speed": round(S / (t_ss + t_ds), 4), "fell": res.fell, "fell_at": res.fell_at,
+                            "held_min_cop_margin_mm": (round(1000 * float(np.nanmin(held)), 2)
+                                                       if np.any(np.isfinite(held)) else None),
+                            "tipped": bool(res.fell or not np.all(held >= TIP_MARGIN)),
+                            "env": next((v for v in verdict(cmds, wide) if v), None)})
     return out

@@ -207,7 +207,7 @@ def agreement_report(records: Sequence[dict[str, Any]], robot_name: str) -> dict
             "held_out_after": confusion([checked_failure(r["commands"], calibrated, speed) is not None for r in held],
                                         body_held)},
     }
-    for reason in ("zmp", "overlap", "turn_limit"):
+    for reason in ("zmp", "swing", "overlap", "turn_limit"):
         rs = [r for r in records if r["env_fall"] == reason]
         out["per_env_reason"][reason] = {"sequences": len(rs), "body_fell": sum(r["body_fell"] for r in rs)}
     for rec in records:

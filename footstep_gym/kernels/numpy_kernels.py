@@ -140,11 +140,15 @@ class NumpyKernels:
         side = lanes.side
         arrived = np.zeros(n_roll, dtype=bool)
         for d in range(1, depth + 1):
+            if arrived.all():  # every walk stands in the goal region: it stays there (steps of zero length)
+                out[:, d:], headings[:, d:] = pos[:, None], heading[:, None]
+                break
             ahead = ((pos - node0) * axis.conjugate()).real + lanes.lookahead  # along the axis, plus the lookahead
             taper = np.clip((lanes.length - ahead) / lanes.lookahead, 0.0, 1.0)  # the lane closes onto the goal
             aim = node0 + np.minimum(ahead, lanes.length) * axis + taper * lane
             lo, hi = limits[side]
-            turn = np.clip(np.angle((aim - pos) * np.exp(-1j * heading)), lo, hi)
+            to_aim = (aim - pos) * np.exp(-1j * heading)
+            turn = np.clip(np.arctan2(to_aim.imag, to_aim.real), lo, hi)  # np.angle
             heading = np.where(arrived, heading, heading + turn)
             stride = np.where(d <= lanes.waits, 0.0, lanes.strides)
             if d == 1 and window is not None:

@@ -148,3 +148,40 @@ def test_footsteps_of_recorded_crowds_are_the_references(x64, tier, cell, visibl
         closest = min(closest, float(gaps[~np.eye(n, dtype=bool)].min()))
     assert np.array_equal(ours.agents.position[:len(oc.radii)], np.asarray(oc.positions, np.float32))
     assert closest < 0.1  # the crowd came near contact (ORCA keeps its safety space of 1 cm per agent)
+
+
+def _programs(seed: int, crowds: int, n: int = 12, k: int = 8):
+    """Random ORCA lines of ``crowds`` crowds (unit directions, up to 3 lines each, so that the
+    2-D program fails for some agents) and where each agent's 3-D program begins (``k``: its 2-D program did not fail)."""
+    rng = np.random.default_rng(seed)
+    theta = rng.uniform(-np.pi, np.pi, (crowds, n, k))
+    lines = tuple(a.astype(np.float32) for a in (rng.normal(0, 0.5, (crowds, n, k)), rng.normal(0, 0.5, (crowds, n, k)),
+                                                np.cos(theta), np.sin(theta)))
+    valid = np.arange(k) < rng.integers(0, 4, (crowds, n, 1))  # the first count slots, as neighbours fill them
+    radius = rng.uniform(0.05, 0.6, (crowds, n)).astype(np.float32)
+    opt = tuple(rng.normal(0, 0.5, (crowds, n)).astype(np.float32) for _ in range(2))
+    out = [orca.linear_program2(tuple(a[c] for a in lines), valid[c], radius[c], (opt[0][c], opt[1][c]), False)
+           for c in range(crowds)]
+    failed = np.stack([o[0] for o in out])
+    begin = np.where(failed, np.stack([o[1] for o in out]), k).astype(np.int32)
+    x, y = np.stack([o[2] for o in out]), np.stack([o[3] for o in out])
+    return lines, valid, begin, radius, x, y
+
+
+@pytest.mark.parametrize("slots", [None, 1])  # the gathered rows, and more failing agents than rows
+def test_the_batched_3d_program_runs_on_the_failing_agents_with_each_ones_own_result(monkeypatch, slots):
+    import jax
+
+    if slots is not None:
+        monkeypatch.setattr(orca, "_failing_slots", lambda agents: slots)
+        monkeypatch.setattr(orca, "_PROGRAM3", [])  # traced afresh with the patched rows
+    lines, valid, begin, radius, x, y = _programs(7, crowds=16)
+    failing = int(np.sum(begin < valid.shape[2]))
+    assert 1 < failing < begin.size // 2  # some crowds' agents fail, most do not
+    got = jax.jit(jax.vmap(orca.program3(jax.numpy)))(lines, valid, begin, radius, x, y)
+    for c in range(begin.shape[0]):  # each crowd alone, in numpy
+        want = orca.linear_program3(tuple(a[c] for a in lines), valid[c], begin[c], radius[c], x[c], y[c])
+        np.testing.assert_array_equal(np.asarray(got[0][c]), want[0])
+        np.testing.assert_array_equal(np.asarray(got[1][c]), want[1])
+    moved = (np.asarray(got[0]) != x) | (np.asarray(got[1]) != y)
+    assert moved.any() and not moved[begin == valid.shape[2]].any()  # only failing agents move

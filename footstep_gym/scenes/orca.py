@@ -213,6 +213,68 @@ def linear_program3(lines: tuple, valid: Any, begin: Any, radius: Any, x: Any, y
     return x, y
 
 
+def _rows(a: Any) -> Any:
+    """``a`` with its two leading axes (envs, agents) made one."""
+    return a.reshape((-1,) + a.shape[2:])
+
+
+def _compacted_program3() -> Callable[..., tuple[Any, Any]]:
+    """:func:`linear_program3` under JAX whose batched form (``vmap`` over crowds) runs the program only on the
+    agents whose 2-D program failed (``begin < K``), gathered from every crowd of the batch into
+    :func:`_failing_slots` rows and scattered back (every failing agent, whatever the batch: where more fail than
+    the rows hold, the program runs on all of them). Each agent's result depends on its own lines alone, so it is
+    the one :func:`linear_program3` gives it in any company."""
+    import jax
+    import jax.numpy as jnp
+
+    @jax.custom_batching.custom_vmap
+    def program3(lines: tuple, valid: Any, begin: Any, radius: Any, x: Any, y: Any) -> tuple[Any, Any]:
+        return linear_program3(lines, valid, begin, radius, x, y, jnp)
+
+    @program3.def_vmap
+    def batched(axis_size: int, in_batched: list, lines: tuple, valid: Any, begin: Any, radius: Any, x: Any,
+                y: Any) -> tuple[tuple[Any, Any], tuple[bool, bool]]:
+        args = jax.tree.map(lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
+                            (lines, valid, begin, radius, x, y), tuple(in_batched))
+        lines, valid, begin, radius, x, y = jax.tree.map(_rows, args)
+        k = valid.shape[1]
+        failing = begin < k
+        slots = _failing_slots(failing.shape[0])
+        (index,) = jnp.nonzero(failing, size=slots, fill_value=0)  # a filler row: agent 0, written back unchanged
+
+        def some() -> tuple[Any, Any]:
+            x3, y3 = linear_program3(jax.tree.map(lambda a: a[index], lines), valid[index], begin[index],
+                                     radius[index], x[index], y[index], jnp)
+            return x.at[index].set(x3), y.at[index].set(y3)
+
+        def every() -> tuple[Any, Any]:
+            return linear_program3(lines, valid, begin, radius, x, y, jnp)
+
+        x, y = jax.lax.cond(jnp.sum(failing) <= slots, some, every)
+        shape = (axis_size, -1)
+        return (x.reshape(shape), y.reshape(shape)), (True, True)
+
+    return program3
+
+
+def _failing_slots(agents: int) -> int:
+    """The rows :func:`_compacted_program3` gathers the failing agents of ``agents`` into: a sixteenth of them, at
+    least 8."""
+    return min(agents, max(8, -(-agents // 16)))
+
+
+_PROGRAM3: list[Callable[..., tuple[Any, Any]]] = []
+
+
+def program3(xp: Any) -> Callable[..., tuple[Any, Any]]:
+    """:func:`linear_program3` for ``xp`` without its ``xp`` argument: under JAX, :func:`_compacted_program3`."""
+    if _is_numpy(xp):
+        return lambda lines, valid, begin, radius, x, y: linear_program3(lines, valid, begin, radius, x, y, xp)
+    if not _PROGRAM3:
+        _PROGRAM3.append(_compacted_program3())
+    return _PROGRAM3[0]
+
+
 # ------------------------------------------------------------------ neighbours, half-planes, a step
 def neighbors(agents: Agents, k: int, xp: Any = np) -> tuple[Any, Any]:
     """Each agent's neighbours ``(n, k)`` (indices, nearest first, ties by index) and which slots hold one."""
@@ -290,7 +352,7 @@ def new_velocities(agents: Agents, time_step: Any, k: int, xp: Any = np) -> Any:
     lines = orca_lines(agents, order, valid, time_step, xp)
     opt = (agents.pref_velocity[:, 0], agents.pref_velocity[:, 1])
     failed, fail_line, x, y = linear_program2(lines, valid, agents.max_speed, opt, False, xp)
-    x3, y3 = linear_program3(lines, valid, xp.where(failed, fail_line, k), agents.max_speed, x, y, xp)
+    x3, y3 = program3(xp)(lines, valid, xp.where(failed, fail_line, k), agents.max_speed, x, y)
     return xp.stack([xp.where(failed, x3, x), xp.where(failed, y3, y)], axis=1)
 
 

@@ -5,6 +5,7 @@
     python baselines/fullbody.py agreement          # the env's verdict against the OP3 (docs/fullbody.md §3)
     python baselines/fullbody.py swing              # steady strides x T_SS on the OP3 against op3-swing's floor
     python baselines/fullbody.py double-support     # steady strides at their swing floor x T_DS on the OP3
+    python baselines/fullbody.py --robot op3-swing door-lane --walk   # the door along its wall (a privileged probe)
     python baselines/fullbody.py summary            # the board's column: fullbody_paper_op3.json/.csv from the tables
 
 Episodes use the validation split's seeds (configs/eval.yaml), never the test split's. Results go to
@@ -129,26 +130,30 @@ def cmd_agreement(args: argparse.Namespace) -> None:
                                 "report": report}, indent=1) + "\n", encoding="utf-8")
 
 
-def cmd_swing(args: argparse.Namespace) -> None:
-    from footstep_gym.fullbody.study import swing_grid
+def cmd_grid(args: argparse.Namespace) -> None:
+    """``swing`` (study.swing_grid) or ``double-support`` (study.double_support_grid): rows printed and written."""
+    from footstep_gym.fullbody import study
 
-    path = _target(args.out / f"swing_grid_{robot_label(args.robot)}.json", args.force)
-    rows = swing_grid(args.robot, args.limited)
+    name, grid = {"swing": ("swing_grid", study.swing_grid),
+                  "double-support": ("double_support_grid", study.double_support_grid)}[args.command]
+    path = _target(args.out / f"{name}_{robot_label(args.robot)}.json", args.force)
+    rows = grid(args.robot, args.limited)
     for r in rows:
         print(r, flush=True)
     path.write_text(json.dumps({"robot": args.robot, "limited": args.limited, "rows": rows}, indent=1) + "\n",
                     encoding="utf-8")
 
 
-def cmd_double_support(args: argparse.Namespace) -> None:
-    from footstep_gym.fullbody.study import double_support_grid
+def cmd_door_lane(args: argparse.Namespace) -> None:
+    from footstep_gym.fullbody.door_lane import door_wall_lane
 
-    path = _target(args.out / f"double_support_grid_{robot_label(args.robot)}.json", args.force)
-    rows = double_support_grid(args.robot, args.limited)
-    for r in rows:
-        print(r, flush=True)
-    path.write_text(json.dumps({"robot": args.robot, "limited": args.limited, "rows": rows}, indent=1) + "\n",
-                    encoding="utf-8")
+    path = _target(args.out / f"door_wall_lane_{robot_label(args.robot)}_{args.lane:g}.json", args.force)
+    out = door_wall_lane(args.robot, validation_seeds(args.episodes, 0), args.lane, args.walk)
+    for row in out["rows"]:
+        print(row["seed"], f"{len(row['passing'])} of {row['start_times']} start times reach the goal",
+              {k: v for k, v in row.items() if k.startswith("op3")}, flush=True)
+    print({k: v for k, v in out.items() if k != "rows"})
+    path.write_text(json.dumps(out, indent=1) + "\n", encoding="utf-8")
 
 
 def cmd_summary(args: argparse.Namespace) -> None:
@@ -191,11 +196,16 @@ def main(argv: list[str] | None = None) -> None:
     sw.add_argument("--limited", default="op3-swing", help="the profile whose swing floor is shown")
     ds = sub.add_parser("double-support", help="steady strides at their swing floor x T_DS walked on the OP3")
     ds.add_argument("--limited", default="op3-swing", help="the profile whose swing floor sets T_SS")
+    dl = sub.add_parser("door-lane", help="a privileged probe: the door along its wall at the robot's top speed")
+    dl.add_argument("--lane", type=float, default=-0.47, help="[m] the lane's y (the corridor: -0.66 .. 0)")
+    dl.add_argument("--episodes", type=int, default=10)
+    dl.add_argument("--walk", action="store_true", help="walk each seed's first passing sequence on the OP3")
     sm = sub.add_parser("summary", help="pool the replay tables of a tier per policy: the board's full-body column")
     sm.add_argument("--tier", default="paper")
     args = parser.parse_args(argv)
-    {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement, "swing": cmd_swing,
-     "double-support": cmd_double_support, "summary": cmd_summary}[args.command](args)
+    {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement, "swing": cmd_grid,
+     "double-support": cmd_grid, "door-lane": cmd_door_lane,
+     "summary": cmd_summary}[args.command](args)
 
 
 if __name__ == "__main__":

@@ -89,6 +89,19 @@ def test_the_double_support_by_hand_and_on_the_op3():
     assert np.min(rushed.cop_margin[held]) < TIP_MARGIN
 
 
+def test_the_door_along_its_wall_at_op3_swings_top_speed():
+    """The privileged probe of docs/fullbody.md §3.3 on one validation seed: along y = -0.47 at op3-swing's T_DS
+    (0.11 s: 10 cm strides at 0.196 m/s) two start times of the 130 get through the door in the env, and the first
+    walks on the OP3; at robot.yaml's T_DS (0.2 s: 0.167 m/s) none does."""
+    from footstep_gym.fullbody.door_lane import door_wall_lane
+
+    fast = door_wall_lane("op3-swing", [10001], -0.47, walk_first=True)
+    assert (fast["t_ss"], fast["t_ds"]) == (0.4, 0.11) and fast["rows"][0]["passing"] == [[12, 0.2], [13, 0.11]]
+    assert fast["seeds_passing_and_op3_no_fall"] == 1
+    slow = door_wall_lane({"profile": "op3-swing", "t_ds": [0.1, 0.3], "nominal_t_ds": 0.2}, [10001], -0.47)
+    assert slow["t_ds"] == 0.2 and slow["seeds_passing"] == 0 and slow["rows"][0]["start_times"] == 156
+
+
 def test_a_short_nominal_walk_does_not_fall():
     result = fullbody.walk([STEADY] * 4, robot="op3")
     assert not result.fell and result.fell_at is None

@@ -528,11 +528,12 @@ def test_learned_rows_show_their_budget_and_converged_runs_from_the_shipped_agen
     assert lb.training_markdown(no_learning) == "" and "Training budget" not in lb.markdown(no_learning)
 
 def test_the_committed_full_body_summary_is_its_tables():
-    """baselines/results/fullbody/fullbody_paper_op3.json is what the committed replay tables pool to (re-write it with
-    ``python baselines/fullbody.py summary``)."""
+    """baselines/results/fullbody/fullbody_<tier>_<robot>.json (paper and train, op3 and op3-swing) is what the committed
+    replay tables pool to (re-write it with ``python baselines/fullbody.py [--robot R] summary [--tier train]``)."""
     from footstep_gym.evaluation import fullbody_column as fc
 
     folder = Path(__file__).resolve().parent.parent / "baselines" / "results" / "fullbody"
-    for robot in ("op3", "op3-swing"):
-        committed = fc.load_summary(folder / f"{fc.summary_name('paper', robot)}.json")
-        assert committed["policies"] == fc.summarise(folder, "paper", robot) and committed["robot"] == robot
+    for tier in ("paper", "train"):
+        for robot in ("op3", "op3-swing"):
+            committed = fc.load_summary(folder / f"{fc.summary_name(tier, robot)}.json")
+            assert committed["policies"] == fc.summarise(folder, tier, robot) and committed["robot"] == robot

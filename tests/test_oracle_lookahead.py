@@ -135,6 +135,12 @@ def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
     centre = np.asarray(snap.centre, dtype=float)
     for spread in (0.05, 0.5, 3.0):  # points in a small box (most walls pruned), a wide one (none)
         points = centre + rng.uniform(-spread, spread, (300, 2))
+        if spread == 3.0:  # in runs of nearby points, as walks are, half of them about the moving shapes: the runs
+            # near a wall or a rod are told apart from the others
+            bodies = np.array([o.position for o in snap.obstacles if not o.static])
+            near = bodies[rng.integers(0, len(bodies), 10)] + rng.uniform(-0.6, 0.6, (10, 2))
+            ends = np.concatenate([points[::32], near])
+            points = np.repeat(ends, 16, axis=0)[:300] + rng.uniform(-0.1, 0.1, (300, 2))
         times = rng.uniform(0.0, 8.0, 300)
         if spread == 0.5:  # 10 walks of 30 points at the same 30 times (a library's walks share their times)
             times = np.tile(times[:30], 10)
@@ -145,6 +151,11 @@ def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
             runs, shapes = truth._near_pairs(points, truth._r[truth._fixed] + 0.4)
             assert len(shapes) < len(set(runs[:, 0].tolist())) * truth._fixed.size
         assert (truth._moves_rot is None) == (env_id == "FootstepDoor-v0")  # only the door's rods turn
+        door = env_id == "FootstepDoor-v0"  # and they turn in place: checked only against the runs near them
+        np.testing.assert_array_equal(truth._in_place_of(period), np.full(truth._moves.size, door))
+        if door and spread == 3.0:  # some points within the rods' reach, some blocked by them
+            rods = truth._moves
+            assert (d2[:, rods] < (truth._r[rods] + 0.15) ** 2).any() and (d2[:, rods] > 1.0).any()
         for safe in (0.0, 0.15, 0.4):
             np.testing.assert_array_equal(truth.free_at(points, times, safe, period),
                                           (d2 >= (truth._r + safe) ** 2).all(axis=1))

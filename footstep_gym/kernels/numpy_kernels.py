@@ -8,6 +8,7 @@ complex numbers ``x + iy`` where one expression then serves all shapes. No numba
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 import numpy as np
@@ -77,6 +78,11 @@ def in_goal(xy: np.ndarray, goal: np.ndarray, goal_radius: float) -> np.ndarray:
     return np.linalg.norm(xy - goal, axis=1) <= goal_radius
 
 
+#: Where :meth:`NumpyKernels.walks_survival` stops to drop the walks already blocked (fractions of their steps):
+#: most blocked walks are blocked early, and the steps after a walk's first blocked point are not checked.
+SURVIVAL_STAGES = (0.25,)
+
+
 class NumpyKernels:
     """:class:`~footstep_gym.kernels.Kernels` in numpy; the RRT's batch is split into Algorithm 2's steps
     (:meth:`nearest_nodes`, :meth:`restrict_to_angle_limits`, :meth:`steer`, :meth:`edges_free`,
@@ -117,12 +123,28 @@ class NumpyKernels:
         sides = start.side * np.where(np.arange(n_nodes - 1) % 2 == 0, 1.0, -1.0)
         normals = support_normal(headings[:, :-1], sides[None, :]).reshape(-1, 2)
         normals = np.repeat(normals, edge_samples, axis=0)
-        free = self.body_free(body, pts, times, normals, period).reshape(n_roll, -1)
         reached = np.linalg.norm(bodies[:, 1:] - goal, axis=-1) <= goal_radius
         done_before = np.concatenate([np.zeros((n_roll, 1), bool), np.cumsum(reached, axis=1)[:, :-1] > 0], axis=1)
-        blocked = ~(free | np.repeat(done_before, edge_samples, axis=1))
-        first = np.argmax(blocked, axis=1)
-        return np.where(blocked.any(axis=1), times.reshape(n_roll, -1)[np.arange(n_roll), first], np.inf)
+        # Points past the step that brings a walk's body into the goal region are not checked, and a walk is
+        # checked in stages of its steps (SURVIVAL_STAGES): only the walks still free go on to the next stage.
+        unchecked = np.repeat(done_before, edge_samples, axis=1)
+        pts, times, normals = pts.reshape(n_roll, -1, 2), times.reshape(n_roll, -1), normals.reshape(n_roll, -1, 2)
+        out = np.full(n_roll, np.inf)
+        alive = np.arange(n_roll)
+        bounds = sorted({0, n_nodes - 1, *(math.ceil(f * (n_nodes - 1)) for f in SURVIVAL_STAGES)})
+        for lo, hi in zip(bounds[:-1], bounds[1:]):
+            cols = slice(lo * edge_samples, hi * edge_samples)
+            free = self.body_free(body, pts[alive, cols].reshape(-1, 2), times[alive, cols].reshape(-1),
+                                  normals[alive, cols].reshape(-1, 2), period).reshape(len(alive), -1)
+            blocked = ~(free | unchecked[alive, cols])
+            hit = blocked.any(axis=1)
+            out[alive[hit]] = times[alive[hit], lo * edge_samples + np.argmax(blocked[hit], axis=1)]
+            alive = alive[~hit]
+            if hi < n_nodes - 1:
+                alive = alive[~unchecked[alive, hi * edge_samples]]  # in the goal region: nothing more to check
+            if not alive.size:
+                break
+        return out
 
     def pursue_lanes(self, lanes: Lanes, window: tuple[float, float] | None,
                      depth: int) -> tuple[np.ndarray, np.ndarray]:

@@ -155,9 +155,9 @@ def _double_support(m: "mujoco.MjModel") -> tuple[float, str]:
                 tau, kp_slow, damping_slow = damping / kp, kp, damping
     t_ds = math.ceil(round(SERVO_TIME_CONSTANTS * tau * 100, 6)) / 100
     return t_ds, (f"{SERVO_TIME_CONSTANTS} x the leg servos' time constant (joint damping / position gain: "
-                  f"{damping_slow:g} N m s/rad / {kp_slow:g} N m/rad = {1000 * tau:.1f} ms), up to 10 ms: the load passing from "
-                  f"one leg to the other in double support is a step in every leg joint's torque, which a servo "
-                  f"follows to within e^-{SERVO_TIME_CONSTANTS} in that time")
+                  f"{damping_slow:g} N m s/rad / {kp_slow:g} N m/rad = {1000 * tau:.1f} ms), up to 10 ms: the load "
+                  f"passing from one leg to the other in double support is a step in every leg joint's torque, which "
+                  f"a servo follows to within e^-{SERVO_TIME_CONSTANTS} in that time")
 
 
 def _swing_limits(m: "mujoco.MjModel", op3: Op3, d: "mujoco.MjData", hip: int, foot_length: float,

@@ -229,7 +229,8 @@ def steady_ramp(robot: Robot, S: float, t_ss: float, hold: int = SWING_HOLD, t_d
     L, t_n, t_dn = robot.nominal_side_stride, robot.nominal_t_ss, robot.nominal_t_ds
     t_ds = t_dn if t_ds is None else t_ds
     cmds = [[0.0, L, 0.0, t_n, t_dn], [S / 2, L, 0.0, t_n, t_dn]]
-    cmds += [[S, L, 0.0, float(a), float(b)] for a, b in zip(np.geomspace(t_n, t_ss, 5)[1:], np.geomspace(t_dn, t_ds, 5)[1:])]
+    cuts = zip(np.geomspace(t_n, t_ss, 5)[1:], np.geomspace(t_dn, t_ds, 5)[1:])
+    cmds += [[S, L, 0.0, float(a), float(b)] for a, b in cuts]
     cmds += [[S, L, 0.0, t_ss, t_ds]] * hold
     return np.array(cmds)
 

@@ -120,7 +120,7 @@ def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
     share: the same numbers, bit for bit, as every shape's pose at every point's time (TruthModel.poses) through the
     centre-line distance."""
     from footstep_gym.kernels.numpy_kernels import centre_line_gap2
-    from footstep_gym.planners.oracle import TruthPredictor
+    from footstep_gym.planners.oracle import CULL_POINTS, TruthPredictor
 
     env = gym.make(env_id, **kwargs)
     env.reset(seed=10000)
@@ -134,14 +134,16 @@ def test_the_truths_checks_are_those_of_every_shape_at_its_time(env_id, kwargs):
     rng = np.random.default_rng(3)
     centre = np.asarray(snap.centre, dtype=float)
     for spread in (0.05, 0.5, 3.0):  # points in a small box (most walls pruned), a wide one (none)
-        points = centre + rng.uniform(-spread, spread, (300, 2))
+        n = 300 if spread < 1 else 640
+        points = centre + rng.uniform(-spread, spread, (n, 2))
         if spread == 3.0:  # in runs of nearby points, as walks are, half of them about the moving shapes: the runs
-            # near a wall or a rod are told apart from the others
+            # near a wall or a rod are told apart from the others (enough points for a rod's runs to be tested)
+            assert n >= CULL_POINTS
             bodies = np.array([o.position for o in snap.obstacles if not o.static])
-            near = bodies[rng.integers(0, len(bodies), 10)] + rng.uniform(-0.6, 0.6, (10, 2))
+            near = bodies[rng.integers(0, len(bodies), 20)] + rng.uniform(-0.6, 0.6, (20, 2))
             ends = np.concatenate([points[::32], near])
-            points = np.repeat(ends, 16, axis=0)[:300] + rng.uniform(-0.1, 0.1, (300, 2))
-        times = rng.uniform(0.0, 8.0, 300)
+            points = np.repeat(ends, 16, axis=0)[:n] + rng.uniform(-0.1, 0.1, (n, 2))
+        times = rng.uniform(0.0, 8.0, n)
         if spread == 0.5:  # 10 walks of 30 points at the same 30 times (a library's walks share their times)
             times = np.tile(times[:30], 10)
         c, a = model.poses(times, period)

@@ -81,6 +81,8 @@ def in_goal(xy: np.ndarray, goal: np.ndarray, goal_radius: float) -> np.ndarray:
 #: Where :meth:`NumpyKernels.walks_survival` stops to drop the walks already blocked (fractions of their steps):
 #: most blocked walks are blocked early, and the steps after a walk's first blocked point are not checked.
 SURVIVAL_STAGES = (0.25,)
+#: A library of fewer points than this is checked in one stage (a second call costs more than it saves).
+STAGED_POINTS = 1024
 
 
 class NumpyKernels:
@@ -131,7 +133,8 @@ class NumpyKernels:
         pts, times, normals = pts.reshape(n_roll, -1, 2), times.reshape(n_roll, -1), normals.reshape(n_roll, -1, 2)
         out = np.full(n_roll, np.inf)
         alive = np.arange(n_roll)
-        bounds = sorted({0, n_nodes - 1, *(math.ceil(f * (n_nodes - 1)) for f in SURVIVAL_STAGES)})
+        stages = SURVIVAL_STAGES if pts.size >= 2 * STAGED_POINTS else ()
+        bounds = sorted({0, n_nodes - 1, *(math.ceil(f * (n_nodes - 1)) for f in stages)})
         for lo, hi in zip(bounds[:-1], bounds[1:]):
             cols = slice(lo * edge_samples, hi * edge_samples)
             free = self.body_free(body, pts[alive, cols].reshape(-1, 2), times[alive, cols].reshape(-1),

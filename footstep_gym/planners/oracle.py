@@ -87,6 +87,9 @@ ORCA_HORIZON_S = 5.0
 #: Consecutive points whose bounding box :meth:`TruthPredictor.free_at` tests against each wall's before it checks
 #: them one by one (a walk's points lie close together).
 RUN = 16
+#: Fewer points than this are checked against a shape turning in place without testing their runs first (the test
+#: costs more than it saves on a few points).
+CULL_POINTS = 512
 
 #: The registry's one line on it (``eval_planner.py --help``, the tables).
 DESCRIPTION = ("UPPER BOUND, not a baseline: period-aware told every obstacle's true future (the scenario's "
@@ -398,11 +401,11 @@ class TruthPredictor(ObstaclePredictor):
     def _moving_free(self, p: np.ndarray, times: np.ndarray, safe_distance: float, period: float) -> np.ndarray:
         """``(N,)`` bool: each point ``p (N,)`` (complex) at its time ``times (N,)`` [s] clears every moving shape by
         ``safe_distance`` [m] (a walk of period ``period`` [s]). A shape that turns in place (:meth:`_in_place_of`)
-        is checked only against the runs of points that come within its reach of its centre
-        (:meth:`_near_pairs`); the others against every point."""
+        is checked only against the runs of points that come within its reach of its centre (:meth:`_near_pairs`;
+        from :data:`CULL_POINTS` points on); the others against every point."""
         needed = (self._r_moves + safe_distance) ** 2
         poses = self._moving_poses(times, period)
-        in_place = self._in_place_of(period)
+        in_place = self._in_place_of(period) & (len(p) >= CULL_POINTS)
         free = np.ones(len(p), dtype=bool)
         travel = np.flatnonzero(~in_place)
         if travel.size:

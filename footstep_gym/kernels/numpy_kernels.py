@@ -137,8 +137,9 @@ class NumpyKernels:
         bounds = sorted({0, n_nodes - 1, *(math.ceil(f * (n_nodes - 1)) for f in stages)})
         for lo, hi in zip(bounds[:-1], bounds[1:]):
             cols = slice(lo * edge_samples, hi * edge_samples)
-            free = self.body_free(body, pts[alive, cols].reshape(-1, 2), times[alive, cols].reshape(-1),
-                                  normals[alive, cols].reshape(-1, 2), period).reshape(len(alive), -1)
+            rows = alive if len(alive) < n_roll else slice(None)  # every walk: no copy
+            free = self.body_free(body, pts[rows, cols].reshape(-1, 2), times[rows, cols].reshape(-1),
+                                  normals[rows, cols].reshape(-1, 2), period).reshape(len(alive), -1)
             blocked = ~(free | unchecked[alive, cols])
             hit = blocked.any(axis=1)
             out[alive[hit]] = times[alive[hit], lo * edge_samples + np.argmax(blocked[hit], axis=1)]

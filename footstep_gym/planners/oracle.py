@@ -84,13 +84,6 @@ from footstep_gym.sensing import ObstacleView, Snapshot
 #: robot's motion dominates what the pedestrians do.
 ORCA_HORIZON_S = 5.0
 
-#: Consecutive points whose bounding box :meth:`TruthPredictor.free_at` tests against each wall's before it checks
-#: them one by one (a walk's points lie close together).
-RUN = 16
-#: Fewer points than this are checked against a shape turning in place without testing their runs first (the test
-#: costs more than it saves on a few points).
-CULL_POINTS = 512
-
 #: The registry's one line on it (``eval_planner.py --help``, the tables).
 DESCRIPTION = ("UPPER BOUND, not a baseline: period-aware told every obstacle's true future (the scenario's "
                "schedule, ORCA run forward) and the noise-free state; runs only where the evaluation binds it "
@@ -321,127 +314,53 @@ class TruthPredictor(ObstaclePredictor):
         # angle at any time is its angle now plus zero, so it is turned once, not at every point's time (the same
         # numbers: exp(i (angle + 0)) is exp(i angle)).
         self._moves_rot = np.exp(1j * truth.angle[m]) if not truth.omega[m].any() else None
-        #: How far each moving shape's centre line reaches from its body's centre [m], whatever its angle.
-        self._extent = np.maximum(np.abs(self._la[m]), np.abs(self._la[m] + self._lab[m]))
-        #: Per walk period: the truth's boundaries of the moving shapes (TruthModel.boundaries' columns ``m``), and
-        #: which of them turn in place (a centre that no boundary moves and no velocity between: the door's rods).
+        #: Per walk period: the truth's boundaries of the moving shapes (TruthModel.boundaries' columns ``m``).
         self._tables: dict[float, tuple[np.ndarray, ...]] = {}
-        self._in_place: dict[float, np.ndarray] = {}
         self._fixed_pose = (truth.position[fixed], np.exp(1j * truth.angle[fixed]))
         origin = self._fixed_pose[0] + self._fixed_pose[1] * self._la[fixed]
         ends = np.stack([origin, origin + self._fixed_pose[1] * self._lab[fixed]])
         self._fixed_box = (ends.real.min(axis=0), ends.real.max(axis=0), ends.imag.min(axis=0), ends.imag.max(axis=0))
 
-    def _near_pairs(self, points: np.ndarray, reach: np.ndarray,
-                    boxes: tuple[np.ndarray, ...] | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """The (points, shape) pairs to check: ``(P, RUN)`` indices into ``points (N, 2)`` and ``(P,)`` indices into
-        the shapes of ``boxes`` (``(lo_x, hi_x, lo_y, hi_y)``, each ``(S,)`` [m]; default: the fixed shapes' centre
-        lines). The points are taken in runs of :data:`RUN` consecutive ones (a walk's points lie together; the last
-        run repeats the last point), and a run is paired with a shape unless their bounding boxes lie farther apart
-        than the shape's ``reach (S,)`` [m] (plus a micrometre): then the shape lies that far from every point of the
-        run, and no check of these points can find it nearer."""
-        n = len(points)
-        starts = np.arange(0, n, RUN)
-        lo_x, hi_x, lo_y, hi_y = self._fixed_box if boxes is None else boxes
-        gaps = []
-        for axis, lo, hi in ((0, lo_x, hi_x), (1, lo_y, hi_y)):
-            run_lo = np.minimum.reduceat(points[:, axis], starts)[:, None]
-            run_hi = np.maximum.reduceat(points[:, axis], starts)[:, None]
-            gaps.append(np.maximum(np.maximum(lo - run_hi, run_lo - hi), 0.0))
-        run, shape = np.nonzero(np.hypot(*gaps) <= reach + 1e-6)
-        return np.minimum(starts[run][:, None] + np.arange(RUN), n - 1), shape
+    def _near_fixed(self, p: np.ndarray, reach: np.ndarray) -> np.ndarray:
+        """Indices of the fixed shapes whose centre line may come within ``reach (F,)`` [m] of some point of ``p (N,)``
+        (complex): the others' bounding boxes lie farther (plus a micrometre) from the points' bounding box."""
+        lo_x, hi_x, lo_y, hi_y = self._fixed_box
+        gap_x = np.maximum(np.maximum(lo_x - p.real.max(), p.real.min() - hi_x), 0.0)
+        gap_y = np.maximum(np.maximum(lo_y - p.imag.max(), p.imag.min() - hi_y), 0.0)
+        return np.flatnonzero(np.hypot(gap_x, gap_y) <= reach + 1e-6)
 
     def _fixed_gap2(self, p: np.ndarray, shapes: np.ndarray | None = None) -> np.ndarray:
-        """Squared distances from each point ``p (N,)`` (complex) to the fixed shapes' centre lines, ``(N, F)``; or,
-        with ``shapes (N,)`` (indices into the fixed shapes), from each point to its own shape, ``(N,)``."""
+        """Squared distances ``(N, F)`` from each point ``p (N,)`` (complex) to the fixed shapes' centre lines
+        (``shapes``: only these of them, indices into the fixed shapes)."""
         centre, rot = self._fixed_pose
         f = self._fixed
-        if shapes is None:
-            return centre_line_gap2(p, centre, rot, self._la[f], self._lab[f], self._lab2[f])
-        f = f[shapes][:, None]
-        return centre_line_gap2(p, centre[shapes][:, None], rot[shapes][:, None], self._la[f], self._lab[f],
-                                self._lab2[f])[:, 0]
+        if shapes is not None:
+            f, centre, rot = f[shapes], centre[shapes], rot[shapes]
+        return centre_line_gap2(p, centre, rot, self._la[f], self._lab[f], self._lab2[f])
 
-    def _moving_poses(self, times: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray, int]:
-        """The moving shapes' body centres ``(L, M)`` (complex) [m] and turns (unit complex, ``(L, M)``, or ``(M,)``
-        where none of them turns) at ``times[:L]`` [s] for a walk of period ``period`` [s] (:meth:`TruthModel.poses`),
-        ``L`` the row of times that ``times (N,)`` repeats (:func:`_repeated_row`): the walks of a library share their
-        steps' times, and a shape's pose depends on the time alone, so each is computed once (the same numbers)."""
-        centres, angles, velocities, omegas = self._moving_table(period)
-        row = _repeated_row(times)
-        k, dt = _step_of(times[:row], period, len(centres))
-        centre = centres[k] + velocities[k] * dt
-        rot = self._moves_rot if self._moves_rot is not None else np.exp(1j * (angles[k] + omegas[k] * dt))
-        return centre, rot, row
-
-    def _moving_gap2(self, p: np.ndarray, times: np.ndarray, period: float, columns: np.ndarray | None = None,
-                     poses: tuple[np.ndarray, np.ndarray, int] | None = None) -> np.ndarray:
+    def _moving_gap2(self, p: np.ndarray, times: np.ndarray, period: float) -> np.ndarray:
         """Squared distances ``(N, M)`` from each point ``p (N,)`` (complex) at its time ``times (N,)`` [s] to each
         moving shape's centre line where the truth puts it for a walk of period ``period`` [s], ``inf`` beyond the
-        shape's horizon (not checked); the columns in ``self._moves``' order (``columns``: only these of them).
-        ``poses``: :meth:`_moving_poses` of these times, if already known."""
-        m = self._moves if columns is None else self._moves[columns]
+        shape's horizon (not checked); the columns in ``self._moves``' order."""
+        m = self._moves
         if not m.size:
             return np.empty((len(p), 0))
-        centre, rot, row = poses if poses is not None else self._moving_poses(times, period)
-        if columns is not None:
-            centre, rot = centre[:, columns], (rot[columns] if rot.ndim == 1 else rot[:, columns])
+        centres, angles, velocities, omegas = self._moving_table(period)
+        # The poses at the times of one row: the walks of a library share their steps' times, and a shape's pose
+        # depends on the time alone, so each is computed once and repeated for every walk (the same numbers).
+        row = _repeated_row(times)
+        k, dt = _step_of(times[:row], period, len(centres))
+        centre = centres[k] + velocities[k] * dt  # TruthModel.poses, of the moving shapes
+        rot = self._moves_rot if self._moves_rot is not None else np.exp(1j * (angles[k] + omegas[k] * dt))
         if row < len(times):
             rows = (len(times) // row, 1)
             centre = np.tile(centre, rows)
             rot = rot if rot.ndim == 1 else np.tile(rot, rows)
         moving = centre_line_gap2(p, centre, rot, self._la[m], self._lab[m], self._lab2[m])
         horizon = self._moves_horizon
-        if horizon is not None and columns is not None:
-            horizon = horizon[columns]
         if horizon is not None and len(times) and times.max() > horizon.min():
             moving[times[:, None] > horizon] = np.inf
         return moving
-
-    def _moving_free(self, p: np.ndarray, times: np.ndarray, safe_distance: float, period: float) -> np.ndarray:
-        """``(N,)`` bool: each point ``p (N,)`` (complex) at its time ``times (N,)`` [s] clears every moving shape by
-        ``safe_distance`` [m] (a walk of period ``period`` [s]). A shape that turns in place (:meth:`_in_place_of`)
-        is checked only against the runs of points that come within its reach of its centre (:meth:`_near_pairs`;
-        from :data:`CULL_POINTS` points on); the others against every point."""
-        needed = (self._r_moves + safe_distance) ** 2
-        poses = self._moving_poses(times, period)
-        in_place = self._in_place_of(period) & (len(p) >= CULL_POINTS)
-        free = np.ones(len(p), dtype=bool)
-        travel = np.flatnonzero(~in_place)
-        if travel.size:
-            free &= (self._moving_gap2(p, times, period, travel, poses) >= needed[travel]).all(axis=1)
-        still = np.flatnonzero(in_place)
-        if not still.size or not len(p):
-            return free
-        centre, rot, row = poses
-        pivot = centre[0, still]
-        reach = self._extent[still] + self._r_moves[still] + safe_distance
-        runs, which = self._near_pairs(np.stack([p.real, p.imag], axis=1), reach,
-                                       (pivot.real, pivot.real, pivot.imag, pivot.imag))
-        if not which.size:
-            return free
-        pairs = runs.ravel()
-        col = np.repeat(still[which], RUN)
-        at = pairs % row  # the point's time in the row of times
-        m = self._moves[col][:, None]
-        gap = centre_line_gap2(p[pairs], centre[at, col][:, None],
-                               (rot[col] if rot.ndim == 1 else rot[at, col])[:, None],
-                               self._la[m], self._lab[m], self._lab2[m])[:, 0]
-        blocked = ~(gap >= needed[col])
-        if self._moves_horizon is not None:
-            blocked &= ~(times[pairs] > self._moves_horizon[col])  # beyond its horizon a shape is not checked
-        free[pairs[blocked]] = False
-        return free
-
-    def _in_place_of(self, period: float) -> np.ndarray:
-        """``(M,)`` bool: which moving shapes turn in place for a walk of period ``period`` [s] (every boundary's
-        centre the first one's, every velocity zero: their body centre is the same at every time)."""
-        key = float(period)
-        still = self._in_place.get(key)
-        if still is None:
-            centres, _, velocities, _ = self._moving_table(key)
-            still = self._in_place[key] = (velocities == 0).all(axis=0) & (centres == centres[:1]).all(axis=0)
-        return still
 
     def _moving_table(self, period: float) -> tuple[np.ndarray, ...]:
         """:meth:`TruthModel.boundaries` at ``period`` [s], the moving shapes' columns only (remembered per period)."""
@@ -457,13 +376,11 @@ class TruthPredictor(ObstaclePredictor):
         free = np.ones(len(p), dtype=bool)
         if self._fixed.size and len(p):
             reach = self._r[self._fixed] + safe_distance
-            runs, shapes = self._near_pairs(np.stack([p.real, p.imag], axis=1), reach)
-            if shapes.size:
-                pairs = runs.ravel()
-                shapes = np.repeat(shapes, RUN)
-                free[pairs[~(self._fixed_gap2(p[pairs], shapes) >= reach[shapes] ** 2)]] = False
+            near = self._near_fixed(p, reach)
+            if near.size:
+                free &= (self._fixed_gap2(p, near) >= reach[near] ** 2).all(axis=1)
         if self._moves.size:
-            free &= self._moving_free(p, tt, safe_distance, period)
+            free &= (self._moving_gap2(p, tt, period) >= (self._r_moves + safe_distance) ** 2).all(axis=1)
         return free
 
     def clearance_at(self, points: np.ndarray, times: np.ndarray, period: float) -> np.ndarray:

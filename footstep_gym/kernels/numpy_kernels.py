@@ -127,8 +127,9 @@ class NumpyKernels:
         normals = np.repeat(normals, edge_samples, axis=0)
         reached = np.linalg.norm(bodies[:, 1:] - goal, axis=-1) <= goal_radius
         done_before = np.concatenate([np.zeros((n_roll, 1), bool), np.cumsum(reached, axis=1)[:, :-1] > 0], axis=1)
-        # Points past the step that brings a walk's body into the goal region are not checked, and a walk is
-        # checked in stages of its steps (SURVIVAL_STAGES): only the walks still free go on to the next stage.
+        # Points past the step that brings a walk's body into the goal region do not count, and the walks are
+        # checked in stages of their steps (SURVIVAL_STAGES): only those still free and not yet in the goal region
+        # go on to the next stage.
         unchecked = np.repeat(done_before, edge_samples, axis=1)
         pts, times, normals = pts.reshape(n_roll, -1, 2), times.reshape(n_roll, -1), normals.reshape(n_roll, -1, 2)
         out = np.full(n_roll, np.inf)

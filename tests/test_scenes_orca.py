@@ -185,3 +185,36 @@ def test_the_batched_3d_program_runs_on_the_failing_agents_with_each_ones_own_re
         np.testing.assert_array_equal(np.asarray(got[1][c]), want[1])
     moved = (np.asarray(got[0]) != x) | (np.asarray(got[1]) != y)
     assert moved.any() and not moved[begin == valid.shape[2]].any()  # only failing agents move
+
+
+@pytest.mark.parametrize("slots", [None, 1])  # the gathered rows (rows 12), and more violating agents than rows
+def test_the_batched_2d_program_runs_each_line_on_its_violating_agents_with_each_ones_own_result(monkeypatch, slots):
+    import jax
+
+    if slots is not None:
+        monkeypatch.setattr(orca, "_violating_slots", lambda agents: slots)
+    monkeypatch.setattr(orca, "_PROGRAM2", [])  # traced afresh with the patched rows
+    crowds, n, k = 16, 12, 8
+    rng = np.random.default_rng(0)
+    theta = rng.uniform(-np.pi, np.pi, (crowds, n, k))
+    lines = tuple(a.astype(np.float32) for a in (rng.normal(0, 0.5, (crowds, n, k)), rng.normal(0, 0.5, (crowds, n, k)),
+                                                np.cos(theta), np.sin(theta)))
+    valid = np.arange(k) < rng.integers(0, k + 1, (crowds, n, 1))  # the first count slots, as neighbours fill them
+    radius = rng.uniform(0.05, 0.6, (crowds, n)).astype(np.float32)
+    opt = tuple(rng.normal(0, 0.3, (crowds, n)).astype(np.float32) for _ in range(2))
+    violating = np.zeros(k, int)  # per line, the batch's agents that violate it (numpy, crowd by crowd)
+
+    def counted(violated, *args):
+        violating[args[2]] += np.sum(violated)
+        return orca.linear_program1(*args)
+
+    want = [orca.linear_program2(tuple(a[c] for a in lines), valid[c], radius[c], (opt[0][c], opt[1][c]), False, np,
+                                 counted) for c in range(crowds)]
+    rows = orca._violating_slots(crowds * n)
+    # Lines no agent violates, lines within the rows, lines over them; 2-D programs failing and not.
+    assert (violating == 0).any() and ((0 < violating) & (violating <= rows)).any() and (violating > rows).any()
+    assert 0 < sum(int(w[0].sum()) for w in want) < crowds * n
+    got = jax.jit(jax.vmap(orca.program2(jax.numpy)))(lines, valid, radius, opt)
+    for c in range(crowds):
+        for g, w in zip(got, want[c]):
+            np.testing.assert_array_equal(np.asarray(g[c]), w)

@@ -146,9 +146,12 @@ def linear_program1(lines: tuple, valid: Any, no: Any, radius: Any, opt: tuple, 
 
 
 def linear_program2(lines: tuple, valid: Any, radius: Any, opt: tuple, direction_opt: bool,
-                    xp: Any = np) -> tuple[Any, Any, Any, Any]:
+                    xp: Any = np, program1: Callable | None = None) -> tuple[Any, Any, Any, Any]:
     """RVO2's ``linearProgram2``: ``(failed, fail_line, x, y)``; where ``failed``, ``fail_line`` is the line it
-    failed on and ``(x, y)`` the result before it (as RVO2 leaves it)."""
+    failed on and ``(x, y)`` the result before it (as RVO2 leaves it).
+
+    ``program1``: ``program1(violated, lines, valid, no, radius, opt, direction_opt)``, :func:`linear_program1`'s
+    result for line ``no`` where ``violated`` (anything elsewhere); default :func:`linear_program1` on every agent."""
     m = _product(xp)
     ox, oy = opt
     k = lines[0].shape[1]
@@ -167,7 +170,10 @@ def linear_program2(lines: tuple, valid: Any, radius: Any, opt: tuple, direction
     def body(i: Any, carry: tuple) -> tuple:
         failed, fail_line, x, y = carry
         violated = valid[:, i] & ~failed & (m(dx[:, i], py[:, i] - y) - m(dy[:, i], px[:, i] - x) > 0)
-        ok, nx, ny = linear_program1(lines, valid, i, radius, opt, direction_opt, xp)
+        if program1 is None:
+            ok, nx, ny = linear_program1(lines, valid, i, radius, opt, direction_opt, xp)
+        else:
+            ok, nx, ny = program1(violated, lines, valid, i, radius, opt, direction_opt)
         take = violated & ok
         x, y = xp.where(take, nx, x), xp.where(take, ny, y)
         now = violated & ~ok
@@ -266,6 +272,80 @@ def _failing_slots(agents: int) -> int:
 _PROGRAM3: list[Callable[..., tuple[Any, Any]]] = []
 
 
+def _gathered_program1(slots: int) -> Callable[..., tuple[Any, Any, Any]]:
+    """:func:`linear_program2`'s ``program1`` under JAX: :func:`linear_program1` on the agents (rows) where the line
+    is violated alone, gathered into ``slots`` rows and scattered back (none where no agent violates it; every
+    agent where more do than the rows hold). Each agent's result depends on its own lines alone."""
+    import jax
+    import jax.numpy as jnp
+
+    def program1(violated: Any, lines: tuple, valid: Any, no: Any, radius: Any, opt: tuple,
+                 direction_opt: bool) -> tuple[Any, Any, Any]:
+        rows = violated.shape[0]
+        count = jnp.sum(violated)
+
+        def none() -> tuple[Any, Any, Any]:
+            return jnp.zeros(rows, bool), jnp.zeros(rows, jnp.float32), jnp.zeros(rows, jnp.float32)
+
+        def some() -> tuple[Any, Any, Any]:
+            (index,) = jnp.nonzero(violated, size=slots, fill_value=0)  # filler rows: agent 0, its own result
+            ok, nx, ny = linear_program1(jax.tree.map(lambda a: a[index], lines), valid[index], no, radius[index],
+                                         (opt[0][index], opt[1][index]), direction_opt, jnp)
+            base = none()
+            return base[0].at[index].set(ok), base[1].at[index].set(nx), base[2].at[index].set(ny)
+
+        def every() -> tuple[Any, Any, Any]:
+            return linear_program1(lines, valid, no, radius, opt, direction_opt, jnp)
+
+        branch = jnp.where(count == 0, 0, jnp.where(count <= slots, 1, 2))
+        return jax.lax.switch(branch, (none, some, every))
+
+    return program1
+
+
+def _compacted_program2() -> Callable[..., tuple[Any, Any, Any, Any]]:
+    """:func:`linear_program2` (``direction_opt`` false) under JAX whose batched form (``vmap`` over crowds) runs
+    on the agents of every crowd of the batch as rows, line by line to the batch's last line, each line's
+    :func:`linear_program1` on the agents that violate it alone (:func:`_gathered_program1`, into
+    :func:`_violating_slots` rows). Each agent's result is the one :func:`linear_program2` gives it in any company."""
+    import jax
+    import jax.numpy as jnp
+
+    @jax.custom_batching.custom_vmap
+    def program2(lines: tuple, valid: Any, radius: Any, opt: tuple) -> tuple[Any, Any, Any, Any]:
+        return linear_program2(lines, valid, radius, opt, False, jnp)
+
+    @program2.def_vmap
+    def batched(axis_size: int, in_batched: list, lines: tuple, valid: Any, radius: Any,
+                opt: tuple) -> tuple[tuple[Any, Any, Any, Any], tuple[bool, bool, bool, bool]]:
+        args = jax.tree.map(lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
+                            (lines, valid, radius, opt), tuple(in_batched))
+        lines, valid, radius, opt = jax.tree.map(_rows, args)
+        program1 = _gathered_program1(_violating_slots(valid.shape[0]))
+        out = linear_program2(lines, valid, radius, opt, False, jnp, program1)
+        return tuple(a.reshape((axis_size, -1)) for a in out), (True, True, True, True)
+
+    return program2
+
+
+def _violating_slots(agents: int) -> int:
+    """The rows :func:`_gathered_program1` gathers the agents that violate a line into: :func:`_failing_slots`'s."""
+    return _failing_slots(agents)
+
+
+_PROGRAM2: list[Callable[..., tuple[Any, Any, Any, Any]]] = []
+
+
+def program2(xp: Any) -> Callable[..., tuple[Any, Any, Any, Any]]:
+    """:func:`linear_program2` (``direction_opt`` false) for ``xp`` as ``(lines, valid, radius, opt)``: under JAX,
+    :func:`_compacted_program2`."""
+    if _is_numpy(xp):
+        return lambda lines, valid, radius, opt: linear_program2(lines, valid, radius, opt, False, xp)
+    if not _PROGRAM2:
+        _PROGRAM2.append(_compacted_program2())
+    return _PROGRAM2[0]
+
+
 def program3(xp: Any) -> Callable[..., tuple[Any, Any]]:
     """:func:`linear_program3` for ``xp`` without its ``xp`` argument: under JAX, :func:`_compacted_program3`."""
     if _is_numpy(xp):
@@ -351,7 +431,7 @@ def new_velocities(agents: Agents, time_step: Any, k: int, xp: Any = np) -> Any:
     order, valid = neighbors(agents, k, xp)
     lines = orca_lines(agents, order, valid, time_step, xp)
     opt = (agents.pref_velocity[:, 0], agents.pref_velocity[:, 1])
-    failed, fail_line, x, y = linear_program2(lines, valid, agents.max_speed, opt, False, xp)
+    failed, fail_line, x, y = program2(xp)(lines, valid, agents.max_speed, opt)
     x3, y3 = program3(xp)(lines, valid, xp.where(failed, fail_line, k), agents.max_speed, x, y)
     return xp.stack([xp.where(failed, x3, x), xp.where(failed, y3, y)], axis=1)
 

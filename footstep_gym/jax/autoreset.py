@@ -46,15 +46,27 @@ def step_autoreset(env: FootstepJaxEnv, state: Any, actions: jax.Array, chunk: i
     :attr:`~footstep_gym.jax.env.FootstepJaxEnv.default_params`). Each env's key is split in three: the stepped
     episode's next key, the step's (its sensing noise draws from it) and the fresh episode's
     (:meth:`~footstep_gym.jax.env.FootstepJaxEnv.reset`), so an env's episodes come from its own key, one after
-    another. The step runs ``chunk`` envs at a time
+    another. The step and the observations run ``chunk`` envs at a time
     (:meth:`~footstep_gym.jax.env.FootstepJaxEnv.step_batch`), the resets over the whole batch at once (faster on
-    a CPU than inside the chunks).
+    a CPU than inside the chunks). Each env's returned observation is computed once, from the state returned (the
+    fresh episode's or the stepped one's); ``step_obs`` is computed only where a caller reads it.
     """
     params = env.default_params if params is None else params
     keys = jax.vmap(lambda k: jax.random.split(k, 3))(state.key)
-    stepped, obs, reward, terminated, truncated, info = env.step_batch(keys[:, 1], state._replace(key=keys[:, 0]),
-                                                                       actions, params, chunk)
-    fresh, fresh_obs = jax.vmap(env.reset, in_axes=(0, None))(keys[:, 2], params)
+    k_step = keys[:, 1]
+    stepped, reward, terminated, truncated, info = env.transition_batch(state._replace(key=keys[:, 0]), actions,
+                                                                         params, chunk)
+    fresh, k_fresh = jax.vmap(env.reset_state, in_axes=(0, None))(keys[:, 2], params)
     mask = (terminated | truncated) if reset is None else reset
-    return AutoresetStep(where(mask, fresh, stepped), where(mask, fresh_obs, obs), obs, reward, terminated,
-                         truncated, info)
+    noisy = env.sensing is not None and env.sensing.noisy
+    # The stepped episodes' observation (and sensed count): what jit leaves uncomputed where a caller reads neither.
+    step_obs, n_sensed = env.observe_batch(stepped, params, k_step if noisy else None, chunk)
+    if n_sensed is not None:
+        info = {**info, "sensed_obstacles": n_sensed}
+    # The observation returned, computed once per env: the fresh episode's where reset, the stepped one's elsewhere.
+    new = where(mask, fresh, stepped)
+    k_obs = None
+    if noisy:
+        k_obs = jax.random.wrap_key_data(where(mask, jax.random.key_data(k_fresh), jax.random.key_data(k_step)))
+    obs, _ = env.observe_batch(new, params, k_obs, chunk)
+    return AutoresetStep(new, obs, step_obs, reward, terminated, truncated, info)

@@ -249,10 +249,8 @@ class FootstepJaxEnv:
         return self._params.walls.r.ndim == 2
 
     # ------------------------------------------------------------------ reset
-    def reset(self, key: jax.Array, params: EnvParams) -> tuple[State, jax.Array]:
-        """A new episode from ``key``: ``(state, observation)``. The episode's draws (cell, randomize keys, the
-        obstacles' placement, start jitter) come from ``key``; they are not the reference env's numpy draws for
-        a seed."""
+    def _draw_start(self, key: jax.Array, params: EnvParams) -> tuple:
+        """An episode's draws from ``key``: ``(key, feet, rods, scene, cell)`` (``key``: the episode's stream)."""
         dt = self.dtype
         key, k_cell, k_scene, k_start = jax.random.split(key, 4)
         n_cells = params.max_steps.shape[0]
@@ -264,13 +262,32 @@ class FootstepJaxEnv:
         half = 0.5 * self.robot.nominal_side_stride
         feet = jnp.stack([jnp.stack(footstep.foot_from_node(centre, p.start_yaw, side, half, xp=jnp))
                           for side in (RIGHT, -RIGHT)])
-        return self.start_state(key, feet, rods, scene, params, cell)
+        return key, feet, rods, scene, cell
+
+    def reset(self, key: jax.Array, params: EnvParams) -> tuple[State, jax.Array]:
+        """A new episode from ``key``: ``(state, observation)``. The episode's draws (cell, randomize keys, the
+        obstacles' placement, start jitter) come from ``key``; they are not the reference env's numpy draws for
+        a seed."""
+        state, k_obs = self.reset_state(key, params)
+        return state, self.observation(state, params, k_obs)
+
+    def reset_state(self, key: jax.Array, params: EnvParams) -> tuple[State, jax.Array | None]:
+        """:meth:`reset`'s state, without its observation: ``(state, k_obs)``, ``k_obs`` the key the first
+        observation's noise is drawn from (``None`` without sensing noise; :meth:`observation` takes it)."""
+        key, feet, rods, scene, cell = self._draw_start(key, params)
+        return self._start(key, feet, rods, scene, params, cell)
 
     def start_state(self, key: jax.Array, feet: jax.Array, rods: shapes.Rods, scene: Any,
                     params: EnvParams, cell: jax.Array) -> tuple[State, jax.Array]:
         """The state (and observation) of an episode of tier cell ``cell`` that starts with these feet, obstacles
         and scene draws: the robot on its right foot, its CoM in the steady gait of stepping in place
         (``FootstepEnv.reset``). ``key``: the episode's stream (the first observation's noise is drawn from it)."""
+        state, k_obs = self._start(key, feet, rods, scene, params, cell)
+        return state, self.observation(state, params, k_obs)
+
+    def _start(self, key: jax.Array, feet: jax.Array, rods: shapes.Rods, scene: Any,
+               params: EnvParams, cell: jax.Array) -> tuple[State, jax.Array | None]:
+        """:meth:`start_state`'s state and the key of its first observation's noise (``None`` without noise)."""
         dt = self.dtype
         com_local, vel_local = self._start_com
         support = feet[0]
@@ -288,7 +305,7 @@ class FootstepJaxEnv:
         if self.sensing is not None and self.sensing.noisy:
             key, k_obs = jax.random.split(key)
             state = state._replace(key=key)
-        return state, self._observe(state, p, k_obs)[0]
+        return state, k_obs
 
     @staticmethod
     def _goal_distance(feet: jax.Array, goal: jax.Array) -> jax.Array:
@@ -326,8 +343,19 @@ class FootstepJaxEnv:
         ``collision``, ``clipped``, ``command``, ``time`` [s], ``period`` [s], ``steps``, ``zmp_offset``
         [m], ``zmp_margin`` [m], ``clearance`` [m] (NaN on a fall), ``checks``, ``obstacle`` (index of the
         shape hit: its index among the cell's walls, then the rods; -1 if none), ``rewards`` (the terms of
-        :data:`REWARD_TERMS`), ``cell`` (the episode's tier cell, an index into :attr:`cells`).
+        :data:`REWARD_TERMS`), ``cell`` (the episode's tier cell, an index into :attr:`cells`), and with a sensing
+        option on ``sensed_obstacles`` (:meth:`observe`'s count).
         """
+        new_state, reward, terminated, truncated, info = self.transition(state, action, params)
+        obs, n_sensed = self.observe(new_state, params, key)
+        if n_sensed is not None:
+            info["sensed_obstacles"] = n_sensed
+        return new_state, obs, reward, terminated, truncated, info
+
+    def transition(self, state: State, action: jax.Array, params: EnvParams
+                   ) -> tuple[State, jax.Array, jax.Array, jax.Array, dict[str, jax.Array]]:
+        """:meth:`step` without the observation: ``(state, reward, terminated, truncated, info)`` (``info`` without
+        ``sensed_obstacles``, which is the observation's)."""
         robot, cfg, dt = self.robot, self.config, self.dtype
         p = params.cell(state.cell)
         cmd, clipped = self.command(action)
@@ -401,10 +429,19 @@ class FootstepJaxEnv:
             "obstacle": jnp.where(collided, self._cell_index(result.obstacle, p), -1),
             "rewards": rewards, "cell": state.cell,
         }
-        obs, n_sensed = self._observe(new_state, p, key)
-        if n_sensed is not None:
-            info["sensed_obstacles"] = n_sensed
-        return new_state, obs, reward, terminated, truncated, info
+        return new_state, reward, terminated, truncated, info
+
+    def transition_batch(self, state: State, actions: jax.Array, params: EnvParams, chunk: int = 64) -> tuple:
+        """:meth:`transition` over a batch, chunked as :meth:`step_batch`."""
+        return chunked_vmap(lambda st, a: self.transition(st, a, params), state, actions, chunk)
+
+    def observe_batch(self, state: State, params: EnvParams, keys: jax.Array | None, chunk: int = 64
+                      ) -> tuple[jax.Array, jax.Array | None]:
+        """:meth:`observe` over a batch (``keys``: one per env, or ``None`` without sensing noise), chunked as
+        :meth:`step_batch`."""
+        if keys is None:
+            return chunked_vmap(lambda st, _: self.observe(st, params, None), state, state.steps, chunk)
+        return chunked_vmap(lambda st, k: self.observe(st, params, k), state, keys, chunk)
 
     def step_batch(self, keys: jax.Array, state: State, actions: jax.Array, params: EnvParams,
                    chunk: int = 64) -> tuple:
@@ -429,7 +466,13 @@ class FootstepJaxEnv:
         """The observation ``(12 + 5K,)`` float32 (``FootstepEnv``'s layout): :func:`footstep_gym.observation.observations`
         on this env's state and its nearest shapes: those sensed (:attr:`sensing`; ``key`` draws the noise) when a
         sensing option is on."""
-        return self._observe(state, params.cell(state.cell), key)[0]
+        return self.observe(state, params, key)[0]
+
+    def observe(self, state: State, params: EnvParams, key: jax.Array | None = None
+                ) -> tuple[jax.Array, jax.Array | None]:
+        """:meth:`observation` and, with a sensing option on, how many moving obstacles were sensed (``info``'s
+        ``sensed_obstacles``; otherwise ``None``)."""
+        return self._observe(state, params.cell(state.cell), key)
 
     def _observe(self, state: State, p: EnvParams, key: jax.Array | None) -> tuple[jax.Array, jax.Array | None]:
         """The observation and, with a sensing option on, how many moving obstacles were sensed (``info``'s
@@ -438,7 +481,10 @@ class FootstepJaxEnv:
         support = state.feet[(state.support + 1) // 2]
         low = jnp.asarray(self.low, dt)
         span = jnp.asarray(self.high - self.low, dt)
-        previous = command_to_unit(state.previous, low, span)
+        # An episode's first state holds the nominal command, whose unit value is a constant (as XLA folds it):
+        # the same float wherever the state was made, however the runtime division rounds.
+        nominal = command_to_unit(jnp.asarray(self.robot.nominal_command, dt), low, span)
+        previous = jnp.where(state.steps == 0, nominal, command_to_unit(state.previous, low, span))
         rods, rods_sensed, n_sensed = state.rods, None, None
         if self.sensing is not None:
             if self.sensing.noisy and key is None:

@@ -123,7 +123,8 @@ class FootstepVectorEnv(VectorEnv):
         if same_step:
             return out.state, out.obs, out.step_obs, out.reward, out.terminated, out.truncated, info
         mask = reset_mask  # NEXT_STEP: these envs ended at the step before; this step only resets them
-        return (out.state, out.obs, out.step_obs, jnp.where(mask, 0.0, out.reward), out.terminated & ~mask,
+        # (no last observation: NEXT_STEP returns none, so it is not computed)
+        return (out.state, out.obs, None, jnp.where(mask, 0.0, out.reward), out.terminated & ~mask,
                 out.truncated & ~mask, info)
 
     # ------------------------------------------------------------------ Gymnasium API

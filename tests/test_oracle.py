@@ -193,6 +193,7 @@ def _step_and_compare(env_id: str, kwargs: dict, seed: int, steps: int, atol: fl
     ("FootstepCrowd-v0", {}, 1e-9),  # the scripted crowd: its schedule's chords
     ("FootstepDoor-v0", {"door_speed": 17.0}, 1e-9),  # the rod turning steadily
     ("FootstepCrossing-v0", {"traffic_lanes": 2}, 1e-9),  # steady traffic, re-placed each footstep
+    ("FootstepCrossing-v0", {}, 1e-9),  # the paper's one timed car: a member that only keeps its velocity
     ("FootstepCrowd-v0", {"crowd_model": "orca", "crowd_layout": "counter_flow", "robot_visible": False}, 1e-5),
 ])
 def test_the_truth_is_where_the_env_puts_the_obstacles(env_id, kwargs, atol):
@@ -207,10 +208,11 @@ def _outcome(policy: str, env_id: str, scenario: str, seed: int, params=()) -> t
     return result.outcome, result.steps
 
 
-def test_on_constant_motion_the_oracle_walks_as_period_aware():
-    """The door turns steadily, so period-aware's prediction is the truth: the same episode, step for step."""
-    assert _outcome("oracle", "FootstepDoor-v0", "door", 10000) == _outcome("period-aware", "FootstepDoor-v0", "door",
-                                                                           10000)
+@pytest.mark.parametrize("env_id, scenario", [("FootstepDoor-v0", "door"), ("FootstepCrossing-v0", "crossing")])
+def test_on_constant_motion_the_oracle_walks_as_period_aware(env_id, scenario):
+    """The door turns steadily and the paper's car keeps its velocity, so period-aware's prediction is the truth:
+    the same episode, step for step."""
+    assert _outcome("oracle", env_id, scenario, 10000) == _outcome("period-aware", env_id, scenario, 10000)
 
 
 def _successes(policy: str, env_id: str, seeds, **env_kwargs) -> list[bool]:

@@ -136,7 +136,7 @@ class TruthModel:
         for s, v in enumerate(views):
             if v.static:
                 continue
-            if v.name in members:
+            if v.name in members and not steady:  # a steady scenario's members move as they are moving
                 columns.append(s)
                 rows.append(members[v.name])
             elif not steady:

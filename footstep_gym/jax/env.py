@@ -471,13 +471,9 @@ class FootstepJaxEnv:
     def observe(self, state: State, params: EnvParams, key: jax.Array | None = None
                 ) -> tuple[jax.Array, jax.Array | None]:
         """:meth:`observation` and, with a sensing option on, how many moving obstacles were sensed (``info``'s
-        ``sensed_obstacles``; otherwise ``None``)."""
-        return self._observe(state, params.cell(state.cell), key)
-
-    def _observe(self, state: State, p: EnvParams, key: jax.Array | None) -> tuple[jax.Array, jax.Array | None]:
-        """The observation and, with a sensing option on, how many moving obstacles were sensed (``info``'s
-        ``sensed_obstacles``; a crowd's parked padding members are not obstacles). ``p``: one cell's params."""
+        ``sensed_obstacles``; a crowd's parked padding members are not obstacles; otherwise ``None``)."""
         cfg, dt = self.config, self.dtype
+        p = params.cell(state.cell)
         support = state.feet[(state.support + 1) // 2]
         low = jnp.asarray(self.low, dt)
         span = jnp.asarray(self.high - self.low, dt)

@@ -219,9 +219,14 @@ def linear_program3(lines: tuple, valid: Any, begin: Any, radius: Any, x: Any, y
     return x, y
 
 
-def _rows(a: Any) -> Any:
-    """``a`` with its two leading axes (envs, agents) made one."""
-    return a.reshape((-1,) + a.shape[2:])
+def _batch_rows(axis_size: int, in_batched: Any, args: tuple) -> tuple:
+    """A ``custom_vmap`` rule's ``args`` with every crowd's agents as rows: the unbatched ones broadcast to the
+    batch's ``axis_size`` crowds, then each array's two leading axes (crowds, agents) made one."""
+    import jax
+    import jax.numpy as jnp
+
+    args = jax.tree.map(lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape), args, tuple(in_batched))
+    return jax.tree.map(lambda a: a.reshape((-1,) + a.shape[2:]), args)
 
 
 def _compacted_program3() -> Callable[..., tuple[Any, Any]]:
@@ -240,9 +245,7 @@ def _compacted_program3() -> Callable[..., tuple[Any, Any]]:
     @program3.def_vmap
     def batched(axis_size: int, in_batched: list, lines: tuple, valid: Any, begin: Any, radius: Any, x: Any,
                 y: Any) -> tuple[tuple[Any, Any], tuple[bool, bool]]:
-        args = jax.tree.map(lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
-                            (lines, valid, begin, radius, x, y), tuple(in_batched))
-        lines, valid, begin, radius, x, y = jax.tree.map(_rows, args)
+        lines, valid, begin, radius, x, y = _batch_rows(axis_size, in_batched, (lines, valid, begin, radius, x, y))
         k = valid.shape[1]
         failing = begin < k
         slots = _failing_slots(failing.shape[0])
@@ -318,9 +321,7 @@ def _compacted_program2() -> Callable[..., tuple[Any, Any, Any, Any]]:
     @program2.def_vmap
     def batched(axis_size: int, in_batched: list, lines: tuple, valid: Any, radius: Any,
                 opt: tuple) -> tuple[tuple[Any, Any, Any, Any], tuple[bool, bool, bool, bool]]:
-        args = jax.tree.map(lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape),
-                            (lines, valid, radius, opt), tuple(in_batched))
-        lines, valid, radius, opt = jax.tree.map(_rows, args)
+        lines, valid, radius, opt = _batch_rows(axis_size, in_batched, (lines, valid, radius, opt))
         program1 = _gathered_program1(_violating_slots(valid.shape[0]))
         out = linear_program2(lines, valid, radius, opt, False, jnp, program1)
         return tuple(a.reshape((axis_size, -1)) for a in out), (True, True, True, True)

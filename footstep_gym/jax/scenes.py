@@ -186,6 +186,57 @@ class CrowdState(NamedTuple):
         return jnp.where(self.orca, self.pedestrians.active, self.ring.active)
 
 
+#: ``k`` -> :func:`_orca_envs`'s function (one per neighbour-slot count).
+_ORCA_ENVS: dict[int, Any] = {}
+#: How many sizes :func:`_orca_envs` gathers the ORCA envs of a batch into: eighths of the batch.
+ORCA_BUCKETS = 8
+
+
+def _orca_envs(k: int) -> Any:
+    """``(model, pedestrians, duration) -> (pedestrians, positions, chords)``: :func:`footstep_gym.scenes.crowd.
+    orca_before_step` (``k`` neighbour slots) whose batched form (``vmap`` over envs) runs ORCA on the envs whose
+    cell is an ORCA cell (``model``) alone, gathered into the smallest of :data:`ORCA_BUCKETS` sizes (eighths of the
+    batch) that holds them and scattered back. Each env's crowd steps alone, so an ORCA env's result is the one it
+    gets in any company; an env of a scripted cell keeps its (unused) pedestrians and gets their places and zero
+    chords, as :meth:`CrowdScene._combine` made its inactive pedestrians give."""
+    if k in _ORCA_ENVS:
+        return _ORCA_ENVS[k]
+
+    def one(peds: Any, duration: Any) -> tuple[Any, Any, Any]:
+        return crowd.orca_before_step(jnp, peds, duration, k)
+
+    @jax.custom_batching.custom_vmap
+    def step(model: Any, peds: Any, duration: Any) -> tuple[Any, Any, Any]:
+        return one(peds, duration)
+
+    @step.def_vmap
+    def batched(axis_size: int, in_batched: list, model: Any, peds: Any, duration: Any) -> tuple[tuple, Any]:
+        model, peds, duration = jax.tree.map(
+            lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + jnp.shape(a)), (model, peds, duration),
+            tuple(in_batched))
+        n = peds.crowd.goal.shape[1]
+        kept = (peds, jnp.asarray(peds.crowd.agents.position[:, :n], peds.crowd.goal.dtype),
+                jnp.zeros_like(peds.crowd.goal))
+        count = jnp.sum(model)
+        sizes = sorted({max(1, -(-axis_size * j // ORCA_BUCKETS)) for j in range(1, ORCA_BUCKETS + 1)})
+
+        def gathered(size: int) -> Any:
+            def run() -> tuple:
+                (index,) = jnp.nonzero(model, size=size, fill_value=axis_size)  # fillers: dropped on the way back
+                take = lambda a: jnp.take(a, index, axis=0, mode="clip")  # noqa: E731
+                out = jax.vmap(one)(jax.tree.map(take, peds), take(duration))
+                return jax.tree.map(lambda a, o: a.at[index].set(o, mode="drop"), kept, out)
+            return run
+
+        branches = [lambda: kept] + [gathered(s) for s in sizes]
+        which = jnp.where(count == 0, 0, 1 + jnp.searchsorted(jnp.asarray(sizes), count))
+        out = jax.lax.switch(which, branches)
+        return out, jax.tree.map(lambda _: True, out)
+
+    _ORCA_ENVS[k] = step
+    return step
+
+
 class CrowdParams(NamedTuple):
     """A crowd cell's scene: the scripted ring's ``Cell``, the ORCA layout's ``OrcaCell`` (both as arrays) and which
     model the cell is (``orca``)."""
@@ -253,7 +304,7 @@ class CrowdScene(Scene):
         if not self.has_orca:
             return super().before_step(scene, rods, t, duration)
         ring_pos, ring_vel = crowd.before_step(jnp, scene.ring, rods.position, rods.velocity, t, duration)
-        peds, ped_pos, ped_vel = crowd.orca_before_step(jnp, scene.pedestrians, duration, self.k)
+        peds, ped_pos, ped_vel = _orca_envs(self.k)(scene.orca, scene.pedestrians, duration)
         position = jnp.where(scene.orca, ped_pos.astype(self.dtype), ring_pos)
         velocity = jnp.where(scene.orca, ped_vel.astype(self.dtype), ring_vel)
         return _place(rods, scene.active, position, velocity), scene._replace(pedestrians=peds)

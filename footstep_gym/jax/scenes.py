@@ -188,17 +188,19 @@ class CrowdState(NamedTuple):
 
 #: ``k`` -> :func:`_orca_envs`'s function (one per neighbour-slot count).
 _ORCA_ENVS: dict[int, Any] = {}
-#: How many sizes :func:`_orca_envs` gathers the ORCA envs of a batch into: eighths of the batch.
+#: How many sizes :func:`_orca_envs` steps the crowds still walking in: eighths of the batch.
 ORCA_BUCKETS = 8
 
 
 def _orca_envs(k: int) -> Any:
     """``(model, pedestrians, duration) -> (pedestrians, positions, chords)``: :func:`footstep_gym.scenes.crowd.
-    orca_before_step` (``k`` neighbour slots) whose batched form (``vmap`` over envs) runs ORCA on the envs whose
-    cell is an ORCA cell (``model``) alone, gathered into the smallest of :data:`ORCA_BUCKETS` sizes (eighths of the
-    batch) that holds them and scattered back. Each env's crowd steps alone, so an ORCA env's result is the one it
-    gets in any company; an env of a scripted cell keeps its (unused) pedestrians and gets their places and zero
-    chords, as :meth:`CrowdScene._combine` made its inactive pedestrians give."""
+    orca_before_step` (``k`` neighbour slots) whose batched form (``vmap`` over envs) steps only the crowds that
+    still walk. The envs are ordered by how many ORCA steps their footstep takes (:func:`orca.substeps`; none for
+    an env of a scripted cell, ``model`` false), longest first, and each step runs on the smallest of
+    :data:`ORCA_BUCKETS` leading slices (eighths of the batch) that holds the crowds still walking, those past
+    their last step kept as they are, as ``vmap`` keeps them. Each crowd steps alone, so an ORCA env's result is the
+    one it gets in any company; an env of a scripted cell keeps its (unused) pedestrians and gets their places and
+    zero chords, as :meth:`CrowdScene._combine` made its inactive pedestrians give."""
     if k in _ORCA_ENVS:
         return _ORCA_ENVS[k]
 
@@ -215,22 +217,35 @@ def _orca_envs(k: int) -> Any:
             lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + jnp.shape(a)), (model, peds, duration),
             tuple(in_batched))
         n = peds.crowd.goal.shape[1]
-        kept = (peds, jnp.asarray(peds.crowd.agents.position[:, :n], peds.crowd.goal.dtype),
-                jnp.zeros_like(peds.crowd.goal))
-        count = jnp.sum(model)
+        steps = jnp.where(model, orca.substeps(duration, peds.time_step, jnp), 0)
+        dt = duration / jnp.maximum(steps, 1)  # an ORCA env's duration / steps, as orca.advance divides
+        order = jnp.argsort(-steps, stable=True)
+        steps_s, dt_s = steps[order], dt[order]
+        start = peds.crowd.agents.position[:, :n]
         sizes = sorted({max(1, -(-axis_size * j // ORCA_BUCKETS)) for j in range(1, ORCA_BUCKETS + 1)})
+        walk = jax.vmap(lambda c, d, i: orca.crowd_step(c, i, d, None, k, jnp), in_axes=(0, 0, None))
 
-        def gathered(size: int) -> Any:
-            def run() -> tuple:
-                (index,) = jnp.nonzero(model, size=size, fill_value=axis_size)  # fillers: dropped on the way back
-                take = lambda a: jnp.take(a, index, axis=0, mode="clip")  # noqa: E731
-                out = jax.vmap(one)(jax.tree.map(take, peds), take(duration))
-                return jax.tree.map(lambda a, o: a.at[index].set(o, mode="drop"), kept, out)
+        def leading(size: int, i: Any, c: Any) -> Any:
+            def run() -> Any:
+                head = jax.tree.map(lambda a: a[:size], c)
+                walked = walk(head, dt_s[:size], i)
+                on = steps_s[:size] > i
+                head = jax.tree.map(lambda w, h: jnp.where(on.reshape((-1,) + (1,) * (w.ndim - 1)), w, h),
+                                    walked, head)
+                return jax.tree.map(lambda a, h: a.at[:size].set(h), c, head)
             return run
 
-        branches = [lambda: kept] + [gathered(s) for s in sizes]
-        which = jnp.where(count == 0, 0, 1 + jnp.searchsorted(jnp.asarray(sizes), count))
-        out = jax.lax.switch(which, branches)
+        def body(i: Any, c: Any) -> Any:
+            walking = jnp.sum(steps_s > i)
+            return jax.lax.switch(jnp.searchsorted(jnp.asarray(sizes), walking),
+                                  [leading(size, i, c) for size in sizes])
+
+        sorted_crowd = jax.tree.map(lambda a: a[order], peds.crowd)
+        walked = jax.lax.fori_loop(0, steps_s[0], body, sorted_crowd)
+        back = jnp.argsort(order)
+        new_crowd = jax.tree.map(lambda a: a[back], walked)
+        new_crowd, now, chords = jax.vmap(lambda c, s0, d: orca.chords(c, s0, d, jnp))(new_crowd, start, duration)
+        out = (peds._replace(crowd=new_crowd), now, jnp.where(peds.active[:, :, None], chords, 0.0))
         return out, jax.tree.map(lambda _: True, out)
 
     _ORCA_ENVS[k] = step

@@ -506,7 +506,6 @@ def advance(crowd: Crowd, duration: Any, time_step: Any, max_substeps: int | Non
     crowd's last agent is the robot's (set before every step, as the reference does); ``None`` otherwise.
     """
     n = crowd.goal.shape[0]
-    hi = crowd.goal.dtype
     steps = substeps(duration, time_step, xp)
     dt = duration / steps
     start = crowd.agents.position[:n]
@@ -514,25 +513,41 @@ def advance(crowd: Crowd, duration: Any, time_step: Any, max_substeps: int | Non
         k = neighbor_slots(crowd.agents.max_neighbors, crowd.agents.position.shape[0])
 
     def body(step: Any, c: Crowd) -> Crowd:
-        c2, pref = preferred(c, xp)
-        agents = c2.agents
-        pref32 = _f32(xp, pref)
-        if robot is not None:
-            (rx, ry), (rvx, rvy) = robot
-            s = step * dt
-            m = _product(xp)
-            rpos = _f32(xp, xp.stack([rx + m(rvx, s), ry + m(rvy, s)]))
-            rvel = _f32(xp, xp.stack([rvx, rvy]))
-            agents = agents._replace(position=_set_row(xp, agents.position, n, rpos),
-                                     velocity=_set_row(xp, agents.velocity, n, rvel))
-            pref32 = xp.concatenate([pref32, rvel[None]], axis=0)
-        else:
-            pref32 = xp.concatenate([pref32, agents.pref_velocity[n:]], axis=0)
-        agents = do_step(agents._replace(pref_velocity=pref32), dt, k, xp)
-        return c2._replace(agents=agents)
+        return crowd_step(c, step, dt, robot, k, xp)
 
     upper = steps if max_substeps is None else xp.minimum(steps, max_substeps)
     crowd = _fori(xp, 0, int(upper) if _is_numpy(xp) else upper, body, crowd)
+    return chords(crowd, start, duration, xp)
+
+
+def crowd_step(crowd: Crowd, step: Any, dt: Any, robot: tuple | None, k: int, xp: Any = np) -> Crowd:
+    """Step ``step`` of :func:`advance`, ``dt`` [s] long: each pedestrian's preferred velocity
+    (:func:`preferred`), the robot's agent set where ``robot`` is given, then :func:`do_step`."""
+    n = crowd.goal.shape[0]
+    c2, pref = preferred(crowd, xp)
+    agents = c2.agents
+    pref32 = _f32(xp, pref)
+    if robot is not None:
+        (rx, ry), (rvx, rvy) = robot
+        s = step * dt
+        m = _product(xp)
+        rpos = _f32(xp, xp.stack([rx + m(rvx, s), ry + m(rvy, s)]))
+        rvel = _f32(xp, xp.stack([rvx, rvy]))
+        agents = agents._replace(position=_set_row(xp, agents.position, n, rpos),
+                                 velocity=_set_row(xp, agents.velocity, n, rvel))
+        pref32 = xp.concatenate([pref32, rvel[None]], axis=0)
+    else:
+        pref32 = xp.concatenate([pref32, agents.pref_velocity[n:]], axis=0)
+    agents = do_step(agents._replace(pref_velocity=pref32), dt, k, xp)
+    return c2._replace(agents=agents)
+
+
+def chords(crowd: Crowd, start: Any, duration: Any, xp: Any = np) -> tuple[Crowd, Any, Any]:
+    """The end of :func:`advance`: ``(crowd, start, chords)`` from the pedestrians' positions at the start
+    ``start`` [m] (float32, as ORCA holds them) and ``crowd`` after ``duration`` [s], each chord capped at the
+    pedestrian's speed, in the crowd's float dtype."""
+    n = crowd.goal.shape[0]
+    hi = crowd.goal.dtype
     end = xp.asarray(crowd.agents.position[:n], dtype=hi)
     start_hi = xp.asarray(start, dtype=hi)
     chord = (end - start_hi) / duration
@@ -577,6 +592,7 @@ def crowd_of(starts: Any, goals: Any, radii: Any, speeds: Any, neighbor_dist: fl
     return Crowd(agents, goals, starts, radii, speeds)
 
 
-__all__ = ["Agents", "Crowd", "EPSILON", "MAX_LEAF_SIZE", "advance", "crowd_of", "do_step", "linear_program1",
+__all__ = ["Agents", "Crowd", "EPSILON", "MAX_LEAF_SIZE", "advance", "chords", "crowd_of", "crowd_step", "do_step",
+           "linear_program1",
            "linear_program2", "linear_program3", "neighbor_slots", "neighbors", "new_velocities", "orca_lines",
            "preferred", "substeps"]

@@ -239,13 +239,13 @@ def test_every_cell_of_every_tier_is_batched(scene):
 
 
 
-@pytest.mark.parametrize("orca_envs", [0, 3, 4, 8])  # none, within a bucket, at a bucket's edge, all
-def test_a_batch_runs_orca_on_its_orca_envs_with_each_ones_own_pedestrians(monkeypatch, orca_envs):
-    """``before_step`` over a batch of 8 envs of which ``orca_envs`` are ORCA episodes (the rest rings), over three
-    footsteps, against the same batch with ORCA run on every env (``crowd.orca_before_step`` under plain
-    ``vmap``): the same obstacles, and for an ORCA env the same crowd, whichever of
-    :func:`footstep_gym.jax.scenes._orca_envs`'s buckets (here quarters) holds the ORCA envs; a ring env keeps its
-    pedestrians."""
+
+def test_a_batch_runs_orca_on_its_orca_envs_with_each_ones_own_pedestrians(monkeypatch):
+    """``before_step`` over batches of 8 envs of which none, 3, 4 (a bucket's edge) or all are ORCA episodes (the
+    rest rings), over three footsteps of 3-13 ORCA steps each, against the same batch with ORCA run on every env
+    (``crowd.orca_before_step`` under plain ``vmap``): the same obstacles, and for an ORCA env the same crowd,
+    whichever of :func:`footstep_gym.jax.scenes._orca_envs`'s slices (here quarters) its steps run in; a ring env
+    keeps its pedestrians."""
     from footstep_gym.jax import scenes as jax_scenes
 
     monkeypatch.setattr(jax_scenes, "ORCA_BUCKETS", 4)
@@ -253,33 +253,31 @@ def test_a_batch_runs_orca_on_its_orca_envs_with_each_ones_own_pedestrians(monke
     env = FootstepJaxEnv("crowd", **STRUCTURE)
     pool, _ = jax.jit(jax.vmap(lambda k: env.reset(k, env.default_params)))(jax.random.split(jax.random.key(5), 40))
     orca = np.asarray(pool.scene.orca)
-    pick = np.r_[np.flatnonzero(orca)[:orca_envs], np.flatnonzero(~orca)[:8 - orca_envs]]
-    rng = np.random.default_rng(orca_envs)
-    pick = pick[rng.permutation(8)]  # ORCA envs anywhere in the batch
-    rods, scene = jax.tree.map(lambda a: a[pick], (pool.rods, pool.scene))
-    is_orca = orca[pick]
     gathered = jax.jit(jax.vmap(env.scene.before_step))
-    with monkeypatch.context() as m:  # ORCA on every env, as before the buckets
+    with monkeypatch.context() as m:  # ORCA on every env
         m.setattr(jax_scenes, "_orca_envs", lambda k: lambda model, peds, d: crowd_scene.orca_before_step(
             jnp, peds, d, k))
         everywhere = jax.jit(jax.vmap(env.scene.before_step))
+    rng = np.random.default_rng(0)
+    for orca_envs in (0, 3, 4, 8):
+        pick = np.r_[np.flatnonzero(orca)[:orca_envs], np.flatnonzero(~orca)[:8 - orca_envs]]
+        pick = pick[rng.permutation(8)]  # ORCA envs anywhere in the batch
+        rods, scene = jax.tree.map(lambda a: a[pick], (pool.rods, pool.scene))
+        is_orca = orca[pick]
+        want_rods, want_scene = rods, scene
         t = jnp.zeros(8)
-        durations = [jnp.asarray(rng.uniform(0.3, 1.3, 8)) for _ in range(3)]
-        want = [(rods, scene)]
-        for d in durations:
-            want.append(everywhere(*want[-1][::-1], t, d))
-            t = t + d
-    t = jnp.zeros(8)
-    for step, d in enumerate(durations):
-        new_rods, new_scene = gathered(scene, rods, t, d)
-        want_rods, want_scene = want[step + 1]
-        for a, b in zip(jax.tree.leaves(new_rods), jax.tree.leaves(want_rods)):
-            np.testing.assert_array_equal(np.asarray(a), np.asarray(b), err_msg=f"footstep {step}")
-        for a, b, before in zip(jax.tree.leaves(new_scene.pedestrians), jax.tree.leaves(want_scene.pedestrians),
-                                jax.tree.leaves(scene.pedestrians)):
-            a, b, before = np.asarray(a), np.asarray(b), np.asarray(before)
-            np.testing.assert_array_equal(a[is_orca], b[is_orca], err_msg=f"footstep {step}")
-            np.testing.assert_array_equal(a[~is_orca], before[~is_orca], err_msg=f"footstep {step}")
-        walking = np.any(np.asarray(new_rods.velocity) != 0, axis=(1, 2))
-        assert np.array_equal(walking & is_orca, is_orca)  # every ORCA env's pedestrians walk
-        rods, scene, t = new_rods, new_scene, t + d
+        for step in range(3):
+            d = jnp.asarray(rng.uniform(0.3, 1.3, 8))
+            new_rods, new_scene = gathered(scene, rods, t, d)
+            want_rods, want_scene = everywhere(want_scene, want_rods, t, d)
+            where = f"{orca_envs} ORCA envs, footstep {step}"
+            for a, b in zip(jax.tree.leaves(new_rods), jax.tree.leaves(want_rods)):
+                np.testing.assert_array_equal(np.asarray(a), np.asarray(b), err_msg=where)
+            for a, b, before in zip(jax.tree.leaves(new_scene.pedestrians), jax.tree.leaves(want_scene.pedestrians),
+                                    jax.tree.leaves(scene.pedestrians)):
+                a, b, before = np.asarray(a), np.asarray(b), np.asarray(before)
+                np.testing.assert_array_equal(a[is_orca], b[is_orca], err_msg=where)
+                np.testing.assert_array_equal(a[~is_orca], before[~is_orca], err_msg=where)
+            walking = np.any(np.asarray(new_rods.velocity) != 0, axis=(1, 2))
+            assert np.array_equal(walking & is_orca, is_orca), where  # every ORCA env's pedestrians walk
+            rods, scene, t = new_rods, new_scene, t + d

@@ -218,3 +218,21 @@ def test_the_batched_2d_program_runs_each_line_on_its_violating_agents_with_each
     for c in range(crowds):
         for g, w in zip(got, want[c]):
             np.testing.assert_array_equal(np.asarray(g[c]), w)
+
+
+def test_the_nearest_neighbours_are_a_stable_sorts_first_columns_ties_and_infinities_included():
+    """``orca._nearest`` (ranks by comparison) against numpy's stable argsort, in numpy and under JAX's ``vmap``, on
+    rows with repeated values (ties broken by index, as RVO2 visits a leaf's agents) and ``inf`` (no candidate)."""
+    import jax
+    import jax.numpy as jnp
+
+    rng = np.random.default_rng(3)
+    keys = rng.integers(0, 4, (50, 10, 10)).astype(np.float32)  # many ties
+    keys[rng.random(keys.shape) < 0.3] = np.inf
+    keys[:, :, 0] = np.inf  # a column of equal infinities
+    k = 9
+    want = np.argsort(keys, axis=-1, kind="stable")[..., :k]
+    got_np = np.stack([orca._nearest(np, row, k) for row in keys])
+    got_jax = np.asarray(jax.jit(jax.vmap(lambda r: orca._nearest(jnp, r, k)))(keys))
+    np.testing.assert_array_equal(got_np, want)
+    np.testing.assert_array_equal(got_jax, want)

@@ -599,6 +599,5 @@ def crowd_of(starts: Any, goals: Any, radii: Any, speeds: Any, neighbor_dist: fl
 
 
 __all__ = ["Agents", "Crowd", "EPSILON", "MAX_LEAF_SIZE", "advance", "chords", "crowd_of", "crowd_step", "do_step",
-           "linear_program1",
-           "linear_program2", "linear_program3", "neighbor_slots", "neighbors", "new_velocities", "orca_lines",
-           "preferred", "substeps"]
+           "linear_program1", "linear_program2", "linear_program3", "neighbor_slots", "neighbors", "new_velocities",
+           "orca_lines", "preferred", "substeps"]

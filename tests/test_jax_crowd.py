@@ -244,11 +244,11 @@ def test_a_batch_runs_orca_on_its_orca_envs_with_each_ones_own_pedestrians(monke
     """``before_step`` over batches of 8 envs of which none, 3, 4 (a bucket's edge) or all are ORCA episodes (the
     rest rings), over three footsteps of 3-13 ORCA steps each, against the same batch with ORCA run on every env
     (``crowd.orca_before_step`` under plain ``vmap``): the same obstacles, and for an ORCA env the same crowd,
-    whichever of :func:`footstep_gym.jax.scenes._orca_envs`'s slices (here quarters) its steps run in; a ring env
+    whichever of :func:`footstep_gym.jax.scenes._orca_envs`'s slices (here halves) its steps run in; a ring env
     keeps its pedestrians."""
     from footstep_gym.jax import scenes as jax_scenes
 
-    monkeypatch.setattr(jax_scenes, "ORCA_BUCKETS", 4)
+    monkeypatch.setattr(jax_scenes, "ORCA_BUCKETS", 2)
     monkeypatch.setattr(jax_scenes, "_ORCA_ENVS", {})  # traced afresh with the patched buckets
     env = FootstepJaxEnv("crowd", **STRUCTURE)
     pool, _ = jax.jit(jax.vmap(lambda k: env.reset(k, env.default_params)))(jax.random.split(jax.random.key(5), 40))

@@ -213,9 +213,7 @@ def _orca_envs(k: int) -> Any:
 
     @step.def_vmap
     def batched(axis_size: int, in_batched: list, model: Any, peds: Any, duration: Any) -> tuple[tuple, Any]:
-        model, peds, duration = jax.tree.map(
-            lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + jnp.shape(a)), (model, peds, duration),
-            tuple(in_batched))
+        model, peds, duration = orca.broadcast_batch(axis_size, in_batched, (model, peds, duration))
         n = peds.crowd.goal.shape[1]
         steps = jnp.where(model, orca.substeps(duration, peds.time_step, jnp), 0)
         dt = duration / jnp.maximum(steps, 1)  # an ORCA env's duration / steps, as orca.advance divides

@@ -225,14 +225,22 @@ def linear_program3(lines: tuple, valid: Any, begin: Any, radius: Any, x: Any, y
     return x, y
 
 
-def _batch_rows(axis_size: int, in_batched: Any, args: tuple) -> tuple:
-    """A ``custom_vmap`` rule's ``args`` with every crowd's agents as rows: the unbatched ones broadcast to the
-    batch's ``axis_size`` crowds, then each array's two leading axes (crowds, agents) made one."""
+def broadcast_batch(axis_size: int, in_batched: Any, args: tuple) -> tuple:
+    """A ``jax.custom_batching.custom_vmap`` rule's ``args`` with the unbatched ones (``in_batched`` false)
+    broadcast to the batch's ``axis_size``: every leaf then leads with the batch axis."""
     import jax
     import jax.numpy as jnp
 
-    args = jax.tree.map(lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + a.shape), args, tuple(in_batched))
-    return jax.tree.map(lambda a: a.reshape((-1,) + a.shape[2:]), args)
+    return jax.tree.map(lambda a, b: a if b else jnp.broadcast_to(a, (axis_size,) + jnp.shape(a)), args,
+                        tuple(in_batched))
+
+
+def _batch_rows(axis_size: int, in_batched: Any, args: tuple) -> tuple:
+    """A ``custom_vmap`` rule's ``args`` with every crowd's agents as rows: :func:`broadcast_batch`, then each
+    array's two leading axes (crowds, agents) made one."""
+    import jax
+
+    return jax.tree.map(lambda a: a.reshape((-1,) + a.shape[2:]), broadcast_batch(axis_size, in_batched, args))
 
 
 def _compacted_program3() -> Callable[..., tuple[Any, Any]]:
@@ -598,6 +606,6 @@ def crowd_of(starts: Any, goals: Any, radii: Any, speeds: Any, neighbor_dist: fl
     return Crowd(agents, goals, starts, radii, speeds)
 
 
-__all__ = ["Agents", "Crowd", "EPSILON", "MAX_LEAF_SIZE", "advance", "chords", "crowd_of", "crowd_step", "do_step",
-           "linear_program1", "linear_program2", "linear_program3", "neighbor_slots", "neighbors", "new_velocities",
-           "orca_lines", "preferred", "substeps"]
+__all__ = ["Agents", "Crowd", "EPSILON", "MAX_LEAF_SIZE", "advance", "broadcast_batch", "chords", "crowd_of",
+           "crowd_step", "do_step", "linear_program1", "linear_program2", "linear_program3", "neighbor_slots",
+           "neighbors", "new_velocities", "orca_lines", "preferred", "substeps"]

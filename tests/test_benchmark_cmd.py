@@ -15,7 +15,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+import scipy.stats
 
 from script_helpers import load_script
 
@@ -37,7 +39,8 @@ RECORD_FIELDS = {
     "min_clearance_min": (float, type(None)), "min_zmp_margin_median": float, "min_zmp_margin_min": float,
     "plan_ms_median": float, "plan_ms_p99": float, "seeds": list, "outcomes": list,
 }
-AGGREGATE_FIELDS = {"tier": str, "policy": str, "upper_bound": bool, "success_iqm": float, "success_iqm_ci95": list,
+AGGREGATE_FIELDS = {"tier": str, "policy": str, "upper_bound": bool, "success": float, "success_ci95": list,
+                    "safe_success": float, "safe_success_ci95": list, "success_iqm": float, "success_iqm_ci95": list,
                     "success_mean": float, "runs": int, "cells": list, "scenes": list, "episodes": int}
 
 
@@ -79,6 +82,16 @@ def check_document(doc: dict, episodes: int, labels: list[str]) -> None:
         rates = sorted(r["success_rate"] for r in doc["records"] if r["tier"] == tier)
         assert a["runs"] == 1 and a["success_iqm_ci95"] == [a["success_iqm"]] * 2  # a planner: one run
         assert a["success_iqm"] == pytest.approx(iqm_over_tasks([rates])[0])
+        # The headline: each scene weighs the same, each cell within its scene the same (by hand, from the records).
+        mine = [r for r in doc["records"] if r["tier"] == tier]
+        scenes = sorted({r["scene"] for r in mine})
+        by_scene = [np.mean([r["success_rate"] for r in mine if r["scene"] == sc]) for sc in scenes]
+        assert a["success"] == pytest.approx(np.mean(by_scene))
+        lo, hi = a["success_ci95"]
+        assert lo <= a["success"] <= hi and a["iqm_runs"] is None  # one run: no IQM over runs
+        if any(0 < r["success_rate"] < 1 for r in mine):  # a planner's interval is its episodes' noise, not a point
+            assert lo < hi
+        assert a["safe_success"] <= a["success"] + 1e-12
 
 
 # ---------------------------------------------------------------- the cells
@@ -252,6 +265,30 @@ def test_tier_aggregates_over_training_runs_and_scenes():
     assert hard["runs_used"] == ["run_1", "run_2"]
     assert (paper["policy"], paper["success_iqm"], paper["success_iqm_ci95"], paper["runs"]) == (FAST, 1.0,
                                                                                                  [1.0, 1.0], 1)
+    assert hard["success"] == pytest.approx(0.55) and hard["iqm_runs"] is None  # 2 runs: no IQM over runs
+
+
+def test_tier_aggregates_headline_weighs_each_scene_the_same():
+    """Two door cells and four crowd cells: the headline is the mean of the two scenes' means, not of the six cells,
+    and no cell is dropped (an IQM over the six would drop the 0.0 door cell)."""
+    def record(scene, cell, successes, run=None):
+        return cell_record(f"Footstep{scene.title()}-v0", scene, FAST, {"tier": "hard", "tier_cell": cell},
+                           episodes(successes), run=run, scene=scene, tier="hard", cell=cell, env_kwargs={},
+                           upper_bound=False)
+
+    rates = {("door", "a"): 0, ("door", "b"): 10, ("crowd", "a"): 10, ("crowd", "b"): 10, ("crowd", "c"): 10,
+             ("crowd", "d"): 6}
+    (hard,) = benchmark.tier_aggregates([record(sc, c, k) for (sc, c), k in rates.items()])
+    assert hard["success"] == pytest.approx(0.5 * (0.0 + 1.0) / 2 + 0.5 * (1.0 + 1.0 + 1.0 + 0.6) / 4)
+    assert hard["success_mean"] == pytest.approx(4.6 / 6)
+    lo, hi = hard["success_ci95"]
+    assert lo < hard["success"] < hi  # one run: the interval is the episodes' noise (the 0.6 cell's)
+    # Five runs of the same record: the IQM over runs appears, and equals the IQM of the 30 rates.
+    (five,) = benchmark.tier_aggregates([record(sc, c, k, run=f"run_{i}") for i in range(5)
+                                         for (sc, c), k in rates.items()])
+    assert five["runs"] == 5 and five["iqm_runs"] == pytest.approx(
+        scipy.stats.trim_mean([k / 10 for _ in range(5) for k in rates.values()], 0.25))
+    assert five["success"] == pytest.approx(hard["success"])
 
 
 # ---------------------------------------------------------------- the oracle is labelled, never a baseline

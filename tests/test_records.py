@@ -134,4 +134,7 @@ def test_a_benchmarks_aggregates_are_its_records_score_matrix(policy):
     from footstep_gym.evaluation import benchmark
 
     doc = json.loads((REPO / "baselines" / "results" / "benchmark" / policy / "benchmark.json").read_text())
-    assert benchmark.tier_aggregates(rec.load_records(doc["records"])) == doc["aggregates"]
+    again = benchmark.tier_aggregates(rec.load_records(doc["records"]))
+    # A file written before protocol 3 lacks the scene-balanced fields: its own fields must come back the same.
+    assert [{k: a[k] for k in old} for a, old in zip(again, doc["aggregates"])] == doc["aggregates"]
+    assert len(again) == len(doc["aggregates"])

@@ -224,7 +224,8 @@ def main(argv: list[str] | None = None) -> int:
                    scenes=[args.env], tiers=["paper"], split="validation", workers=args.workers)
     for a in doc["aggregates"]:
         print(f"{a['tier']} ({args.env}), validation seeds {doc['protocol']['seeds'][0]}..."
-              f"{doc['protocol']['seeds'][-1]}: success IQM {a['success_iqm']:.2f}")
+              f"{doc['protocol']['seeds'][-1]}: success {a['success']:.2f} [{a['success_ci95'][0]:.2f}, "
+              f"{a['success_ci95'][1]:.2f}]")
     print(f"wrote {args.out / 'bench'}/benchmark.json (a try on validation seeds: not a leaderboard row)")
     return 0
 

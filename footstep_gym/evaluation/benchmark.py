@@ -17,9 +17,10 @@ thin front-end to this module:
   95 % interval, collision, fall and timeout rates, time to goal and path length over the
   successes, smallest clearance and ZMP margin, act time median / p99 after the warm-up) with the
   cell's ``scene``, ``tier``, ``cell``, ``env_kwargs`` and ``upper_bound`` added;
-* :func:`tier_aggregates`: per tier, the IQM of the success rates over every cell of the tier (all
-  scenes) with rliable's stratified-bootstrap 95 % interval over training runs
-  (:func:`~footstep_gym.evaluation.stats.iqm_over_tasks`);
+* :func:`tier_aggregates`: per tier, the board's score (:func:`~footstep_gym.evaluation.scores.tier_score`: the
+  scene-balanced mean of the cells' success with its hierarchical bootstrap interval, and safe success), and as
+  secondary figures the IQM of the success rates over the tier's cells with rliable's stratified-bootstrap interval
+  over training runs (:func:`~footstep_gym.evaluation.stats.iqm_over_tasks`) and the plain mean;
 * :func:`benchmark_document` and :func:`markdown`: ``benchmark.json`` and ``benchmark.md``;
 * :class:`BenchmarkSettings` (:func:`benchmark_settings` checks a run's options), :func:`run_benchmark`
   and :func:`write_benchmark`: a whole run into a temporary folder that replaces ``--out`` once
@@ -56,6 +57,7 @@ from footstep_gym.evaluation.submission import AgentArg, CallableFactory, Submis
 from footstep_gym.evaluation import protocol as row_protocol
 from footstep_gym.evaluation.splits import PROTOCOL_VERSION, TEST, split_seeds
 from footstep_gym.evaluation.records import CellRecord, cell_record, over_runs
+from footstep_gym.evaluation.scores import tier_score
 from footstep_gym.evaluation.stats import TIMING_FIELDS, EpisodeResult, iqm_over_tasks, score_matrix
 from footstep_gym.evaluation.tables import interval, markdown as markdown_table, mm, num, plural, runs as runs_text
 from footstep_gym.scenarios import resolve_env_id, scene_of
@@ -223,8 +225,14 @@ def cell_records(cells: Sequence[Cell], owners: Sequence[BenchmarkCell], results
 
 
 def tier_aggregates(records: Sequence[CellRecord], reps: int = 2000) -> list[dict[str, Any]]:
-    """Per tier and policy: the IQM of the success rates over the tier's cells (all scenes) with a stratified-bootstrap
-    95 % interval over training runs (:func:`~footstep_gym.evaluation.stats.iqm_over_tasks`).
+    """Per tier and policy: the board's figures (:func:`~footstep_gym.evaluation.scores.tier_score`): ``success``, the
+    scene-balanced mean of the cells' success (each scene the same weight, each cell within a scene the same) with
+    its hierarchical bootstrap 95 % interval ``success_ci95`` (over training runs, then episodes: a planner's
+    interval is its episode noise), ``safe_success`` and ``safe_success_ci95`` likewise (None where the records
+    carry no safe successes), ``iqm_runs`` (the IQM over runs x cells, from
+    :data:`~footstep_gym.evaluation.scores.IQM_MIN_RUNS` runs; else None); and protocol 2's figure, kept as a
+    secondary one: ``success_iqm``, the IQM of the success rates over the tier's cells (all scenes) with a
+    stratified-bootstrap 95 % interval over training runs (:func:`~footstep_gym.evaluation.stats.iqm_over_tasks`).
 
     ``records``: one per cell and run (:func:`cell_records`). The score matrix
     (:func:`~footstep_gym.evaluation.stats.score_matrix`) has one column per cell of the tier and one row per
@@ -245,8 +253,12 @@ def tier_aggregates(records: Sequence[CellRecord], reps: int = 2000) -> list[dic
         totals = by_cell.groupby("cell", sort=False)[["successes", "episodes"]].sum()
         used = by_cell.sort_values("run").groupby("cell", sort=False).head(n_runs)["run"]  # the runs in the matrix
         iqm, lo, hi = iqm_over_tasks(matrix, reps=reps)
+        board = tier_score(mine, cells, reps=reps)
         out.append({
             "tier": tier, "policy": policy, "upper_bound": bool(mine[0].upper_bound),
+            "success": board["success"], "success_ci95": board["success_ci95"],
+            "safe_success": board["safe_success"], "safe_success_ci95": board["safe_success_ci95"],
+            "iqm_runs": board["iqm"],
             "success_iqm": iqm, "success_iqm_ci95": [lo, hi],
             "success_mean": float((totals["successes"] / totals["episodes"]).mean()),
             "runs": n_runs, "cells": cells, "scenes": sorted({r.scene for r in mine}),
@@ -332,8 +344,22 @@ def benchmark_document(entry: registry.PolicyEntry, cells: Sequence[BenchmarkCel
 
 
 # ---------------------------------------------------------------- markdown
-def _iqm_text(a: Mapping[str, Any]) -> str:
-    return f"{interval(a['success_iqm'], a['success_iqm_ci95'])} ({runs_text(a['runs'])})"
+def _score_text(a: Mapping[str, Any]) -> str:
+    """A tier's headline: the scene-balanced success [hierarchical CI] (protocol 2's files: the IQM) and its runs."""
+    if "success" not in a:
+        return f"{interval(a['success_iqm'], a['success_iqm_ci95'])} ({runs_text(a['runs'])})"
+    return f"{interval(a['success'], a['success_ci95'])} ({runs_text(a['runs'])})"
+
+
+def _secondary_text(a: Mapping[str, Any]) -> str:
+    """A tier's secondary figures: safe success, the IQM over runs x cells (enough runs only), the plain mean."""
+    parts = []
+    if a.get("safe_success") is not None:
+        parts.append(f"safe {interval(a['safe_success'], a['safe_success_ci95'])}")
+    if a.get("iqm_runs") is not None:
+        parts.append(f"IQM over runs {a['iqm_runs']:.2f}")
+    parts.append(f"mean {a['success_mean']:.2f}")
+    return "; ".join(parts)
 
 
 DEFINITIONS = """\
@@ -347,16 +373,21 @@ Clearance is the smallest gap between the body circle and any obstacle over an e
 margin the smallest distance of the ZMP from the stable region's edge, both in mm as median /
 min over the cell's episodes. Act time is the wall clock of `policy.act` per footstep (planning,
 or an agent's inference) as median / p99 over the cell's footsteps, timed after each worker's
-untimed warm-up of {warmup} acts per cell. A tier's aggregate is the interquartile mean (IQM) of
-the success rates over all of its cells (every scene), with rliable's stratified-bootstrap 95 %
-interval over training runs (one run, a planner's: the interval is the point); "mean" is the
-plain mean of the cells' success rates. A policy marked "(upper bound)" reads the true future
-of the obstacles (docs/benchmark.md): it bounds what prediction can buy, it is not a baseline.
+untimed warm-up of {warmup} acts per cell. A tier's score is the scene-balanced mean of its cells'
+success (each scene weighs the same, each cell within a scene the same: no cell is dropped), with
+a hierarchical bootstrap 95 % interval (training runs, then episodes within each run and cell, so a
+one-run planner's interval shows its episode noise); "safe" is the same for safe success (the goal
+reached with the episode's smallest clearance and ZMP margin at least configs/eval.yaml's
+`safe_success` thresholds); "IQM over runs" (rliable's interquartile mean over runs x cells) is
+shown from 5 training runs on, and "mean" is the plain mean of the cells' success rates.
+A policy marked "(upper bound)" reads the true future of the obstacles (docs/benchmark.md): it
+bounds what prediction can buy, it is not a baseline.
 """
 
 
 def markdown(doc: Mapping[str, Any], command: str = "") -> str:
-    """``benchmark.md``: the leaderboard row (IQM per tier), then every cell's record, then the definitions."""
+    """``benchmark.md``: the leaderboard row (scene-balanced success per tier), then every cell's record, then the
+    definitions."""
     protocol = doc["protocol"]
     label = doc["label"]
     aggregates = doc["aggregates"]
@@ -378,8 +409,9 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
     if not doc["complete"]:
         lines += ["", "**Partial run** (some tiers or scenes left out): not a leaderboard row."]
     by_tier = {a["tier"]: a for a in aggregates}
-    row = pd.DataFrame([[label, *(_iqm_text(by_tier[t]) if t in by_tier else "–" for t in tiers)]],
-                       columns=["policy", *(f"{t}: IQM success [95% CI]" for t in tiers)])
+    headline = "IQM success" if any("success" not in a for a in aggregates) else "success"
+    row = pd.DataFrame([[label, *(_score_text(by_tier[t]) if t in by_tier else "–" for t in tiers)]],
+                       columns=["policy", *(f"{t}: {headline} [95% CI]" for t in tiers)])
     lines += ["", "## Leaderboard row", "", markdown_table(row).rstrip("\n"), "", "## Cells", ""]
     rows = []
     summary = [CellRecord.from_dict(r) for r in doc["summary"]]
@@ -393,8 +425,9 @@ def markdown(doc: Mapping[str, Any], command: str = "") -> str:
                          f"{num(r.plan_ms_median)} / {num(r.plan_ms_p99, 1)}"])
         a = by_tier.get(tier)
         if a is not None:
-            rows.append([f"**{tier}**", "**all**", f"IQM over {plural(len(a['cells']), 'cell')}", str(a["episodes"]),
-                         f"**{_iqm_text(a)}**", f"mean {a['success_mean']:.2f}", *[""] * 7])
+            how = "scene-balanced" if "success" in a else "IQM"
+            rows.append([f"**{tier}**", "**all**", f"{how} over {plural(len(a['cells']), 'cell')}",
+                         str(a["episodes"]), f"**{_score_text(a)}**", _secondary_text(a), *[""] * 7])
     head = ["tier", "scene", "cell", "n", "success [95% CI]", "collision", "fall", "timeout", "time to goal (s)*",
             "path (m)*", "clearance mm", "ZMP margin mm", "act ms median / p99"]
     lines.append(markdown_table(pd.DataFrame(rows, columns=head), left=3).rstrip("\n"))

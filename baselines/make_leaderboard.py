@@ -22,9 +22,10 @@ from pathlib import Path
 from typing import NoReturn
 
 from footstep_gym.evaluation import leaderboard as lb
+from footstep_gym.evaluation.board import BOARD_DIR
 
 REPO = Path(__file__).resolve().parent.parent
-DEFAULT = REPO / "baselines" / "results" / "benchmark"
+DEFAULT = REPO / BOARD_DIR
 #: The full-body column's summary (``python baselines/fullbody.py summary``), shown when it exists.
 FULLBODY = REPO / "baselines" / "results" / "fullbody" / "fullbody_paper_op3.json"
 
@@ -33,10 +34,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      epilog="docs/benchmark.md §4 describes the outputs.")
     parser.add_argument("paths", nargs="*", type=Path, metavar="PATH",
-                        help="benchmark.json files or folders (default: every "
-                             "baselines/results/benchmark/*/benchmark.json)")
+                        help=f"benchmark.json files or folders (default: every {BOARD_DIR}/*/benchmark.json)")
     parser.add_argument("--out", type=Path, default=None,
-                        help="output folder (default: baselines/results/benchmark/); its other files are kept")
+                        help=f"output folder (default: {BOARD_DIR}/); its other files are kept")
     parser.add_argument("--allow-mixed", action="store_true",
                         help="accept files of different protocols (env configs or episodes per cell)")
     parser.add_argument("--reps", type=int, default=lb.REPS,

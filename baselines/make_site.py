@@ -19,6 +19,8 @@ import sys
 import time
 from pathlib import Path
 
+from footstep_gym.evaluation.board import SHOWN_BOARD_DIR
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -26,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, help="the site's folder (new, empty, or a site built before)")
     ap.add_argument("--board", type=Path, default=None,
-                    help="the folder of leaderboard.json (default baselines/results/benchmark)")
+                    help=f"the folder of leaderboard.json (default {SHOWN_BOARD_DIR}: the board the docs show)")
     ap.add_argument("--screenshot", type=Path, default=None, help="also write a PNG of the board page, 900 px wide")
     ap.add_argument("--videos", action="store_true",
                     help="re-render the episode videos into baselines/results/site/ (minutes), then build if --out")

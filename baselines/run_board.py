@@ -28,7 +28,7 @@ from footstep_gym.evaluation import board
 from footstep_gym.evaluation import protocol as row_protocol
 
 REPO = Path(__file__).resolve().parent.parent
-DEFAULT_OUT = REPO / "baselines" / "results" / "benchmark"
+DEFAULT_OUT = REPO / board.BOARD_DIR
 
 
 def build_parser() -> argparse.ArgumentParser:

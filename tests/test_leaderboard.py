@@ -18,6 +18,7 @@ import pytest
 from script_helpers import load_script
 
 from footstep_gym.evaluation import leaderboard as lb
+from footstep_gym.evaluation.board import SHOWN_BOARD_DIR
 from footstep_gym.evaluation.records import cell_record
 from footstep_gym.evaluation import protocol
 from footstep_gym.evaluation.splits import PROTOCOL_VERSION
@@ -246,8 +247,8 @@ def test_the_committed_figures_are_readable_at_readme_width():
     """Every committed leaderboard figure is at most 900 px wide (a README's column), and no two policies that are
     not null baselines share a colour and a line style."""
     results = Path(__file__).resolve().parents[1] / "baselines" / "results"
-    folder = results / "benchmark"
-    pngs = sorted(results.glob("benchmark*/*.png"))  # protocol 2's board and protocol 1's archived one
+    folder = Path(__file__).resolve().parents[1] / SHOWN_BOARD_DIR
+    pngs = sorted(results.glob("benchmark*/*.png"))  # every board kept: the one shown and the archived ones
     assert {p.name for p in folder.glob("*.png")} >= {lb.FIGURE_IQM, lb.FIGURE_PROFILES}
     wide = [f"{p.name}: {_png_width(p.read_bytes())} px" for p in pngs if _png_width(p.read_bytes()) > 900]
     assert not wide, f"wider than 900 px: {wide}"
@@ -427,7 +428,8 @@ def test_a_board_is_of_one_protocol_and_one_split(tmp_path):
 
 
 def test_the_committed_protocol_2_board_still_builds_labelled_protocol_2():
-    board = lb.leaderboard([Path(__file__).resolve().parent.parent / "baselines" / "results" / "benchmark"], reps=REPS)
+    board = lb.leaderboard([Path(__file__).resolve().parent.parent / "baselines" / "results" / "benchmark-protocol2"],
+                         reps=REPS)
     assert board["protocol_version"] == 2 and len(board["policies"]) > 20
     assert lb.markdown(board).splitlines()[2].startswith("Protocol 2 (before the fingerprint")
 

@@ -105,7 +105,7 @@ def test_over_runs_pools_each_field_by_its_rule():
 def _committed() -> list[tuple[str, list[dict]]]:
     found = [(str(p.relative_to(REPO)), json.loads(p.read_text(encoding="utf-8")))
              for p in sorted((REPO / "baselines" / "results").glob("*/results.json"))]
-    for p in sorted((REPO / "baselines" / "results" / "benchmark").glob("*/benchmark.json")):
+    for p in sorted((REPO / "baselines" / "results" / "benchmark-protocol2").glob("*/benchmark.json")):
         doc = json.loads(p.read_text(encoding="utf-8"))
         name = str(p.relative_to(REPO))
         found += [(f"{name}:records", doc["records"]), (f"{name}:summary", doc["summary"])]
@@ -122,7 +122,7 @@ def test_every_committed_results_file_reads_into_records_and_writes_back_the_sam
 
 
 def test_a_benchmarks_summary_is_its_records_over_runs():
-    for p in sorted((REPO / "baselines" / "results" / "benchmark").glob("*/benchmark.json")):
+    for p in sorted((REPO / "baselines" / "results" / "benchmark-protocol2").glob("*/benchmark.json")):
         doc = json.loads(p.read_text(encoding="utf-8"))
         assert [r.to_dict() for r in over_runs(rec.load_records(doc["records"]))] == doc["summary"], p.parent.name
 
@@ -133,7 +133,7 @@ def test_a_benchmarks_aggregates_are_its_records_score_matrix(policy):
     committed file are what its committed records give."""
     from footstep_gym.evaluation import benchmark
 
-    doc = json.loads((REPO / "baselines" / "results" / "benchmark" / policy / "benchmark.json").read_text())
+    doc = json.loads((REPO / "baselines" / "results" / "benchmark-protocol2" / policy / "benchmark.json").read_text())
     again = benchmark.tier_aggregates(rec.load_records(doc["records"]))
     # A file written before protocol 3 lacks the scene-balanced fields: its own fields must come back the same.
     assert [{k: a[k] for k in old} for a, old in zip(again, doc["aggregates"])] == doc["aggregates"]

@@ -15,9 +15,10 @@ from urllib.parse import urljoin, urlparse
 import pytest
 
 from footstep_gym.evaluation import site, site_browser
+from footstep_gym.evaluation.board import SHOWN_BOARD_DIR
 
 ROOT = Path(__file__).resolve().parents[1]
-BOARD = json.loads((ROOT / "baselines/results/benchmark/leaderboard.json").read_text())
+BOARD = json.loads((ROOT / SHOWN_BOARD_DIR / "leaderboard.json").read_text())
 VIDEOS = json.loads((ROOT / site.VIDEOS_DIR / "videos.json").read_text())
 
 

@@ -27,6 +27,13 @@ from footstep_gym.evaluation.splits import PROTOCOL_VERSION  # the version the b
 
 #: The board's rows (relative to configs/).
 BOARD_CONFIG = "board.yaml"
+#: Where the board's rows and leaderboard are written (``baselines/run_board.py``, ``baselines/make_leaderboard.py``),
+#: relative to the repository.
+BOARD_DIR = Path("baselines") / "results" / "benchmark"
+#: The board the README, docs/results.md and the site show, relative to the repository: the last board made.
+#: Protocol 2's board is kept in its own folder; this names it until protocol 3's rows and leaderboard are in
+#: :data:`BOARD_DIR`.
+SHOWN_BOARD_DIR = Path("baselines") / "results" / "benchmark-protocol2"
 
 State = Literal["made", "failed", "due"]
 

@@ -31,6 +31,7 @@ from typing import Any, Callable
 
 import pandas as pd
 
+from footstep_gym.evaluation.board import SHOWN_BOARD_DIR
 from footstep_gym.evaluation.records import CellRecord, frame, load_records
 from footstep_gym.evaluation.report import ablation_table, paper_comparison
 from footstep_gym.evaluation.tables import grid, interval, markdown, num
@@ -308,7 +309,7 @@ def anchor(title: str) -> str:
 # ---------------------------------------------------------------- the leaderboard and the splits
 #: The benchmark's leaderboard across policies (baselines/make_leaderboard.py): docs/results.md shows its tables,
 #: the README some of its rows.
-LEADERBOARD = Path("baselines") / "results" / "benchmark" / "leaderboard.md"
+LEADERBOARD = SHOWN_BOARD_DIR / "leaderboard.md"
 LEADERBOARD_TITLE = "The benchmark leaderboard"
 
 
@@ -335,9 +336,10 @@ def leaderboard_section(repo: Path) -> str:
         "`python baselines/eval_planner.py --benchmark --policy NAME` runs one method on every cell of the five "
         "tiers ([benchmark.md](benchmark.md): `paper` = the paper's scenes, `train` = the training distribution, "
         "`shifted` = each training range moved one band beyond it, `structure` = a named structural change, "
-        "`noise` = known scenes through the sensing-noise profile); `python baselines/make_leaderboard.py` gathers "
-        f"the rows from `{folder}/<method>/` into [`leaderboard.md`](../{LEADERBOARD.as_posix()}) (with the "
-        "per-scene table). What the numbers show: [reproduction.md](reproduction.md#what-the-leaderboard-shows).",
+        "`noise` = known scenes through the sensing-noise profile); `python baselines/make_leaderboard.py FOLDER` "
+        f"gathers a board's rows (`FOLDER/<method>/`) into its `leaderboard.md`. The board shown here is "
+        f"`{folder}/`'s: [`leaderboard.md`](../{LEADERBOARD.as_posix()}) (with the per-scene table). What the "
+        "numbers show: [reproduction.md](reproduction.md#what-the-leaderboard-shows).",
         "", "**Generalisation track** (trained on `train`, tested on every tier):", "",
         leaderboard_block(repo).rstrip("\n"), "",
         "**In-distribution track** (trained on every cell of a tier, tested on that tier's test seeds):", "",

@@ -24,6 +24,8 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import yaml
 
+from footstep_gym.evaluation.board import SHOWN_BOARD_DIR
+
 __all__ = ["SiteError", "SiteData", "build_site", "load_site_data", "MARKER"]
 
 #: The file that marks a folder as a site this module wrote (only such a folder is replaced).
@@ -129,7 +131,7 @@ def _baselines(board: Mapping[str, Any]) -> set[str]:
 
 def load_site_data(root: Path, board_dir: Path | None = None) -> SiteData:
     """Everything the site shows, from the committed files under ``root`` (the repository)."""
-    board_dir = board_dir or root / "baselines/results/benchmark"
+    board_dir = board_dir or root / SHOWN_BOARD_DIR
     board_path = board_dir / "leaderboard.json"
     if not board_path.is_file():
         raise SiteError(f"{board_path}: no leaderboard.json (python baselines/make_leaderboard.py writes it)")

@@ -64,12 +64,20 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"{', '.join(unknown)}: not a row of the board ({args.rows or 'configs/' + board.BOARD_CONFIG})")
     fingerprint = row_protocol.fingerprint()
     states = board.plan(methods, args.out_root, log, fingerprint)
+    missing = board.missing_runs(methods)
     print(f"fingerprint {fingerprint[:12]}, {len(methods)} rows in {args.out_root}")
     for s in states:
         lines = ", ".join(a.date for a in s.accesses)
-        print(f"  {s.state:6s}  {s.method}" + (f"  (logged {lines})" if lines else ""))
+        lacking = missing.get(s.method)
+        print(f"  {s.state:6s}  {s.method}" + (f"  (logged {lines})" if lines else "")
+              + (f"  (no shipped run for {', '.join(lacking)}: cannot be a row)" if lacking else ""))
     if not args.run:
         return 0
+    blocked = [m for m in missing if m in (set(named) or set(methods))]
+    if blocked:
+        which = "; ".join(f"{m} on {', '.join(missing[m])}" for m in blocked)
+        parser.error(f"no shipped training run for {which}: a row covers every scene; train and ship them, or take "
+                     "the method off the board's rows")
     foreign = board.foreign_rows(args.out_root, fingerprint)
     if foreign:
         parser.error(f"{args.out_root} holds {len(foreign)} rows of another protocol or fingerprint (e.g. "

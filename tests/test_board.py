@@ -40,6 +40,16 @@ def test_the_shipped_rows_are_registered_and_hold_both_privileged_and_the_new_ba
                  "ppo-jax-2e7", "ppo-jax-2e7-structure", "ppo-jax-2e7-noise", "ppo-jax-gru-noise"):
         assert name in rows
     assert "paper-period-aware" not in rows  # the reproduction's settings are reported, not ranked
+    # every learned row has a shipped run on every scene (a release row covers every cell; a door study does not)
+    assert board.missing_runs(rows) == {}
+
+
+def test_missing_runs_names_the_scenes_a_learned_row_lacks(tmp_path):
+    assert board.missing_runs(["sac-sb3", "td3-b2048", "lookahead", "ppo"]) == {
+        "sac-sb3": ["crossing", "crowd"], "td3-b2048": ["crossing", "crowd"]}  # door-only studies; planners need none
+    (tmp_path / "ppo" / "FootstepDoor-v0_1").mkdir(parents=True)
+    (tmp_path / "ppo" / "FootstepDoor-v0_1" / "FootstepDoor-v0.zip").write_bytes(b"")
+    assert board.missing_runs(["ppo", "dwa"], agents_dir=tmp_path) == {"ppo": ["crossing", "crowd"]}
 
 
 @pytest.mark.parametrize("text, words", [
@@ -113,3 +123,13 @@ def test_the_command_prints_the_plan_and_refuses_before_running(tmp_path, capsys
     assert "not a failed row" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         script.main(["--workers", "0"])
+    rows = tmp_path / "rows.yaml"  # a door-only agent: shown in the plan, refused before anything runs or is logged
+    rows.write_text("rows: [sac-sb3, dwa]\n", encoding="utf-8")
+    assert script.main(["--rows", str(rows), "--out-root", str(tmp_path)]) == 0
+    assert "sac-sb3  (no shipped run for crossing, crowd: cannot be a row)" in capsys.readouterr().out
+    before = log.read_text(encoding="utf-8")
+    with pytest.raises(SystemExit) as exc:
+        script.main(["--run", "--rows", str(rows), "--out-root", str(tmp_path)])
+    assert exc.value.code == 2
+    assert "no shipped training run for sac-sb3 on crossing, crowd" in capsys.readouterr().err
+    assert log.read_text(encoding="utf-8") == before and not (tmp_path / "sac-sb3").exists()

@@ -8,6 +8,8 @@
   failed or was stopped after it was logged; running it again logs it again) or ``due`` (no line);
 * :func:`foreign_rows`: rows in the board's folder of another protocol version or fingerprint, which a board of one
   fingerprint cannot hold (:func:`footstep_gym.evaluation.leaderboard.check_rows` refuses the mix);
+* :func:`missing_runs`: the learned rows that cannot be made, the scenes a registered agent has no shipped training
+  run for (a release row covers every scene);
 * :func:`release_argv`: the ``eval_planner.py --benchmark --release`` command of one row.
 
 A row is run once per fingerprint: a ``made`` row is never run again, so the test split is touched once per method
@@ -121,6 +123,23 @@ def foreign_rows(out_root: Path, fingerprint: str) -> list[Path]:
     return foreign
 
 
+def missing_runs(methods: Sequence[str], agents_dir: str | Path | None = None) -> dict[str, list[str]]:
+    """Per method of ``methods`` that is a registered agent, the benchmark's scenes it has no shipped training run for
+    in ``agents_dir`` (default: the shipped agents folder); methods with every scene are left out. A release row
+    covers every cell, so ``eval_planner.py --release`` refuses such a method (a partial run is no row)."""
+    from footstep_gym.evaluation.benchmark import benchmark_cells
+    from footstep_gym.rl.registry import AGENTS, agent_runs
+
+    scenes = list(dict.fromkeys(c.scene for c in benchmark_cells()))
+    missing = {}
+    for method in methods:
+        if method in AGENTS:
+            lacking = [s for s in scenes if not agent_runs(method, s, agents_dir)]
+            if lacking:
+                missing[method] = lacking
+    return missing
+
+
 def release_argv(method: str, folder: Path, workers: int = 1) -> list[str]:
     """The arguments of ``baselines/eval_planner.py`` that make ``method``'s board row in ``folder``."""
     if workers < 1:
@@ -128,4 +147,5 @@ def release_argv(method: str, folder: Path, workers: int = 1) -> list[str]:
     return ["--benchmark", "--release", "--policy", method, "--out", str(folder), "--workers", str(workers)]
 
 
-__all__ = ["BOARD_CONFIG", "RowState", "foreign_rows", "load_rows", "plan", "release_argv"]
+__all__ = ["BOARD_CONFIG", "BOARD_DIR", "SHOWN_BOARD_DIR", "RowState", "foreign_rows", "load_rows", "missing_runs", "plan",
+           "release_argv"]

@@ -181,6 +181,20 @@ def test_the_in_distribution_track_is_its_own_table():
     assert "## In-distribution track" in text and "tested on that tier's test seeds only" in text
     no_track = lb.build(fakes(), reps=REPS)
     assert lb.in_distribution_markdown(no_track) == "" and "## In-distribution track" not in lb.markdown(no_track)
+    # Protocol 3: the scene-balanced success [hierarchical CI] there too. The agent trained on `hard`: door
+    # (two_doors 0.9, noisy 1.0) 0.95, crossing (traffic 0.6) 0.6: (0.95 + 0.6) / 2 = 0.775, no cell trimmed.
+    three = lb.build([{**d, "protocol_version": PROTOCOL_VERSION} for d in (
+        document("planner", PLANNER), document("oracle", ORACLE, upper_bound=True), agent, trained_here)], reps=REPS)
+    scored = {(r["policy"], r["tier"]): r for r in three["scores"]["tiers"]}
+    mine = scored[("agent-hard", "hard")]
+    assert mine["success"] == pytest.approx(0.775) and mine["trained_on_tier"] == "hard"
+    table = squash(lb.in_distribution_markdown(three))
+    lo, hi = mine["success_ci95"]
+    assert table[2] == f"| agent-hard | hard | 2 | {mine['success']:.2f} [{lo:.2f}, {hi:.2f}] |" and lo < 0.775 < hi
+    agent_hard = scored[("agent", "hard")]
+    assert table[3] == f"| agent | train | 2 | {agent_hard['success']:.2f} [{agent_hard['success_ci95'][0]:.2f}, " \
+                       f"{agent_hard['success_ci95'][1]:.2f}] |"
+    assert "scene-balanced success" in lb.markdown(three).split("## In-distribution track", 1)[1]
 
 
 def test_the_per_scene_table_from_fake_files():

@@ -113,3 +113,24 @@ def test_the_board_scores_normalise_between_the_anchors_and_rank_without_paper()
     assert board["ranking"][0]["score"] == pytest.approx(0.65) and board["ranking"][0]["safe_score"] == pytest.approx(0.65)
     # P(mine > reactive) over the ranked cells, two runs against one: cells a, b, c all better in both runs.
     assert board["ranking"][0]["p_improvement"] == pytest.approx(1.0) and board["ranking"][1]["p_improvement"] is None
+
+
+def test_in_distribution_rows_are_scored_on_their_tier_and_are_never_anchors_nor_ranked():
+    cells = {"train": ["door/a", "crowd/b", "crowd/c"]}
+    reactive = _records("wait-until-clear", "train", {"door/a": [2], "crowd/b": [0], "crowd/c": [4]})
+    privileged = _records("oracle", "train", {"door/a": [10], "crowd/b": [8], "crowd/c": [10]}, upper=True)
+    trained = _records("mine-train", "train", {"door/a": [10, 10], "crowd/b": [10, 10], "crowd/c": [9, 10]})
+    board = scores.board_scores([("wait-until-clear", False, reactive), ("oracle", True, privileged)], cells,
+                                reps=50, in_distribution=[("mine-train", "train", trained)])
+    row = next(r for r in board["tiers"] if r["policy"] == "mine-train")
+    # Balanced: (1.0 + (1.0 + 0.95) / 2) / 2 = 0.9875. The anchors stay the generalisation rows' (reactive 0.2,
+    # privileged (1.0 + 0.9) / 2 = 0.95), so a row trained on the tier may score above 1.
+    assert row["trained_on_tier"] == "train" and row["success"] == pytest.approx(0.9875)
+    assert row["normalised"] == pytest.approx((0.9875 - 0.2) / 0.75)
+    oracle = next(r for r in board["tiers"] if r["policy"] == "oracle")
+    assert oracle["trained_on_tier"] is None and oracle["normalised"] == pytest.approx(1.0)
+    assert [r["policy"] for r in board["ranking"]] == ["wait-until-clear"]
+    # A row that does not cover its tier is not scored.
+    short = scores.board_scores([("oracle", True, privileged)], cells, reps=50,
+                                in_distribution=[("half", "train", trained[:2])])
+    assert not any(r["policy"] == "half" for r in short["tiers"])

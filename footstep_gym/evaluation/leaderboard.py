@@ -371,8 +371,11 @@ def build(docs: Sequence[Mapping[str, Any]], paths: Sequence[Path] | None = None
         return (p["upper_bound"], not p["complete"], -float(np.mean(iqms)) if iqms else 0.0, p["policy"])
 
     generalisation = {p["policy"] for p in policies}
+    trained = {p["policy"]: p["trained_on_tier"] for p in in_distribution}
     scores = board_scores([(d["policy"], bool(d.get("upper_bound")), _records(d)) for d in docs
-                           if d["policy"] in generalisation], cells, reps, seed)
+                           if d["policy"] in generalisation], cells, reps, seed,
+                          in_distribution=[(d["policy"], trained[d["policy"]], _records(d)) for d in docs
+                                           if d["policy"] in trained])
     version = docs[0].get("protocol_version", PROTOCOL_VERSION)
     if version >= 3:  # protocol 3 ranks by the scene-balanced success over the ranked tiers
         place = {r["policy"]: i for i, r in enumerate(scores["ranking"])}
@@ -509,22 +512,38 @@ def headline_notes(board: Mapping[str, Any]) -> list[str]:
     return notes
 
 
+def _in_distribution_scored(board: Mapping[str, Any]) -> bool:
+    """Whether the board scores its in-distribution rows as protocol 3 does (scene-balanced, in ``scores``)."""
+    s = board.get("scores") or {}
+    return board.get("protocol_version", 0) >= 3 and any(r.get("trained_on_tier") for r in s.get("tiers", []))
+
+
 def in_distribution_markdown(board: Mapping[str, Any]) -> str:
-    """The in-distribution track's table: a row per method trained on a tier (its IQM there, the other tiers –),
+    """The in-distribution track's table: a row per method trained on a tier (its figure there, the other tiers –),
     then, on the same tiers, the generalisation track's learned rows (trained on ``train``) and upper bounds, for
-    comparison. Empty text when no file is on the track."""
+    comparison. The figure: protocol 3's scene-balanced success [hierarchical 95 % CI] (``scores``), a protocol-2
+    board's IQM over the tier's cells. Empty text when no file is on the track."""
     entries = board.get("in_distribution") or []
     if not entries:
         return ""
     tiers = [t for t in board["tiers"] if any(p["trained_on_tier"] == t for p in entries)]
     cells = board["tier_cells"]
+    scored = _in_distribution_scored(board)
+    by = {(r["policy"], r["tier"]): r for r in board["scores"]["tiers"]} if scored else {}
     rows = []
     others = [p for p in board["policies"] if p["complete"] and (p.get("learned") or p["upper_bound"])]
     for p in [*entries, *others]:
         row = []
         for t in tiers:
-            a = _aggregate(board, p["policy"], t) if p["trained_on_tier"] in (None, t) else None
-            row.append(DASH if a is None else interval(a["iqm"], a["iqm_ci95"]) + ("" if a["covers_tier"] else " †"))
+            if p["trained_on_tier"] not in (None, t):
+                row.append(DASH)
+            elif scored:
+                r = by.get((p["policy"], t))
+                row.append(DASH if r is None else _score(r["success"], r["success_ci95"]))
+            else:
+                a = _aggregate(board, p["policy"], t)
+                row.append(DASH if a is None else interval(a["iqm"], a["iqm_ci95"])
+                           + ("" if a["covers_tier"] else " †"))
         label = p["label"] if p["complete"] else f"{p['label']} (partial)"
         rows.append([f"*{label}*" if p["upper_bound"] else label,
                      p["trained_on_tier"] or ("no training" if not p.get("learned") else "train"),
@@ -539,11 +558,14 @@ def in_distribution_notes(board: Mapping[str, Any]) -> list[str]:
     entries = board.get("in_distribution") or []
     if not entries:
         return []
+    figure = ("the scene-balanced success over the tier's cells [95 % hierarchical bootstrap interval], as in the "
+              "scored table above" if _in_distribution_scored(board) else
+              "IQM over the tier's cells [95 % stratified-bootstrap interval over training runs], as in the table "
+              "above")
     notes = ["Methods trained on a tier's cells (its train-split seeds) and tested on that tier's test seeds only; "
              "below them, for comparison on the same tiers, the generalisation track's learned methods (trained on "
-             "`train`) and the upper bounds. IQM over the tier's cells [95 % stratified-bootstrap interval over "
-             "training runs], as in the table above. Methods that do not learn (planners, null baselines) score "
-             "the same on both tracks: the table above."]
+             f"`train`) and the upper bounds. Per tier: {figure}. Methods that do not learn (planners, null "
+             "baselines) score the same on both tracks: the table above."]
     notes += [f"{p['label']}: partial run (not every cell of {p['trained_on_tier']}); marked †."
               for p in entries if not p["complete"]]
     return notes

@@ -197,14 +197,17 @@ def tier_score(records: Sequence[Any], cells: Sequence[str], reps: int = REPS, s
 
 
 def board_scores(entries: Sequence[tuple[str, bool, Sequence[Any]]], tier_cells: dict[str, list[str]],
-                 reps: int = REPS, seed: int = SEED) -> dict[str, Any]:
-    """The board's scores. ``entries``: ``(policy, upper_bound, records)`` per row; ``tier_cells``: each tier's
-    ``scene/cell`` labels. Returns
+                 reps: int = REPS, seed: int = SEED,
+                 in_distribution: Sequence[tuple[str, str, Sequence[Any]]] = ()) -> dict[str, Any]:
+    """The board's scores. ``entries``: ``(policy, upper_bound, records)`` per generalisation row; ``tier_cells``:
+    each tier's ``scene/cell`` labels; ``in_distribution``: ``(policy, trained_on_tier, records)`` per row of the
+    in-distribution track (scored on its tier only, never ranked nor an anchor). Returns
 
     * ``tiers``: per policy and tier it covers wholly, :func:`tier_score` and ``normalised``: the tier's
       ``(method - reactive) / (privileged - reactive)`` on scene-balanced means, the anchors per cell being the best
       reactive baseline (:data:`REACTIVE_BASELINES`) and the best privileged row (``upper_bound``), each cell's
-      success the mean over runs (None without both anchors);
+      success the mean over runs (None without both anchors); an in-distribution row's entry carries its
+      ``trained_on_tier`` (the others ``None``);
     * ``cells``: per policy and cell, its success and normalised score;
     * ``ranking``: the rows that are not privileged and cover every ranked tier (all but :data:`UNRANKED_TIERS`),
       best first by ``score``, the mean over the ranked tiers of the tier success (``safe_score`` likewise), with
@@ -219,7 +222,7 @@ def board_scores(entries: Sequence[tuple[str, bool, Sequence[Any]]], tier_cells:
                 continue
             s = tier_score(mine, cells, reps, seed)
             covered.setdefault(policy, {})[tier] = s
-            rows.append({"policy": policy, "tier": tier, "upper_bound": upper, **s})
+            rows.append({"policy": policy, "tier": tier, "upper_bound": upper, "trained_on_tier": None, **s})
     anchors: dict[str, dict[str, list[float]]] = {}
     for kind, chosen in (("reactive", [p for p, u, _ in entries if p in REACTIVE_BASELINES and not u]),
                          ("privileged", [p for p, u, _ in entries if u])):
@@ -227,6 +230,12 @@ def board_scores(entries: Sequence[tuple[str, bool, Sequence[Any]]], tier_cells:
             got = [covered[p][tier]["cell_success"] for p in chosen if tier in covered.get(p, {})]
             if got:
                 anchors.setdefault(tier, {})[kind] = np.max(np.array(got), axis=0).tolist()
+    for policy, tier, records in in_distribution:  # after the anchors: they come from the generalisation track
+        cells = tier_cells[tier]
+        mine = [r for r in records if r.tier == tier]
+        if set(cells) <= {f"{r.scene}/{r.cell}" for r in mine}:
+            rows.append({"policy": policy, "tier": tier, "upper_bound": False, "trained_on_tier": tier,
+                         **tier_score(mine, cells, reps, seed)})
     for row in rows:
         tier, cells = row["tier"], tier_cells[row["tier"]]
         a = anchors.get(tier, {})

@@ -553,3 +553,29 @@ def test_the_committed_full_body_summary_is_its_tables():
         for robot in ("op3", "op3-swing"):
             committed = fc.load_summary(folder / f"{fc.summary_name(tier, robot)}.json")
             assert committed["policies"] == fc.summarise(folder, tier, robot) and committed["robot"] == robot
+
+
+def test_the_readme_and_results_doc_show_a_protocol_3_board_by_its_scores(tmp_path, monkeypatch):
+    """docs/results.md and the README read the shown board: on a protocol-3 board its scene-balanced table (the
+    README's rows without P(> next), which is over the whole board's next row) and the best null baseline."""
+    from footstep_gym.evaluation import results_doc
+
+    nulls = {"null-a": {key: [0] for key in PLANNER}, "null-b": {key: [1] for key in PLANNER}}
+    docs = [{**d, "protocol_version": PROTOCOL_VERSION} for d in (
+        document("planner", PLANNER), document("agent", AGENT), document("oracle", ORACLE, upper_bound=True),
+        *(document(name, wins) for name, wins in nulls.items()))]
+    board = lb.build(docs, reps=REPS)
+    folder = tmp_path / SHOWN_BOARD_DIR
+    folder.mkdir(parents=True)
+    (folder / "leaderboard.json").write_text(json.dumps(board), encoding="utf-8")
+    (folder / "leaderboard.md").write_text(lb.markdown(board), encoding="utf-8")
+    monkeypatch.setattr(results_doc, "HEADLINE_POLICIES_P3", ("planner", "oracle"))
+    assert results_doc.headline_policies(board) == ("planner", "oracle", "null-b")  # null-b outscores null-a
+    table = squash(results_doc.leaderboard_headline(tmp_path))
+    assert table[0].startswith("| policy | paper (not ranked) | hard | score | safe score |")
+    assert "P(> next)" not in table[0] and len(table) == 5  # head, rule, planner, null-b, oracle
+    assert [line.split("|")[1].strip() for line in table[2:]] == ["planner", "null-b", "*oracle (upper bound)*"]
+    assert results_doc.leaderboard_block(tmp_path).startswith(lb.scores_markdown(board).split("\n")[0])
+    monkeypatch.setattr(results_doc, "HEADLINE_POLICIES_P3", ("planner", "no-such-row"))
+    with pytest.raises(ValueError, match="no row for no-such-row"):
+        results_doc.leaderboard_headline(tmp_path)

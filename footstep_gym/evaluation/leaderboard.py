@@ -631,10 +631,10 @@ def _score(value: float | None, ci: Sequence[float] | None = None) -> str:
     return interval(value, ci) if ci is not None else f"{value:.2f}"
 
 
-def scores_markdown(board: Mapping[str, Any]) -> str:
+def scores_markdown(board: Mapping[str, Any], p_next: bool = True) -> str:
     """Protocol 3's table: a row per policy (the ranked rows best first, then the others, the privileged last), per
     tier the scene-balanced success [hierarchical 95 % CI], then the rank score over the ranked tiers, the safe
-    success's, and the probability of improvement over the next ranked row."""
+    success's, and (``p_next``) the probability of improvement over the next ranked row of the whole board."""
     s = board["scores"]
     labels = {p["policy"]: p["label"] for p in board["policies"]}
     by = {(r["policy"], r["tier"]): r for r in s["tiers"]}
@@ -647,9 +647,9 @@ def scores_markdown(board: Mapping[str, Any]) -> str:
         rows.append([label, *(_score(by[(name, t)]["success"], by[(name, t)]["success_ci95"]) if (name, t) in by
                               else DASH for t in board["tiers"]),
                      _score(r["score"]) if r else DASH, _score(r["safe_score"]) if r else DASH,
-                     _score(r["p_improvement"]) if r else DASH, *_fullbody_cell(board, name)])
+                     *([_score(r["p_improvement"]) if r else DASH] if p_next else []), *_fullbody_cell(board, name)])
     head = ["policy", *(f"{t}{' (not ranked)' if t not in s['ranked_tiers'] else ''}" for t in board["tiers"]),
-            "score", "safe score", "P(> next)", *_fullbody_head(board)]
+            "score", "safe score", *(["P(> next)"] if p_next else []), *_fullbody_head(board)]
     return markdown_table(pd.DataFrame(rows, columns=head)).rstrip("\n")
 
 

@@ -83,6 +83,21 @@ EVALUATIONS = (
 #: each kind of method, the paper's comparison, the best null baseline and the upper bound.
 HEADLINE_POLICIES = ("lookahead", "period-aware", "ppo-wide", "td3", "sac", "ppo", "ppo-jax", "lattice",
                      "fixed-period", "ppo-fixed-period", "null-walk-10cm-0.4s", "oracle")
+#: The same on a protocol-3 board (ranked by its scene-balanced score): the planners, the classical and reactive
+#: baselines, the learned rows at and below the budget, the paper's comparison, both privileged rows; the best of
+#: the null baselines (by the board's score) is added to them.
+HEADLINE_POLICIES_P3 = ("lookahead", "period-aware", "lattice", "ppo-jax-2e7", "ppo-jax", "ppo-wide", "td3", "sac",
+                        "orca-robot", "dwa", "wait-until-clear", "straight-stop", "fixed-period", "oracle",
+                        "oracle-lookahead")
+
+
+def headline_policies(board: dict[str, Any]) -> tuple[str, ...]:
+    """The README's rows of ``board`` (a ``leaderboard.json``): :data:`HEADLINE_POLICIES`, or on a protocol-3 board
+    :data:`HEADLINE_POLICIES_P3` and its best null baseline (``null-*``, the first in its ranking)."""
+    if board.get("protocol_version", 2) < 3:
+        return HEADLINE_POLICIES
+    nulls = [r["policy"] for r in board["scores"]["ranking"] if r["policy"].startswith("null-")]
+    return HEADLINE_POLICIES_P3 + tuple(nulls[:1])
 
 
 # ---------------------------------------------------------------- reading the files
@@ -313,11 +328,15 @@ LEADERBOARD = SHOWN_BOARD_DIR / "leaderboard.md"
 LEADERBOARD_TITLE = "The benchmark leaderboard"
 
 
-def leaderboard_block(repo: Path, section: str = "IQM success per tier") -> str:
+def leaderboard_block(repo: Path, section: str | None = None) -> str:
     """A section of the committed ``leaderboard.md`` (its table and notes, as ``baselines/make_leaderboard.py`` wrote
-    them; the bootstrap is not redone here): ``IQM success per tier``, the generalisation track, or
-    ``In-distribution track``."""
+    them; the bootstrap is not redone here): the generalisation track's headline (None: ``Scene-balanced success
+    per tier`` on a protocol-3 board, ``IQM success per tier`` on an earlier one), or ``In-distribution track``."""
     path = repo / LEADERBOARD
+    if section is None:
+        text = path.read_text(encoding="utf-8")
+        section = "Scene-balanced success per tier" if "\n## Scene-balanced success per tier\n" in text \
+            else "IQM success per tier"
     lines = path.read_text(encoding="utf-8").split("\n")
     try:
         start = lines.index(f"## {section}") + 1
@@ -352,15 +371,19 @@ def leaderboard_section(repo: Path) -> str:
 
 def leaderboard_headline(repo: Path) -> str:
     """The README's headline table: the leaderboard's table (``leaderboard.json``, as ``leaderboard.md`` shows it)
-    restricted to the rows of :data:`HEADLINE_POLICIES`."""
-    from footstep_gym.evaluation.leaderboard import headline_markdown
+    restricted to the rows of :func:`headline_policies`: protocol 3's scored table (without the probability of
+    improvement, which is over the next row of the whole board), an earlier board's IQM table."""
+    from footstep_gym.evaluation.leaderboard import headline_markdown, scores_markdown
 
     board = load_json(repo / LEADERBOARD.with_suffix(".json"))
-    missing = [p for p in HEADLINE_POLICIES if p not in {q["policy"] for q in board["policies"]}]
+    rows = headline_policies(board)
+    missing = [p for p in rows if p not in {q["policy"] for q in board["policies"]}]
     if missing:
         raise ValueError(f"{LEADERBOARD.with_suffix('.json')}: no row for {', '.join(missing)} (results_doc."
                          "HEADLINE_POLICIES names the README's rows)")
-    shown = {**board, "policies": [p for p in board["policies"] if p["policy"] in HEADLINE_POLICIES]}
+    shown = {**board, "policies": [p for p in board["policies"] if p["policy"] in rows]}
+    if board.get("protocol_version", 2) >= 3:
+        return scores_markdown(shown, p_next=False) + "\n"
     return headline_markdown(shown) + "\n"
 
 

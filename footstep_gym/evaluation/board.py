@@ -147,5 +147,5 @@ def release_argv(method: str, folder: Path, workers: int = 1) -> list[str]:
     return ["--benchmark", "--release", "--policy", method, "--out", str(folder), "--workers", str(workers)]
 
 
-__all__ = ["BOARD_CONFIG", "BOARD_DIR", "SHOWN_BOARD_DIR", "RowState", "foreign_rows", "load_rows", "missing_runs", "plan",
-           "release_argv"]
+__all__ = ["BOARD_CONFIG", "BOARD_DIR", "SHOWN_BOARD_DIR", "RowState", "foreign_rows", "load_rows", "missing_runs",
+           "plan", "release_argv"]

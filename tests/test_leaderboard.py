@@ -560,7 +560,8 @@ def test_the_readme_and_results_doc_show_a_protocol_3_board_by_its_scores(tmp_pa
     README's rows without P(> next), which is over the whole board's next row) and the best null baseline."""
     from footstep_gym.evaluation import results_doc
 
-    nulls = {"null-a": {key: [0] for key in PLANNER}, "null-b": {key: [1] for key in PLANNER}}
+    nulls = {"null-stand": {key: [0] for key in PLANNER}, "null-random": {key: [1] for key in PLANNER},
+             "null-mine": {key: [2] for key in PLANNER}}  # not a registered null baseline: a name is not the family
     docs = [{**d, "protocol_version": PROTOCOL_VERSION} for d in (
         document("planner", PLANNER), document("agent", AGENT), document("oracle", ORACLE, upper_bound=True),
         *(document(name, wins) for name, wins in nulls.items()))]
@@ -570,11 +571,11 @@ def test_the_readme_and_results_doc_show_a_protocol_3_board_by_its_scores(tmp_pa
     (folder / "leaderboard.json").write_text(json.dumps(board), encoding="utf-8")
     (folder / "leaderboard.md").write_text(lb.markdown(board), encoding="utf-8")
     monkeypatch.setattr(results_doc, "HEADLINE_POLICIES_P3", ("planner", "oracle"))
-    assert results_doc.headline_policies(board) == ("planner", "oracle", "null-b")  # null-b outscores null-a
+    assert results_doc.headline_policies(board) == ("planner", "oracle", "null-random")  # outscores null-stand
     table = squash(results_doc.leaderboard_headline(tmp_path))
     assert table[0].startswith("| policy | paper (not ranked) | hard | score | safe score |")
-    assert "P(> next)" not in table[0] and len(table) == 5  # head, rule, planner, null-b, oracle
-    assert [line.split("|")[1].strip() for line in table[2:]] == ["planner", "null-b", "*oracle (upper bound)*"]
+    assert "P(> next)" not in table[0] and len(table) == 5  # head, rule, planner, null-random, oracle
+    assert [line.split("|")[1].strip() for line in table[2:]] == ["planner", "null-random", "*oracle (upper bound)*"]
     assert results_doc.leaderboard_block(tmp_path).startswith(lb.scores_markdown(board).split("\n")[0])
     monkeypatch.setattr(results_doc, "HEADLINE_POLICIES_P3", ("planner", "no-such-row"))
     with pytest.raises(ValueError, match="no row for no-such-row"):

@@ -93,10 +93,12 @@ HEADLINE_POLICIES_P3 = ("lookahead", "period-aware", "lattice", "ppo-jax-2e7", "
 
 def headline_policies(board: dict[str, Any]) -> tuple[str, ...]:
     """The README's rows of ``board`` (a ``leaderboard.json``): :data:`HEADLINE_POLICIES`, or on a protocol-3 board
-    :data:`HEADLINE_POLICIES_P3` and its best null baseline (``null-*``, the first in its ranking)."""
+    :data:`HEADLINE_POLICIES_P3` and its best null baseline (of ``NULL_POLICIES``, the first in its ranking)."""
+    from footstep_gym.planners.null import NULL_POLICIES
+
     if board.get("protocol_version", 2) < 3:
         return HEADLINE_POLICIES
-    nulls = [r["policy"] for r in board["scores"]["ranking"] if r["policy"].startswith("null-")]
+    nulls = [r["policy"] for r in board["scores"]["ranking"] if r["policy"] in NULL_POLICIES]
     return HEADLINE_POLICIES_P3 + tuple(nulls[:1])
 
 
@@ -333,11 +335,10 @@ def leaderboard_block(repo: Path, section: str | None = None) -> str:
     them; the bootstrap is not redone here): the generalisation track's headline (None: ``Scene-balanced success
     per tier`` on a protocol-3 board, ``IQM success per tier`` on an earlier one), or ``In-distribution track``."""
     path = repo / LEADERBOARD
-    if section is None:
-        text = path.read_text(encoding="utf-8")
-        section = "Scene-balanced success per tier" if "\n## Scene-balanced success per tier\n" in text \
-            else "IQM success per tier"
     lines = path.read_text(encoding="utf-8").split("\n")
+    if section is None:
+        section = ("Scene-balanced success per tier" if "## Scene-balanced success per tier" in lines
+                   else "IQM success per tier")
     try:
         start = lines.index(f"## {section}") + 1
     except ValueError:

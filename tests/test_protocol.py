@@ -71,12 +71,23 @@ def test_a_release_is_refused_from_uncommitted_code(tmp_path):
     clean = protocol.tree_state(root)
     assert clean.commit and len(clean.commit) == 40 and clean.dirty == ()
     assert protocol.dirty_refusal(clean) is None
+    (root / "baselines" / "results").mkdir(parents=True)
+    (root / "baselines" / "results" / "access_log.csv").write_text("")  # outputs do not count
+    # A row records the commit it ran from by the same rule: the rows already made (untracked) and the committed
+    # access log a release appends to (modified) leave it clean; uncommitted code marks it +dirty.
+    assert benchmark.source_commit(root) == clean.commit
+    _git(root, "add", "baselines/results/access_log.csv")
+    _git(root, "commit", "-qm", "the log")
+    clean = protocol.tree_state(root)
+    (root / "baselines" / "results" / "access_log.csv").write_text("a line\n")
+    (root / "baselines" / "results" / "dwa").mkdir()
+    (root / "baselines" / "results" / "dwa" / "benchmark.json").write_text("{}")
+    assert protocol.tree_state(root).dirty == () and benchmark.source_commit(root) == clean.commit
     (root / "footstep_gym" / "env.py").write_text("x = 2\n")
     (root / "mine.py").write_text("")  # untracked code counts
-    (root / "baselines" / "results").mkdir(parents=True)
-    (root / "baselines" / "results" / "access_log.csv").write_text("")  # outputs do not
     dirty = protocol.tree_state(root)
     assert sorted(dirty.dirty) == ["footstep_gym/env.py", "mine.py"]
+    assert benchmark.source_commit(root) == clean.commit + "+dirty"
     assert protocol.dirty_refusal(dirty) == (f"--release needs committed code: 2 files differ from commit "
                                              f"{clean.commit[:12]} (git status); commit or drop them")
     assert "no commit found" in protocol.dirty_refusal(protocol.TreeState(None, ()))

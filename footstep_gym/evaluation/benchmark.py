@@ -296,21 +296,15 @@ def env_configs_sha256() -> str:
     return digest.hexdigest()
 
 
-def source_commit() -> str | None:
-    """The git commit of the package's checkout (``+dirty`` with uncommitted changes), or None outside one."""
-    import subprocess
-    from pathlib import Path
-
-    here = Path(__file__).resolve().parent
-    try:
-        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=10)
-        if head.returncode != 0:
-            return None
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True, timeout=10)
-    except (OSError, subprocess.SubprocessError):
+def source_commit(root: Path | None = None) -> str | None:
+    """The git commit of the checkout at ``root`` (default the package's), ``+dirty`` where its code differs from
+    it, or None outside one. Dirty is the release check's rule (:func:`~footstep_gym.evaluation.protocol.tree_state`):
+    modified, added, deleted or untracked files, the outputs under ``baselines/results/`` (a board's rows and its
+    access log) left out."""
+    state = row_protocol.tree_state(root)
+    if state.commit is None:
         return None
-    return head.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
+    return state.commit + ("+dirty" if state.dirty else "")
 
 
 def benchmark_document(entry: registry.PolicyEntry, cells: Sequence[BenchmarkCell], records: Sequence[CellRecord],

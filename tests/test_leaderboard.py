@@ -263,10 +263,11 @@ def test_the_committed_figures_are_readable_at_readme_width():
     results = Path(__file__).resolve().parents[1] / "baselines" / "results"
     folder = Path(__file__).resolve().parents[1] / SHOWN_BOARD_DIR
     pngs = sorted(results.glob("benchmark*/*.png"))  # every board kept: the one shown and the archived ones
-    assert {p.name for p in folder.glob("*.png")} >= {lb.FIGURE_IQM, lb.FIGURE_PROFILES}
+    board = json.loads((folder / "leaderboard.json").read_text(encoding="utf-8"))
+    expected = {lb.FIGURE_IQM, lb.FIGURE_PROFILES} | ({lb.FIGURE_SCORES} if board["protocol_version"] >= 3 else set())
+    assert {p.name for p in folder.glob("*.png")} >= expected
     wide = [f"{p.name}: {_png_width(p.read_bytes())} px" for p in pngs if _png_width(p.read_bytes()) > 900]
     assert not wide, f"wider than 900 px: {wide}"
-    board = json.loads((folder / "leaderboard.json").read_text(encoding="utf-8"))
     styles = lb.policy_styles(board)
     assert set(styles) == {p["label"] for p in board["policies"]}
     drawn = [(tuple(st["color"]) if not isinstance(st["color"], str) else st["color"], st["linestyle"])
@@ -555,6 +556,37 @@ def test_the_committed_full_body_summary_is_its_tables():
             assert committed["policies"] == fc.summarise(folder, tier, robot) and committed["robot"] == robot
 
 
+def test_the_scores_figure_draws_each_rows_success_interval_and_safe_success():
+    """Protocol 3's figure: a panel per tier, a bar per row that covers the tier as long as its scene-balanced
+    success, the whisker its hierarchical interval, the circle its safe success; rows in rank order, the privileged
+    last and starred; a partial row has no bar on the tier it does not cover. No such figure before protocol 3."""
+    docs = [{**d, "protocol_version": PROTOCOL_VERSION} for d in fakes()]
+    board = lb.build(docs, reps=REPS)
+    fig = lb.scores_figure(board)
+    assert fig is not None
+    axes = fig.axes
+    assert [ax.get_title().split(" (")[0] for ax in axes] == board["tiers"]
+    labels = [t.get_text() for t in axes[0].get_yticklabels()]
+    ranked = [r["policy"] for r in board["scores"]["ranking"]]
+    assert labels[:len(ranked)] == ranked and labels[-1] == "oracle (upper bound) *"
+    by = {(r["policy"], r["tier"]): r for r in board["scores"]["tiers"]}
+    names = {label: p["policy"] for p in board["policies"] for label in (p["label"], p["label"] + " *")}
+    for ax, tier in zip(axes, board["tiers"]):
+        drawn = {round(bar.get_y() + bar.get_height() / 2): bar.get_width() for bar in ax.patches}
+        want = {y: by[(names[label], tier)]["success"] for y, label in enumerate(labels) if (names[label], tier) in by}
+        assert drawn.keys() == want.keys() and all(abs(drawn[y] - want[y]) < 1e-12 for y in want), tier
+        circles = {round(line.get_ydata()[0]): line.get_xdata()[0] for line in ax.get_lines()
+                   if line.get_marker() == "o"}
+        assert circles == {y: by[(names[labels[y]], tier)]["safe_success"] for y in want}
+        whiskers = {round(line.get_ydata()[0]): list(line.get_xdata()) for line in ax.get_lines()
+                    if line.get_marker() in ("None", "", None) and len(line.get_xdata()) == 2}
+        assert whiskers == {y: list(by[(names[labels[y]], tier)]["success_ci95"]) for y in want}
+    assert ("partial", "hard") not in by and lb.scores_figure(lb.build(fakes(), reps=REPS)) is None
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
 def test_the_readme_and_results_doc_show_a_protocol_3_board_by_its_scores(tmp_path, monkeypatch):
     """docs/results.md and the README read the shown board: on a protocol-3 board its scene-balanced table (the
     README's rows without P(> next), which is over the whole board's next row) and the best null baseline."""
@@ -577,6 +609,14 @@ def test_the_readme_and_results_doc_show_a_protocol_3_board_by_its_scores(tmp_pa
     assert "P(> next)" not in table[0] and len(table) == 5  # head, rule, planner, null-random, oracle
     assert [line.split("|")[1].strip() for line in table[2:]] == ["planner", "null-random", "*oracle (upper bound)*"]
     assert results_doc.leaderboard_block(tmp_path).startswith(lb.scores_markdown(board).split("\n")[0])
+    # docs/results.md shows the scores figure first where the board has one, then protocol 2's IQM figure
+    iqm = f"![IQM success per tier](../{SHOWN_BOARD_DIR.as_posix()}/{lb.FIGURE_IQM})"
+    shown = SHOWN_BOARD_DIR.as_posix()
+    assert lb.FIGURE_SCORES not in "\n".join(results_doc._board_figures(tmp_path, shown))
+    lb.write_figures(board, folder)
+    section = "\n".join(results_doc._board_figures(tmp_path, shown))
+    scored = f"![Scene-balanced success per tier](../{SHOWN_BOARD_DIR.as_posix()}/{lb.FIGURE_SCORES})"
+    assert scored in section and iqm in section and section.index(scored) < section.index(iqm)
     monkeypatch.setattr(results_doc, "HEADLINE_POLICIES_P3", ("planner", "no-such-row"))
     with pytest.raises(ValueError, match="no row for no-such-row"):
         results_doc.leaderboard_headline(tmp_path)

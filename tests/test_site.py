@@ -183,8 +183,10 @@ def test_a_board_with_scores_shows_them_without_code_changes(tmp_path: Path) -> 
     board["protocol"]["fingerprint"] = "f" * 64
     board["scores"] = {"tiers": [{"policy": first, "tier": t, "success": 0.123, "success_ci95": [0.1, 0.2]}
                                  for t in board["tiers"]],
-                       "ranking": [{"policy": first, "score": 0.456, "p_improvement": 0.789},
-                                   {"policy": second, "score": 0.4, "p_improvement": None}]}
+                       "ranking": [{"policy": first, "score": 0.456, "safe_score": 0.321, "p_improvement": 0.789},
+                                   {"policy": second, "score": 0.4, "safe_score": 0.3, "p_improvement": None}],
+                       "ranked_tiers": board["tiers"][1:],
+                       "safety_thresholds": {"min_clearance": 0.02, "min_zmp_margin": 0.005}}
     folder = tmp_path / "board"
     folder.mkdir()
     (folder / "leaderboard.json").write_text(json.dumps(board))
@@ -196,7 +198,8 @@ def test_a_board_with_scores_shows_them_without_code_changes(tmp_path: Path) -> 
     cells = re.findall(r'<td[^>]*data-v="([^"]*)"', row)
     tiers = len(board["tiers"])
     assert cells[3:3 + tiers] == ["0.123000"] * tiers  # method, track, runs (kind sorts by its text), the tiers
-    assert cells[3 + tiers:5 + tiers] == ["0.456000", "0.789000"]  # score, P(better than next)
+    assert cells[3 + tiers:6 + tiers] == ["0.456000", "0.321000", "0.789000"]  # score, safe score, P(> next)
+    assert "smallest clearance at least 20 mm and smallest ZMP margin at least 5 mm" in index
     # a row the scores leave out (the in-distribution track) keeps its IQM, and says so
     ind = board["in_distribution"][0]["policy"]
     method = (tmp_path / f"site/methods/{ind}.html").read_text()

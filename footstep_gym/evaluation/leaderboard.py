@@ -71,7 +71,9 @@ TAUS = np.linspace(0.0, 1.0, 101)
 #: output folder is touched.
 FIGURE_IQM = "iqm_per_tier.png"
 FIGURE_PROFILES = "performance_profiles.png"
-OWN_FILES = ("leaderboard.md", "leaderboard.json", FIGURE_IQM, FIGURE_PROFILES)
+#: Protocol 3's headline figure (:func:`scores_figure`): scene-balanced success and safe success per tier.
+FIGURE_SCORES = "success_per_tier.png"
+OWN_FILES = ("leaderboard.md", "leaderboard.json", FIGURE_SCORES, FIGURE_IQM, FIGURE_PROFILES)
 
 
 def tier_figure_name(tier: str) -> str:
@@ -775,6 +777,10 @@ def markdown(board: Mapping[str, Any]) -> str:
               "independent, so it is narrower than an interval over training runs]; (k/n cells): a partial run "
               "covering k of them.", "",
               "## Figures", "",
+              *([f"![Scene-balanced success per tier]({FIGURE_SCORES})", "",
+                 f"`{FIGURE_SCORES}`: per tier, each generalisation row's scene-balanced success (bar) with its "
+                 "hierarchical 95 % interval (whisker) and its safe success (circle), the rows in rank order, the "
+                 "privileged starred.", ""] if version >= 3 else []),
               f"![IQM success per tier]({FIGURE_IQM})", "",
               f"`{FIGURE_IQM}`: per tier, the IQM of the success rates over the tier's cells (every scene), with "
               "stratified-bootstrap 95 % intervals over training runs (rliable); a planner is one run, its interval "
@@ -973,11 +979,66 @@ def profiles_figure(board: Mapping[str, Any], styles: Mapping[str, Mapping[str, 
     return fig
 
 
+def scores_figure(board: Mapping[str, Any], styles: Mapping[str, Mapping[str, Any]] | None = None):
+    """Protocol 3's headline figure: one panel per tier, a row per generalisation policy in the board's order (the
+    ranked rows best first, the privileged last, starred), its scene-balanced success as a bar with the
+    hierarchical 95 % interval as a whisker and its safe success as an open circle; None before protocol 3 (no
+    such scores) or when no policy covers a whole tier."""
+    if board.get("protocol_version", PROTOCOL_VERSION) < 3 or not board["scores"]["tiers"]:
+        return None
+    plt = _pyplot()
+    styles = dict(styles or policy_styles(board))
+    s = board["scores"]
+    by = {(r["policy"], r["tier"]): r for r in s["tiers"] if r["trained_on_tier"] is None}
+    rows = [p for p in _ranked_order(board) if any((p["policy"], t) in by for t in board["tiers"])]
+    if not rows:
+        return None
+    labels = [f"{p['label']} *" if p["upper_bound"] else p["label"] for p in rows]
+    tiers = board["tiers"]
+    fig, axes = plt.subplots(1, len(tiers), sharey=True, squeeze=False,
+                             figsize=(WIDTH_IN, 1.2 + 0.2 * len(rows)))
+    for ax, tier in zip(axes[0], tiers):
+        for y, p in enumerate(rows):
+            r = by.get((p["policy"], tier))
+            if r is None:
+                continue
+            color = styles[p["label"]]["color"]
+            lo, hi = r["success_ci95"]
+            ax.barh(y, r["success"], height=0.7, color=color, alpha=0.55, linewidth=0)
+            ax.plot([lo, hi], [y, y], color="black", linewidth=0.9)
+            if r["safe_success"] is not None:
+                ax.plot([r["safe_success"]], [y], marker="o", markersize=4, markerfacecolor="white",
+                        markeredgecolor="black", markeredgewidth=0.8)
+        ranked = "" if tier in s["ranked_tiers"] else ", not ranked"
+        ax.set_title(f"{tier} ({len(board['tier_cells'][tier])} cells{ranked})", fontsize=9)
+        ax.set_ylim(len(rows) - 0.5, -0.5)
+        ax.set_xlim(0.0, 1.02)
+        ax.set_xticks([0.0, 0.5, 1.0])
+        ax.set_xticklabels(["0", "0.5", "1"])
+        ax.grid(axis="x", alpha=0.3)
+        ax.tick_params(labelsize=8, length=2)
+        for side in ("top", "right"):
+            ax.spines[side].set_visible(False)
+    axes[0][0].set_yticks(range(len(rows)))
+    axes[0][0].set_yticklabels(labels, fontsize=8)
+    t = s["safety_thresholds"]
+    fig.supxlabel("bar: scene-balanced success, whisker: hierarchical 95 % CI; circle: safe success\n(clearance >= "
+                  f"{t['min_clearance'] * 1000:.0f} mm, ZMP margin >= {t['min_zmp_margin'] * 1000:.0f} mm); "
+                  "*: privileged upper bound; rows in rank order", fontsize=8)
+    fig.tight_layout(w_pad=0.6)
+    return fig
+
+
 def write_figures(board: Mapping[str, Any], folder: Path) -> list[Path]:
-    """``iqm_per_tier.png`` (every tier side by side), ``iqm_optimality_gap_<tier>.png`` per tier and
-    ``performance_profiles.png`` into ``folder``, each drawn for a width of 900 px."""
+    """``success_per_tier.png`` (protocol 3's scores, :func:`scores_figure`), ``iqm_per_tier.png`` (every tier side
+    by side), ``iqm_optimality_gap_<tier>.png`` per tier and ``performance_profiles.png`` into ``folder``, each
+    drawn for a width of 900 px."""
     styles = policy_styles(board)
     files = []
+    scored = scores_figure(board, styles)
+    if scored is not None:
+        (folder / FIGURE_SCORES).write_bytes(_png(scored))
+        files.append(folder / FIGURE_SCORES)
     grid = iqm_grid_figure(board, styles)
     if grid is not None:
         (folder / FIGURE_IQM).write_bytes(_png(grid))
@@ -1055,4 +1116,4 @@ def main_summary(board: Mapping[str, Any], files: Sequence[Path], out: Path) -> 
 
 __all__ = ["LeaderboardError", "VERSIONS", "build", "check_compatible", "check_rows", "find_benchmarks", "headline_markdown", "in_figure",
            "interval_estimates", "iqm_and_gap", "leaderboard", "load_benchmark", "markdown", "per_scene", "profile",
-           "scene_markdown", "score_matrix", "tier_cells", "write_figures", "write_leaderboard"]
+           "scene_markdown", "score_matrix", "scores_figure", "tier_cells", "write_figures", "write_leaderboard"]

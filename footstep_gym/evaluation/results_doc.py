@@ -364,10 +364,25 @@ def leaderboard_section(repo: Path) -> str:
         leaderboard_block(repo).rstrip("\n"), "",
         "**In-distribution track** (trained on every cell of a tier, tested on that tier's test seeds):", "",
         leaderboard_block(repo, "In-distribution track").rstrip("\n"), "",
-        f"![IQM success per tier](../{folder}/iqm_per_tier.png)", "",
-        f"Per tier with the optimality gap: `{folder}/iqm_optimality_gap_<tier>.png`; performance profiles: "
-        f"[`performance_profiles.png`](../{folder}/performance_profiles.png).",
+        *_board_figures(repo, folder),
     ]) + "\n"
+
+
+def _board_figures(repo: Path, folder: str) -> list[str]:
+    """The shown board's figures: protocol 3's scores figure first where the board has one, then the IQM grid, the
+    per-tier optimality-gap figures and the performance profiles."""
+    from footstep_gym.evaluation.leaderboard import FIGURE_IQM, FIGURE_PROFILES, FIGURE_SCORES
+
+    lines = []
+    if (repo / folder / FIGURE_SCORES).is_file():
+        lines += [f"![Scene-balanced success per tier](../{folder}/{FIGURE_SCORES})", "",
+                  "Per tier: scene-balanced success (bar) with its hierarchical 95 % interval (whisker) and safe "
+                  "success (circle), rows in rank order, the privileged starred. Protocol 2's figure, the IQM over "
+                  "the tier's cells:", ""]
+    return lines + [
+        f"![IQM success per tier](../{folder}/{FIGURE_IQM})", "",
+        f"Per tier with the optimality gap: `{folder}/iqm_optimality_gap_<tier>.png`; performance profiles: "
+        f"[`{FIGURE_PROFILES}`](../{folder}/{FIGURE_PROFILES})."]
 
 
 def leaderboard_headline(repo: Path) -> str:

@@ -323,7 +323,7 @@ def board_page(data: SiteData) -> str:
              f'</code>.</p>')
     ranking = {r["policy"]: r for r in (data.board.get("scores") or {}).get("ranking", [])} \
         if isinstance(data.board.get("scores"), dict) else {}
-    extra = ["score", "P(better than next)"] if ranking else []
+    extra = ["score", "safe score", "P(better than next)"] if ranking else []
     heads = ["method", "kind", "track", "runs"] + [esc(t) for t in tiers] + extra + ["training budget", "act ms"]
     rows = []
     for m in gen:
@@ -333,10 +333,10 @@ def board_page(data: SiteData) -> str:
         tds += [interval_td(*tier_figure(data, m.name, t)) for t in tiers]
         if ranking:
             r = ranking.get(m.name, {})
-            tds += [num_td(_num(r.get("score"))), num_td(_num(r.get("p_improvement")))]
+            tds += [num_td(_num(r.get("score"))), num_td(_num(r.get("safe_score"))), num_td(_num(r.get("p_improvement")))]
         tds += [f'<td data-v="{key:.0f}" class="nowrap">{esc(text)}</td>', num_td(act_ms(m), 2)]
         rows.append(f'<tr class="{row_class(m)}">{"".join(tds)}</tr>')
-    body = intro + "<h2>Generalisation track</h2>" + table(heads, rows, "board")
+    body = intro + _score_note(data) + "<h2>Generalisation track</h2>" + table(heads, rows, "board")
     rows = []
     for m in ind:
         text, key = budget(m)
@@ -352,6 +352,21 @@ def board_page(data: SiteData) -> str:
                          rows, "board-in-distribution"))
     body += "<h2>Per tier</h2>" + "".join(_tier_table(data, t) for t in tiers)
     return page("Leaderboard", body)
+
+
+def _score_note(data: SiteData) -> str:
+    """What the score columns are (protocol 3's ranking), or nothing on a board without one."""
+    scores = data.board.get("scores")
+    if not (isinstance(scores, dict) and scores.get("ranking")):
+        return ""
+    ranked = ", ".join(scores.get("ranked_tiers") or [])
+    t = scores.get("safety_thresholds") or {}
+    safe = (f" (the goal reached with the episode's smallest clearance at least {1000 * t['min_clearance']:.0f} mm and "
+            f"smallest ZMP margin at least {1000 * t['min_zmp_margin']:.0f} mm)"
+            if {"min_clearance", "min_zmp_margin"} <= set(t) else "")
+    return (f"<p>Score: the mean over the ranked tiers ({esc(ranked)}) of the scene-balanced success, which orders "
+            f"the rows; safe score: the same of safe success{esc(safe)}; P(better than next): the probability that "
+            "the row beats the next ranked row over the ranked cells (rliable). Privileged rows are not ranked.</p>")
 
 
 def _fingerprint(proto: Mapping[str, Any]) -> str:

@@ -855,8 +855,14 @@ def _interval_panel(ax, board: Mapping[str, Any], tier: str, labels: Sequence[st
             ax.plot([point], [row], marker="|", markersize=9, markeredgewidth=2, color=color)
         else:
             ax.plot([point], [row], marker="D", markersize=4.5, color=color)
-    ax.set_ylim(len(labels) - 0.5, -0.5)
-    ax.set_xlim(-0.03, 1.03)
+    _rate_axis(ax, len(labels), left=-0.03)
+
+
+def _rate_axis(ax, rows: int, left: float) -> None:
+    """A panel's axes for rates: ``rows`` rows top to bottom, x from ``left`` to just past 1, ticks 0, 0.5, 1, a
+    light vertical grid, no top or right spine."""
+    ax.set_ylim(rows - 0.5, -0.5)
+    ax.set_xlim(left, 1.03 if left < 0 else 1.02)
     ax.set_xticks([0.0, 0.5, 1.0])
     ax.set_xticklabels(["0", "0.5", "1"])
     ax.grid(axis="x", alpha=0.3)
@@ -1011,14 +1017,7 @@ def scores_figure(board: Mapping[str, Any], styles: Mapping[str, Mapping[str, An
                         markeredgecolor="black", markeredgewidth=0.8)
         ranked = "" if tier in s["ranked_tiers"] else ", not ranked"
         ax.set_title(f"{tier} ({len(board['tier_cells'][tier])} cells{ranked})", fontsize=9)
-        ax.set_ylim(len(rows) - 0.5, -0.5)
-        ax.set_xlim(0.0, 1.02)
-        ax.set_xticks([0.0, 0.5, 1.0])
-        ax.set_xticklabels(["0", "0.5", "1"])
-        ax.grid(axis="x", alpha=0.3)
-        ax.tick_params(labelsize=8, length=2)
-        for side in ("top", "right"):
-            ax.spines[side].set_visible(False)
+        _rate_axis(ax, len(rows), left=0.0)
     axes[0][0].set_yticks(range(len(rows)))
     axes[0][0].set_yticklabels(labels, fontsize=8)
     t = s["safety_thresholds"]

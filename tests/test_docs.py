@@ -72,8 +72,9 @@ def test_the_script_checks_and_rewrites_a_stale_page(tmp_path):
 
     board_path = repo / results_doc.LEADERBOARD.with_suffix(".json")
     board = json.loads(board_path.read_text(encoding="utf-8"))
-    row = next(a for a in board["aggregates"] if a["policy"] == "lookahead" and a["tier"] == "structure")
-    row["iqm"], row["iqm_ci95"] = 0.345, [0.234, 0.456]
+    # the README shows the shown board's (protocol 3's) scene-balanced scores
+    row = next(a for a in board["scores"]["tiers"] if a["policy"] == "lookahead" and a["tier"] == "structure")
+    row["success"], row["success_ci95"] = 0.345, [0.234, 0.456]
     board_path.write_text(json.dumps(board), encoding="utf-8")
     checked = run("--check")
     assert checked.returncode == 1 and "README.md" in checked.stderr

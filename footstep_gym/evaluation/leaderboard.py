@@ -816,7 +816,8 @@ WIDTH_IN, DPI = 9.0, 100
 
 
 def policy_styles(board: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
-    """One style per policy label, the same in every figure: the upper bounds black and dashed, the null baselines
+    """One style per policy label, the same in every figure: the upper bounds black, each in its own broken line
+    style (dashed, dotted, dash-dot, in the leaderboard's order), the null baselines
     thin grey lines (one legend entry for them all), every other policy a colour of seaborn's colour-blind palette
     (its grey left to the null baselines) crossed with a line style (:data:`LINESTYLES`), in the leaderboard's
     order."""
@@ -825,10 +826,12 @@ def policy_styles(board: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     from footstep_gym.planners.null import is_null
 
     palette = [c for k, c in enumerate(sns.color_palette("colorblind", n_colors=10)) if k != 7]  # 7: its grey
-    styles, k = {}, 0
+    styles, k, u = {}, 0, 0
     for p in board["policies"]:
         if p["upper_bound"]:
-            styles[p["label"]] = {"color": "black", "linestyle": "dashed", "linewidth": 1.5, "group": "upper bound"}
+            styles[p["label"]] = {"color": "black", "linestyle": LINESTYLES[1 + u % (len(LINESTYLES) - 1)],
+                                  "linewidth": 1.5, "group": "upper bound"}
+            u += 1
         elif is_null(p["policy"]):
             styles[p["label"]] = {"color": "0.65", "linestyle": "solid", "linewidth": 0.8, "group": "null"}
         else:

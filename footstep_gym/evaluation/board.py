@@ -32,10 +32,9 @@ BOARD_CONFIG = "board.yaml"
 #: Where the board's rows and leaderboard are written (``baselines/run_board.py``, ``baselines/make_leaderboard.py``),
 #: relative to the repository.
 BOARD_DIR = Path("baselines") / "results" / "benchmark"
-#: The board the README, docs/results.md and the site show, relative to the repository: the last board made.
-#: Protocol 2's board is kept in its own folder; this names it until protocol 3's rows and leaderboard are in
-#: :data:`BOARD_DIR`.
-SHOWN_BOARD_DIR = Path("baselines") / "results" / "benchmark-protocol2"
+#: The board the README, docs/results.md and the site show, relative to the repository: the last board made
+#: (protocol 3's; protocol 2's is kept in ``baselines/results/benchmark-protocol2``).
+SHOWN_BOARD_DIR = BOARD_DIR
 
 State = Literal["made", "failed", "due"]
 

@@ -86,9 +86,8 @@ HEADLINE_POLICIES = ("lookahead", "period-aware", "ppo-wide", "td3", "sac", "ppo
 #: The same on a protocol-3 board (ranked by its scene-balanced score): the planners, the classical and reactive
 #: baselines, the learned rows at and below the budget, the paper's comparison, both privileged rows; the best of
 #: the null baselines (by the board's score) is added to them.
-HEADLINE_POLICIES_P3 = ("lookahead", "period-aware", "lattice", "ppo-jax-2e7", "ppo-jax", "ppo-wide", "td3", "sac",
-                        "orca-robot", "dwa", "wait-until-clear", "straight-stop", "fixed-period", "oracle",
-                        "oracle-lookahead")
+HEADLINE_POLICIES_P3 = ("lookahead", "period-aware", "lattice", "ppo-jax-2e7", "ppo-wide", "td3", "orca-robot", "dwa",
+                        "wait-until-clear", "straight-stop", "fixed-period", "oracle", "oracle-lookahead")
 
 
 def headline_policies(board: dict[str, Any]) -> tuple[str, ...]:

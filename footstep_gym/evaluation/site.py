@@ -333,7 +333,7 @@ def board_page(data: SiteData) -> str:
         tds += [interval_td(*tier_figure(data, m.name, t)) for t in tiers]
         if ranking:
             r = ranking.get(m.name, {})
-            tds += [num_td(_num(r.get("score"))), num_td(_num(r.get("safe_score"))), num_td(_num(r.get("p_improvement")))]
+            tds += [num_td(_num(r.get(key))) for key in ("score", "safe_score", "p_improvement")]
         tds += [f'<td data-v="{key:.0f}" class="nowrap">{esc(text)}</td>', num_td(act_ms(m), 2)]
         rows.append(f'<tr class="{row_class(m)}">{"".join(tds)}</tr>')
     body = intro + _score_note(data) + "<h2>Generalisation track</h2>" + table(heads, rows, "board")

@@ -610,12 +610,12 @@ def test_the_readme_and_results_doc_show_a_protocol_3_board_by_its_scores(tmp_pa
     assert [line.split("|")[1].strip() for line in table[2:]] == ["planner", "null-random", "*oracle (upper bound)*"]
     assert results_doc.leaderboard_block(tmp_path).startswith(lb.scores_markdown(board).split("\n")[0])
     # docs/results.md shows the scores figure first where the board has one, then protocol 2's IQM figure
-    iqm = f"![IQM success per tier](../{SHOWN_BOARD_DIR.as_posix()}/{lb.FIGURE_IQM})"
     shown = SHOWN_BOARD_DIR.as_posix()
+    iqm = f"![IQM success per tier](../{shown}/{lb.FIGURE_IQM})"
     assert lb.FIGURE_SCORES not in "\n".join(results_doc._board_figures(tmp_path, shown))
     lb.write_figures(board, folder)
     section = "\n".join(results_doc._board_figures(tmp_path, shown))
-    scored = f"![Scene-balanced success per tier](../{SHOWN_BOARD_DIR.as_posix()}/{lb.FIGURE_SCORES})"
+    scored = f"![Scene-balanced success per tier](../{shown}/{lb.FIGURE_SCORES})"
     assert scored in section and iqm in section and section.index(scored) < section.index(iqm)
     monkeypatch.setattr(results_doc, "HEADLINE_POLICIES_P3", ("planner", "no-such-row"))
     with pytest.raises(ValueError, match="no row for no-such-row"):

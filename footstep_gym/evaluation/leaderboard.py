@@ -73,6 +73,10 @@ FIGURE_IQM = "iqm_per_tier.png"
 FIGURE_PROFILES = "performance_profiles.png"
 #: Protocol 3's headline figure (:func:`scores_figure`): scene-balanced success and safe success per tier.
 FIGURE_SCORES = "success_per_tier.png"
+#: What :data:`FIGURE_SCORES` draws, as leaderboard.md and docs/results.md caption it.
+FIGURE_SCORES_CAPTION = ("per tier, each generalisation row's scene-balanced success (bar) with its hierarchical 95 % "
+                         "interval (whisker) and its safe success (circle), the rows in rank order, the privileged "
+                         "starred.")
 OWN_FILES = ("leaderboard.md", "leaderboard.json", FIGURE_SCORES, FIGURE_IQM, FIGURE_PROFILES)
 
 
@@ -778,9 +782,7 @@ def markdown(board: Mapping[str, Any]) -> str:
               "covering k of them.", "",
               "## Figures", "",
               *([f"![Scene-balanced success per tier]({FIGURE_SCORES})", "",
-                 f"`{FIGURE_SCORES}`: per tier, each generalisation row's scene-balanced success (bar) with its "
-                 "hierarchical 95 % interval (whisker) and its safe success (circle), the rows in rank order, the "
-                 "privileged starred.", ""] if version >= 3 else []),
+                 f"`{FIGURE_SCORES}`: {FIGURE_SCORES_CAPTION}", ""] if version >= 3 else []),
               f"![IQM success per tier]({FIGURE_IQM})", "",
               f"`{FIGURE_IQM}`: per tier, the IQM of the success rates over the tier's cells (every scene), with "
               "stratified-bootstrap 95 % intervals over training runs (rliable); a planner is one run, its interval "
@@ -858,14 +860,14 @@ def _interval_panel(ax, board: Mapping[str, Any], tier: str, labels: Sequence[st
             ax.plot([point], [row], marker="|", markersize=9, markeredgewidth=2, color=color)
         else:
             ax.plot([point], [row], marker="D", markersize=4.5, color=color)
-    _rate_axis(ax, len(labels), left=-0.03)
+    _rate_axis(ax, len(labels), xlim=(-0.03, 1.03))
 
 
-def _rate_axis(ax, rows: int, left: float) -> None:
-    """A panel's axes for rates: ``rows`` rows top to bottom, x from ``left`` to just past 1, ticks 0, 0.5, 1, a
-    light vertical grid, no top or right spine."""
+def _rate_axis(ax, rows: int, xlim: tuple[float, float]) -> None:
+    """A panel's axes for rates: ``rows`` rows top to bottom, x over ``xlim``, ticks 0, 0.5, 1, a light vertical
+    grid, no top or right spine."""
     ax.set_ylim(rows - 0.5, -0.5)
-    ax.set_xlim(left, 1.03 if left < 0 else 1.02)
+    ax.set_xlim(*xlim)
     ax.set_xticks([0.0, 0.5, 1.0])
     ax.set_xticklabels(["0", "0.5", "1"])
     ax.grid(axis="x", alpha=0.3)
@@ -993,7 +995,7 @@ def scores_figure(board: Mapping[str, Any], styles: Mapping[str, Mapping[str, An
     ranked rows best first, the privileged last, starred), its scene-balanced success as a bar with the
     hierarchical 95 % interval as a whisker and its safe success as an open circle; None before protocol 3 (no
     such scores) or when no policy covers a whole tier."""
-    if board.get("protocol_version", PROTOCOL_VERSION) < 3 or not board["scores"]["tiers"]:
+    if board.get("protocol_version", PROTOCOL_VERSION) < 3:
         return None
     plt = _pyplot()
     styles = dict(styles or policy_styles(board))
@@ -1020,7 +1022,7 @@ def scores_figure(board: Mapping[str, Any], styles: Mapping[str, Mapping[str, An
                         markeredgecolor="black", markeredgewidth=0.8)
         ranked = "" if tier in s["ranked_tiers"] else ", not ranked"
         ax.set_title(f"{tier} ({len(board['tier_cells'][tier])} cells{ranked})", fontsize=9)
-        _rate_axis(ax, len(rows), left=0.0)
+        _rate_axis(ax, len(rows), xlim=(0.0, 1.02))
     axes[0][0].set_yticks(range(len(rows)))
     axes[0][0].set_yticklabels(labels, fontsize=8)
     t = s["safety_thresholds"]

@@ -370,13 +370,12 @@ def leaderboard_section(repo: Path) -> str:
 def _board_figures(repo: Path, folder: str) -> list[str]:
     """The shown board's figures: protocol 3's scores figure first where the board has one, then the IQM grid, the
     per-tier optimality-gap figures and the performance profiles."""
-    from footstep_gym.evaluation.leaderboard import FIGURE_IQM, FIGURE_PROFILES, FIGURE_SCORES
+    from footstep_gym.evaluation.leaderboard import FIGURE_IQM, FIGURE_PROFILES, FIGURE_SCORES, FIGURE_SCORES_CAPTION
 
     lines = []
     if (repo / folder / FIGURE_SCORES).is_file():
         lines += [f"![Scene-balanced success per tier](../{folder}/{FIGURE_SCORES})", "",
-                  "Per tier: scene-balanced success (bar) with its hierarchical 95 % interval (whisker) and safe "
-                  "success (circle), rows in rank order, the privileged starred. Protocol 2's figure, the IQM over "
+                  f"{FIGURE_SCORES_CAPTION[0].upper()}{FIGURE_SCORES_CAPTION[1:]} Protocol 2's figure, the IQM over "
                   "the tier's cells:", ""]
     return lines + [
         f"![IQM success per tier](../{folder}/{FIGURE_IQM})", "",

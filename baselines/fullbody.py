@@ -3,9 +3,9 @@
     python baselines/fullbody.py replay --policy period-aware --env FootstepDoor-v0 --episodes 10 [--video]
     python baselines/fullbody.py nominal            # 20 footsteps of the nominal command (and of 5 cm strides)
     python baselines/fullbody.py agreement          # the env's verdict against the OP3 (docs/fullbody.md §3)
-    python baselines/fullbody.py swing              # steady strides x T_SS on the OP3 against op3-swing's floor
+    python baselines/fullbody.py swing              # steady strides x T_SS on the OP3 (op3-lipm) against op3's floor
     python baselines/fullbody.py double-support     # steady strides at their swing floor x T_DS on the OP3
-    python baselines/fullbody.py --robot op3-swing door-lane --walk   # the door along its wall (a privileged probe)
+    python baselines/fullbody.py door-lane --walk   # the door along its wall (a privileged probe)
     python baselines/fullbody.py summary            # the board's column: fullbody_paper_op3.json/.csv from the tables
 
 Episodes use the validation split's seeds (configs/eval.yaml), never the test split's. Results go to
@@ -15,8 +15,10 @@ baselines/results/fullbody/; an existing file is kept unless --force.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -61,19 +63,21 @@ def cmd_replay(args: argparse.Namespace) -> None:
     from footstep_gym.fullbody.replay import admitted, markdown_table, record_episodes, summary, table_rows, \
         walk_episodes, write_video
 
-    name = "_".join([args.env, args.tier, args.cell or "all", args.policy, robot_label(args.robot)]).replace("/", "-")
+    label = args.name or args.policy
+    name = "_".join([args.env, args.tier, args.cell or "all", label, robot_label(args.robot)]).replace("/", "-")
     path = _target(args.out / f"{name}.md", args.force)
     recorded = args.robot if args.recorded_with is None else {} if args.recorded_with == "default" \
         else args.recorded_with
-    episodes = record_episodes(args.policy, args.env, validation_seeds(args.episodes, args.offset), args.tier,
-                               args.cell, recorded, args.run)
-    kept = [ep for ep in episodes if admitted(ep, args.robot)]
+    episodes = [dataclasses.replace(ep, policy=label) for ep in
+                record_episodes(args.policy, args.env, validation_seeds(args.episodes, args.offset), args.tier,
+                                args.cell, recorded, args.run)]
+    kept = [ep for ep in episodes if args.recorded_with is None or admitted(ep, args.robot)]
     rows = table_rows(walk_episodes(kept, args.robot))
     left = [ep.seed for ep in episodes if ep not in kept]
-    note = (f"Recorded with robot {args.recorded_with!r}; walked: the {len(kept)} of {len(episodes)} episodes whose every "
-            f"command lies in {args.robot!r}'s box" + (f" (left out: seeds {left})" if left else "") + ".\n\n"
-            if args.recorded_with is not None else "")
-    text = (f"# {args.policy} on {args.env} (tier {args.tier}, cell {args.cell or 'drawn'}), robot {args.robot}, "
+    note = (f"Recorded with robot {args.recorded_with!r}; walked: the {len(kept)} of {len(episodes)} episodes whose "
+            f"every command lies in {args.robot!r}'s box, T_SS at or above its swing floor"
+            + (f" (left out: seeds {left})" if left else "") + ".\n\n" if args.recorded_with is not None else "")
+    text = (f"# {label} on {args.env} (tier {args.tier}, cell {args.cell or 'drawn'}), robot {args.robot}, "
             f"walked on the OP3\n\n" + note + (markdown_table(summary(rows)) + "\n" + markdown_table(rows)
                                                  if rows else NO_EPISODE + "\n"))
     path.write_text(text, encoding="utf-8")
@@ -169,8 +173,9 @@ def cmd_summary(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robot", default="op3", type=robot_arg,
-                        help="robot profile (configs/robots/), or a JSON mapping of robot keys")
+    parser.add_argument("--robot", default=None, type=robot_arg,
+                        help="robot profile (configs/robots/), or a JSON mapping of robot keys (default: op3; "
+                             "op3-lipm, the LIPM without the servos' limits, for swing and double-support)")
     parser.add_argument("--out", type=Path, default=OUT, help="output folder")
     parser.add_argument("--force", action="store_true", help="replace existing output files")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -182,9 +187,12 @@ def main(argv: list[str] | None = None) -> None:
     rp.add_argument("--episodes", type=int, default=10)
     rp.add_argument("--offset", type=int, default=0, help="first validation seed's offset in its split")
     rp.add_argument("--run", default=None, help="an agent's training run (zoo folder or .zip)")
+    rp.add_argument("--name", default=None,
+                    help="the method's name in the tables and the summary (default --policy): e.g. an agent trained "
+                         "with another robot than the shipped one")
     rp.add_argument("--recorded-with", default=None, type=robot_arg,
                     help="record with this robot ('default': configs/robot.yaml, the agents'), walk on --robot the "
-                         "episodes its box admits")
+                         "episodes its box and swing floor admit")
     rp.add_argument("--video", action="store_true", help="an MP4 of the first episode (MUJOCO_GL=osmesa headless)")
     nm = sub.add_parser("nominal", help="the nominal gait")
     nm.add_argument("--steps", type=int, default=20)
@@ -193,9 +201,9 @@ def main(argv: list[str] | None = None) -> None:
     ag.add_argument("--seed", type=int, default=2026)
     ag.add_argument("--report-only", action="store_true", help="report the walks saved by an earlier run")
     sw = sub.add_parser("swing", help="steady strides x T_SS walked on the OP3, beside the swing's floor")
-    sw.add_argument("--limited", default="op3-swing", help="the profile whose swing floor is shown")
+    sw.add_argument("--limited", default="op3", help="the profile whose swing floor is shown")
     ds = sub.add_parser("double-support", help="steady strides at their swing floor x T_DS walked on the OP3")
-    ds.add_argument("--limited", default="op3-swing", help="the profile whose swing floor sets T_SS")
+    ds.add_argument("--limited", default="op3", help="the profile whose swing floor sets T_SS")
     dl = sub.add_parser("door-lane", help="a privileged probe: the door along its wall at the robot's top speed")
     dl.add_argument("--lane", type=float, default=-0.47, help="[m] the lane's y (the corridor: -0.66 .. 0)")
     dl.add_argument("--episodes", type=int, default=10)
@@ -203,6 +211,10 @@ def main(argv: list[str] | None = None) -> None:
     sm = sub.add_parser("summary", help="pool the replay tables of a tier per policy: the board's full-body column")
     sm.add_argument("--tier", default="paper")
     args = parser.parse_args(argv)
+    if getattr(args, "name", None) is not None and not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", args.name):
+        parser.error(f"--name {args.name!r}: letters, digits, '.', '_' and '-' only (it names files and table rows)")
+    if args.robot is None:  # the grids walk the LIPM's plan of commands below op3's floor, which op3 would refuse
+        args.robot = "op3-lipm" if args.command in ("swing", "double-support") else "op3"
     {"replay": cmd_replay, "nominal": cmd_nominal, "agreement": cmd_agreement, "swing": cmd_grid,
      "double-support": cmd_grid, "door-lane": cmd_door_lane,
      "summary": cmd_summary}[args.command](args)

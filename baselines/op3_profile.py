@@ -1,6 +1,6 @@
-"""Derive the ``op3`` robot profile from the OP3's MuJoCo model (footstep_gym/fullbody/profile.py).
+"""Derive the ``op3`` robot profiles from the OP3's MuJoCo model (footstep_gym/fullbody/profile.py).
 
-    python baselines/op3_profile.py            # print configs/robots/op3.yaml and op3-swing.yaml as the model gives them
+    python baselines/op3_profile.py            # print configs/robots/op3.yaml and op3-lipm.yaml as the model gives them
     python baselines/op3_profile.py --write    # write them (tests/test_fullbody.py compares)
 """
 
@@ -15,7 +15,7 @@ from footstep_gym.fullbody.profile import PROFILES, derive_profile, profile_yaml
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="write configs/robots/op3.yaml and op3-swing.yaml")
+    parser.add_argument("--write", action="store_true", help="write configs/robots/op3.yaml and op3-lipm.yaml")
     args = parser.parse_args(argv)
     derived = derive_profile()
     for name in PROFILES:

@@ -473,7 +473,11 @@ def test_the_full_body_column_from_replay_tables(tmp_path, capsys):
                   [("goal", False)])
     _replay_table(tables / "FootstepDoor-v0_paper_all_agent_op3.md", "FootstepDoor-v0", "agent", [("collision", True)],
                   "Recorded with robot 'default'; walked: the 1 of 3 episodes whose every command lies in op3's box.\n\n")
-    _replay_table(tables / "FootstepDoor-v0_paper_all_agent_op3-swing.md", "FootstepDoor-v0", "agent", [("goal", False)])
+    _replay_table(tables / "FootstepDoor-v0_paper_all_agent_op3-lipm.md", "FootstepDoor-v0", "agent", [("goal", False)])
+    (tables / "FootstepCrowd-v0_paper_all_fast-agent_op3.md").write_text(
+        "# fast-agent on FootstepCrowd-v0 (tier paper, cell drawn), robot op3, walked on the OP3\n\nRecorded with robot "
+        "'default'; walked: the 0 of 2 episodes whose every command lies in 'op3''s box, T_SS at or above its swing "
+        f"floor.\n\n{fc.NO_EPISODE}\n", encoding="utf-8")
     json_path, csv_path = fc.write_summary(tables)
     summary = fc.load_summary(json_path)
     assert summary["policies"]["planner"] == {"episodes": 4, "scenes": ["FootstepCrossing-v0", "FootstepDoor-v0"],
@@ -481,7 +485,12 @@ def test_the_full_body_column_from_replay_tables(tmp_path, capsys):
                                               "env_success_and_op3_no_fall": 0.5}
     assert summary["policies"]["agent"]["episodes"] == 1 and summary["policies"]["agent"]["op3_no_fall"] == 0.0
     assert summary["policies"]["agent"]["not_admitted"] == 2 and "not_admitted" not in summary["policies"]["planner"]
-    assert csv_path.read_text(encoding="utf-8").splitlines()[0] == ",".join(fc.SUMMARY_KEYS)
+    assert summary["policies"]["fast-agent"] == {"episodes": 0, "scenes": ["FootstepCrowd-v0"], "not_admitted": 2,
+                                                 "op3_no_fall": None, "env_success": None,
+                                                 "env_success_and_op3_no_fall": None}
+    assert fc.cell(summary, "fast-agent") == "– (0 + 2 not admitted)" and fc.cell(summary, "nobody") is None
+    csv_lines = csv_path.read_text(encoding="utf-8").splitlines()
+    assert csv_lines[0] == ",".join(fc.SUMMARY_KEYS) and "fast-agent,0,FootstepCrowd-v0,,,,2" in csv_lines
     script = load_script("make_leaderboard")
     bench = write_fakes(tmp_path / "bench")
     assert script.main([str(bench), "--out", str(tmp_path / "board"), "--reps", str(REPS),
@@ -545,13 +554,13 @@ def test_learned_rows_show_their_budget_and_converged_runs_from_the_shipped_agen
     assert lb.training_markdown(no_learning) == "" and "Training budget" not in lb.markdown(no_learning)
 
 def test_the_committed_full_body_summary_is_its_tables():
-    """baselines/results/fullbody/fullbody_<tier>_<robot>.json (paper and train, op3 and op3-swing) is what the committed
+    """baselines/results/fullbody/fullbody_<tier>_<robot>.json (paper and train, op3 and op3-lipm) is what the committed
     replay tables pool to (re-write it with ``python baselines/fullbody.py [--robot R] summary [--tier train]``)."""
     from footstep_gym.evaluation import fullbody_column as fc
 
     folder = Path(__file__).resolve().parent.parent / "baselines" / "results" / "fullbody"
     for tier in ("paper", "train"):
-        for robot in ("op3", "op3-swing"):
+        for robot in ("op3", "op3-lipm"):
             committed = fc.load_summary(folder / f"{fc.summary_name(tier, robot)}.json")
             assert committed["policies"] == fc.summarise(folder, tier, robot) and committed["robot"] == robot
 

@@ -67,15 +67,18 @@ def summarise(folder: Path, tier: str = "paper", robot: str = "op3") -> dict[str
     replay tables ``<env>_<tier>_<cell>_<policy>_<robot>.md`` in ``folder`` (every scene and cell); an episode
     (scene, policy, seed) replayed in two tables counts once, from the later file name. A policy whose episodes were
     recorded with another robot (an agent's, ``--recorded-with``) also gets ``not_admitted``: those its tables left
-    out because the robot's box does not hold their commands."""
+    out because the robot's box or swing floor does not hold their commands; if it left out every one, its
+    ``episodes`` is 0 and its shares are None."""
     episodes: dict[tuple[str, str, str], tuple[bool, bool]] = {}
-    left_out: dict[str, int] = {}  # per policy: episodes recorded with another robot whose box the robot's does not hold
+    left_out: dict[str, int] = {}  # per policy: episodes recorded with another robot that this one does not admit
+    left_scenes: dict[str, set[str]] = {}
     for path in sorted(folder.glob(f"*_{tier}_*_{robot}.md")):
         text = path.read_text(encoding="utf-8")
         note = ADMITTED.search(text)
         if note:  # the title: "# <policy> on <env> ..."
-            policy = text.splitlines()[0].removeprefix("# ").split(" on ")[0]
+            policy, env = text.splitlines()[0].removeprefix("# ").split(" (")[0].split(" on ")
             left_out[policy] = left_out.get(policy, 0) + int(note.group(2)) - int(note.group(1))
+            left_scenes.setdefault(policy, set()).add(env)
         for r in episode_rows(path):
             if r["tier"] != tier:
                 raise FullBodyError(f"{path}: an episode of tier {r['tier']!r} in a table named for {tier!r}")
@@ -91,12 +94,13 @@ def summarise(folder: Path, tier: str = "paper", robot: str = "op3") -> dict[str
     for policy, n in left_out.items():
         if policy in out:
             out[policy]["not_admitted"] = n
+        elif n:  # none of its episodes admitted: nothing walked
+            out[policy] = {"episodes": 0, "scenes": sorted(left_scenes[policy]), "not_admitted": n}
     for e in out.values():
         n = e["episodes"]
-        e["op3_no_fall"] = round(e.pop("_w") / n, 3)
-        e["env_success"] = round(e.pop("_s") / n, 3)
-        e["env_success_and_op3_no_fall"] = round(e.pop("_b") / n, 3)
-    return out
+        for key, part in (("op3_no_fall", "_w"), ("env_success", "_s"), ("env_success_and_op3_no_fall", "_b")):
+            e[key] = round(e.pop(part) / n, 3) if n else None
+    return dict(sorted(out.items()))
 
 
 def write_summary(folder: Path, tier: str = "paper", robot: str = "op3") -> list[Path]:
@@ -115,8 +119,8 @@ def write_summary(folder: Path, tier: str = "paper", robot: str = "op3") -> list
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(SUMMARY_KEYS)
     for name, e in policies.items():
-        writer.writerow([name, e["episodes"], " ".join(e["scenes"]), e["op3_no_fall"], e["env_success"],
-                         e["env_success_and_op3_no_fall"], e.get("not_admitted", "")])
+        writer.writerow([name, e["episodes"], " ".join(e["scenes"])]
+                        + ["" if e[k] is None else e[k] for k in SUMMARY_KEYS[3:6]] + [e.get("not_admitted", "")])
     csv_path.write_text(buf.getvalue(), encoding="utf-8")
     return [json_path, csv_path]
 
@@ -131,17 +135,24 @@ def load_summary(path: Path) -> dict[str, Any]:
                                                                                                 Mapping):
         raise FullBodyError(f"{path}: not a full-body summary (footstep_gym.evaluation.fullbody_column)")
     for name, e in doc["policies"].items():
-        if not (isinstance(e, Mapping) and isinstance(e.get("episodes"), int) and e["episodes"] > 0
-                and all(0.0 <= float(e.get(k, -1)) <= 1.0 for k in SUMMARY_KEYS[3:6])):
-            raise FullBodyError(f"{path}: policy {name!r} has no episodes or a share outside [0, 1]")
+        walked = isinstance(e, Mapping) and isinstance(e.get("episodes"), int) and e["episodes"] > 0 \
+            and all(0.0 <= float(e.get(k, -1)) <= 1.0 for k in SUMMARY_KEYS[3:6])
+        none_admitted = isinstance(e, Mapping) and e.get("episodes") == 0 and isinstance(e.get("not_admitted"), int) \
+            and e["not_admitted"] > 0 and all(e.get(k, -1) is None for k in SUMMARY_KEYS[3:6])
+        if not (walked or none_admitted):
+            raise FullBodyError(f"{path}: policy {name!r} has no episodes walked or admitted, or a share outside "
+                                f"[0, 1]")
     return {"tier": doc["tier"], "robot": doc["robot"], "policies": dict(doc["policies"]), "source": path.name}
 
 
 def cell(summary: Mapping[str, Any] | None, policy: str) -> str | None:
     """The column's text for ``policy``: ``"<no fall> (<env success>, n)"`` (``n + k not admitted``: episodes
-    recorded with another robot that this one's box does not hold), or None if it was not replayed."""
+    recorded with another robot whose commands this one's box or swing floor refuses; ``"– (0 + k not admitted)"``
+    when that is every one), or None if it was not replayed."""
     if not summary or policy not in summary["policies"]:
         return None
     e = summary["policies"][policy]
     left = f" + {e['not_admitted']} not admitted" if e.get("not_admitted") else ""
+    if not e["episodes"]:
+        return f"– (0{left})"
     return f"{e['op3_no_fall']:.2f} ({e['env_success']:.2f}, {e['episodes']}{left})"

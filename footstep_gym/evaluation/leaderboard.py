@@ -477,7 +477,9 @@ def fullbody_note(board: Mapping[str, Any]) -> list[str]:
     return [f"full body ({fb['robot']}, {fb['tier']}): the share of the method's {fb['tier']}-tier episodes "
             f"(validation seeds, every scene pooled; recorded through the env with robot {fb['robot']!r}) that walk "
             f"on the OP3 in MuJoCo without a fall (docs/fullbody.md), then (its env success on those episodes, "
-            f"episodes); – not replayed. From baselines/results/fullbody/{fb['source']}."]
+            f"episodes; + k not admitted: an agent's episodes, recorded with the default robot it was trained on, "
+            f"whose commands lie outside {fb['robot']!r}'s box or below its swing floor, not walked); – not replayed. "
+            f"From baselines/results/fullbody/{fb['source']}."]
 
 
 def headline_markdown(board: Mapping[str, Any]) -> str:

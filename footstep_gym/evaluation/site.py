@@ -403,7 +403,7 @@ def _tier_table(data: SiteData, tier: str) -> str:
             tds.append(interval_td(_num(r.get("success_mean")), r.get("success_ci95")))
         if fullbody:
             e = fullbody["policies"].get(m.name)
-            tds.append(num_td(None) if e is None else
+            tds.append(num_td(None) if e is None or not e["episodes"] else
                        f'<td data-v="{float(e["op3_no_fall"]):.6f}" class="num" title="env success '
                        f'{float(e["env_success"]):.2f} on the same {int(e["episodes"])} episodes">'
                        f'{float(e["op3_no_fall"]):.2f} <span class="ci">({int(e["episodes"])})</span></td>')

@@ -1,4 +1,4 @@
-"""The ``op3`` robot profile (``configs/robots/op3.yaml``) derived from the OP3's MuJoCo model.
+"""The ``op3`` robot profiles (``configs/robots/op3.yaml``, ``op3-lipm.yaml``) derived from the OP3's MuJoCo model.
 
 :func:`derive_profile` reads the model and measures it in its walking posture (knees bent, the torso
 ``TORSO_HEIGHT`` up); :func:`profile_yaml` writes the profile with each key's source. ``baselines/op3_profile.py``
@@ -216,10 +216,10 @@ def _standing_targets(op3: Op3, qpos: np.ndarray) -> np.ndarray:
 
 
 #: The keys of the servos' limits on the gait (the swing's speed and acceleration, the double support's shortest
-#: time): ``op3-swing.yaml`` holds them, ``op3.yaml`` (the LIPM's view of the OP3) not.
+#: time): ``op3.yaml`` holds them, ``op3-lipm.yaml`` (the OP3 as the LIPM alone sees it) not.
 SWING_KEYS = ("swing_speed", "swing_acceleration", "t_ds", "nominal_t_ds")
 #: The profiles :func:`profile_yaml` writes, by name: whether each holds :data:`SWING_KEYS`.
-PROFILES = {"op3": False, "op3-swing": True}
+PROFILES = {"op3": True, "op3-lipm": False}
 
 HEADER = """\
 # Robot profile "{name}": the ROBOTIS OP3 (DARwIn-OP's successor) as MuJoCo Menagerie's robotis_op3 models it (the
@@ -230,10 +230,10 @@ HEADER = """\
 {extra}"""
 
 EXTRA = {
-    "op3": ("# The servos' limits (swing_speed, swing_acceleration, t_ds, nominal_t_ds) are not here: this is the OP3 as "
-            "the LIPM sees it (op3-swing.yaml adds them).\n"),
-    "op3-swing": ("# op3.yaml plus the servos' limits: T_SS bounded from below by the stride (footstep.swing_time_floor), "
-                  "so that the OP3's servos can swing the foot, and T_DS as short as they can pass the load.\n"),
+    "op3-lipm": ("# The servos' limits (swing_speed, swing_acceleration, t_ds, nominal_t_ds) are not here: this is "
+                 "the OP3 as the LIPM alone sees it, for comparison (op3.yaml, the robot, has them).\n"),
+    "op3": ("# With the servos' limits: T_SS bounded from below by the stride (footstep.swing_time_floor), "
+            "so that the OP3's servos can swing the foot, and T_DS as short as they can pass the load.\n"),
 }
 
 

@@ -63,12 +63,18 @@ def record_episodes(policy: str, env_id: str, seeds: Sequence[int], tier: str = 
 
 
 def admitted(episode: Episode, robot: Any = "op3") -> bool:
-    """Whether every command of ``episode`` lies in ``robot``'s command box (an episode recorded with another robot,
-    e.g. an agent's on the default one, can then be walked on the OP3 as it was commanded)."""
+    """Whether every command of ``episode`` lies in ``robot``'s command box with its T_SS at or above the swing's
+    floor (:func:`footstep_gym.footstep.swing_time_floor`; none for a robot without servo limits): an episode
+    recorded with another robot, e.g. an agent's on the default one, can then be walked on the OP3 as it was
+    commanded, and its commands are ones ``robot``'s env would have accepted kinematically but for the turn limits
+    and the soles' overlap, which depend on the footstep's side."""
+    from footstep_gym.footstep import swing_time_floor
     from footstep_gym.fullbody import as_robot
 
     rob = as_robot(robot)
-    return bool(np.all(episode.commands >= rob.command_low - 1e-9) and np.all(episode.commands <= rob.command_high + 1e-9))
+    cmd = episode.commands
+    in_box = np.all(cmd >= rob.command_low - 1e-9) and np.all(cmd <= rob.command_high + 1e-9)
+    return bool(in_box and np.all(cmd[:, 3] >= swing_time_floor(rob, cmd[:, 0]) - 1e-9))
 
 
 def walk_episodes(episodes: Sequence[Episode], robot: Any = "op3") -> list[tuple[Episode, WalkResult]]:

@@ -235,7 +235,7 @@ def steady_ramp(robot: Robot, S: float, t_ss: float, hold: int = SWING_HOLD, t_d
     return np.array(cmds)
 
 
-def swing_grid(robot: Robot | str = "op3", limited: Robot | str = "op3-swing") -> list[dict[str, Any]]:
+def swing_grid(robot: Robot | str = "op3-lipm", limited: Robot | str = "op3") -> list[dict[str, Any]]:
     """Each (stride, T_SS) of :data:`SWING_STRIDES` x :data:`SWING_T_SS`: :func:`steady_ramp` walked on the OP3
     with ``robot``'s plan; whether it fell, the smallest CoP margin over the held steps, the env's verdict with
     ``robot`` and with ``limited`` (the swing's floor)."""
@@ -256,13 +256,13 @@ def swing_grid(robot: Robot | str = "op3", limited: Robot | str = "op3-swing") -
     return out
 
 
-#: The double-support times [s] of :func:`double_support_grid`, around op3-swing's shortest (``t_ds``'s lower end).
+#: The double-support times [s] of :func:`double_support_grid`, around op3's shortest (``t_ds``'s lower end).
 DS_T_DS = (0.2, 0.15, 0.11, 0.1, 0.08, 0.05, 0.02)
 #: :func:`double_support_grid` holds each stride at its swing floor (up to 10 ms) and at this many times it.
 DS_FLOOR_SHARES = (1.0, 1.25)
 
 
-def double_support_grid(robot: Robot | str = "op3", limited: Robot | str = "op3-swing") -> list[dict[str, Any]]:
+def double_support_grid(robot: Robot | str = "op3-lipm", limited: Robot | str = "op3") -> list[dict[str, Any]]:
     """Each stride of :data:`SWING_STRIDES` at T_SS its swing floor under ``limited`` (up to 10 ms) times each of
     :data:`DS_FLOOR_SHARES`, and each T_DS of :data:`DS_T_DS`: :func:`steady_ramp` walked on the OP3 with
     ``robot``'s plan (its T_DS range widened to the grid's); whether it fell, the smallest CoP margin over the held

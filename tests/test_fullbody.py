@@ -23,6 +23,7 @@ from footstep_gym.config import config_dir, read_yaml  # noqa: E402
 from footstep_gym.fullbody.profile import PROFILES, SWING_KEYS, derive_profile, profile_keys, profile_yaml  # noqa: E402
 from footstep_gym.fullbody.study import SWING_HOLD, TIP_MARGIN, steady_ramp  # noqa: E402
 from footstep_gym.robot import load_robot  # noqa: E402
+from script_helpers import load_script  # noqa: E402
 
 OP3 = load_robot("op3")
 L = OP3.nominal_side_stride
@@ -186,3 +187,24 @@ def test_an_episode_is_admitted_where_the_robots_box_and_swing_floor_hold_its_co
     assert not admitted(episode, "op3") and not admitted(episode, "op3-lipm") and admitted(episode, {})
     episode = Episode("FootstepDoor-v0", "paper", None, "ppo", 10000, fast, "goal", None)
     assert 0.3 < floor and not admitted(episode, "op3") and admitted(episode, "op3-lipm") and admitted(episode, {})
+
+
+def test_the_replay_script_walks_its_own_robots_episodes_whole_and_names_them(tmp_path, capsys):
+    """``baselines/fullbody.py replay``: an episode recorded with the robot it is walked on is walked even when it ends
+    in a kinematic fall (a 10 cm null walk at T_SS 0.29 s: below op3's swing floor, the env's `swing` fall at the
+    first footstep); --name names the table and its rows; a name that would break a file name is refused before
+    anything is recorded or written."""
+    from footstep_gym.evaluation.fullbody_column import episode_rows
+
+    script = load_script("fullbody")
+    script.main(["--out", str(tmp_path), "replay", "--policy", "null-walk-10cm-0.4s", "--env", "FootstepCrossing-v0",
+                 "--episodes", "1", "--name", "fast-null"])
+    (table,) = tmp_path.glob("*.md")
+    assert table.name == "FootstepCrossing-v0_paper_all_fast-null_op3.md"
+    (row,) = episode_rows(table)
+    assert (row["policy"], row["footsteps"], row["env_end"], row["env_fall"]) == ("fast-null", "1", "fall", "swing")
+    assert "Recorded with" not in table.read_text(encoding="utf-8")
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        script.main(["--out", str(tmp_path / "bad"), "replay", "--policy", "ppo", "--name", "my agent"])
+    assert exc.value.code == 2 and "--name 'my agent'" in capsys.readouterr().err and not (tmp_path / "bad").exists()

@@ -508,6 +508,10 @@ def test_the_full_body_column_from_replay_tables(tmp_path, capsys):
         script.main([str(bench), "--out", str(tmp_path / "board2"), "--fullbody", str(json_path)])
     assert exc.value.code == 2 and "no episodes" in capsys.readouterr().err
     assert not (tmp_path / "board2").exists()
+    (tables / "FootstepCrowd-v0_paper_all_fast-agent_op3.md").write_text(
+        "fast-agent, crowd\n\nRecorded with robot 'default'; walked: the 0 of 2 episodes.\n", encoding="utf-8")
+    with pytest.raises(fc.FullBodyError, match="first line"):
+        fc.summarise(tables)
 
 
 # ---------------------------------------------------------------- the compute protocol's columns

@@ -75,8 +75,11 @@ def summarise(folder: Path, tier: str = "paper", robot: str = "op3") -> dict[str
     for path in sorted(folder.glob(f"*_{tier}_*_{robot}.md")):
         text = path.read_text(encoding="utf-8")
         note = ADMITTED.search(text)
-        if note:  # the title: "# <policy> on <env> ..."
-            policy, env = text.splitlines()[0].removeprefix("# ").split(" (")[0].split(" on ")
+        if note:  # the title: "# <policy> on <env> (...)"
+            title = text.splitlines()[0].removeprefix("# ").split(" (")[0].split(" on ")
+            if len(title) != 2:
+                raise FullBodyError(f"{path}: its first line is not '# <policy> on <env> ...'")
+            policy, env = title
             left_out[policy] = left_out.get(policy, 0) + int(note.group(2)) - int(note.group(1))
             left_scenes.setdefault(policy, set()).add(env)
         for r in episode_rows(path):
